@@ -1,0 +1,1 @@
+//! thinshell-energy (placeholder, filled by a later issue).

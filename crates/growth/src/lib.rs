@@ -1,0 +1,1 @@
+//! thinshell-growth (placeholder, filled by a later issue).

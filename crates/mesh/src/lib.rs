@@ -1,0 +1,1 @@
+//! thinshell-mesh (placeholder, filled by a later issue).

@@ -1,0 +1,1 @@
+//! thinshell-solver (placeholder, filled by a later issue).

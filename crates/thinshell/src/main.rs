@@ -1,0 +1,5 @@
+//! The `thinshell` command-line tool.
+fn main() {
+    eprintln!("thinshell: no subcommands yet");
+    std::process::exit(2);
+}
