@@ -1,0 +1,540 @@
+//! Deterministic mesh generators. All return `Result<Mesh, MeshError>`; invalid parameters
+//! give [`MeshError::InvalidParameter`]. Flat meshes lie in the plane `z = 0` with normals
+//! `+z`; closed and curved ones have outward normals.
+
+use std::collections::HashMap;
+use std::f64::consts::TAU;
+
+use nalgebra::Vector3;
+
+use crate::delaunay;
+use crate::error::MeshError;
+use crate::mesh::Mesh;
+
+fn positive(name: &'static str, value: f64) -> Result<(), MeshError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(MeshError::InvalidParameter {
+            name,
+            value,
+            reason: "must be finite and > 0",
+        })
+    }
+}
+
+fn at_least(name: &'static str, value: usize, min: usize) -> Result<(), MeshError> {
+    if value >= min {
+        Ok(())
+    } else {
+        Err(MeshError::InvalidParameter {
+            name,
+            value: value as f64,
+            reason: match min {
+                1 => "must be >= 1",
+                2 => "must be >= 2",
+                _ => "must be >= 3",
+            },
+        })
+    }
+}
+
+/// `len · i / n`, exactly `len` for `i = n` (so that sides of a rectangle are exactly straight).
+fn lattice(len: f64, i: usize, n: usize) -> f64 {
+    if i == n {
+        len
+    } else {
+        len * i as f64 / n as f64
+    }
+}
+
+/// Triangulates the strip between two polylines `lower` and `upper` running in the same
+/// direction, parametrised by increasing `s` (x on a rectangle, angle on a ring). Triangles
+/// are counter-clockwise when `upper` lies to the left of the direction of travel.
+/// Produces `lower.len() + upper.len() − 2` triangles.
+fn merge_strip(lower: &[(usize, f64)], upper: &[(usize, f64)], faces: &mut Vec<[usize; 3]>) {
+    let (mut i, mut j) = (0, 0);
+    while i + 1 < lower.len() || j + 1 < upper.len() {
+        // Advance along the row whose next vertex comes first; this keeps the strip's
+        // diagonals as short as the two rows allow.
+        let advance_lower = if i + 1 == lower.len() {
+            false
+        } else if j + 1 == upper.len() {
+            true
+        } else {
+            lower[i + 1].1 <= upper[j + 1].1
+        };
+        if advance_lower {
+            faces.push([lower[i].0, lower[i + 1].0, upper[j].0]);
+            i += 1;
+        } else {
+            faces.push([lower[i].0, upper[j + 1].0, upper[j].0]);
+            j += 1;
+        }
+    }
+}
+
+/// Regular triangulated rectangle `[0, width] × [0, height]` (m) with `nx × ny` cells, each
+/// split into two triangles with alternating (checkerboard) diagonals:
+/// `(nx + 1)(ny + 1)` vertices, `2 nx ny` faces, vertex `(i, j)` at index `j (nx + 1) + i`.
+pub fn rectangle(width: f64, height: f64, nx: usize, ny: usize) -> Result<Mesh, MeshError> {
+    positive("width", width)?;
+    positive("height", height)?;
+    at_least("nx", nx, 1)?;
+    at_least("ny", ny, 1)?;
+    let mut positions = Vec::with_capacity((nx + 1) * (ny + 1));
+    for j in 0..=ny {
+        for i in 0..=nx {
+            positions.push(Vector3::new(
+                lattice(width, i, nx),
+                lattice(height, j, ny),
+                0.0,
+            ));
+        }
+    }
+    let id = |i: usize, j: usize| j * (nx + 1) + i;
+    let mut faces = Vec::with_capacity(2 * nx * ny);
+    for j in 0..ny {
+        for i in 0..nx {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            if (i + j) % 2 == 0 {
+                faces.push([a, b, c]);
+                faces.push([a, c, d]);
+            } else {
+                faces.push([a, b, d]);
+                faces.push([b, c, d]);
+            }
+        }
+    }
+    Mesh::new(positions, faces)
+}
+
+/// Points of a staggered ("brick") lattice on `[0, width] × [0, height]`: `n_rows + 1` rows;
+/// even rows have `m + 1` equally spaced points, odd rows the `m` midpoints plus both ends.
+/// Returns the points and whether each is interior (not on a side).
+fn staggered(width: f64, height: f64, n_rows: usize, m: usize) -> (Vec<[f64; 2]>, Vec<bool>) {
+    let mut points = Vec::new();
+    let mut interior = Vec::new();
+    for r in 0..=n_rows {
+        let y = lattice(height, r, n_rows);
+        let xs: Vec<f64> = if r % 2 == 0 {
+            (0..=m).map(|i| lattice(width, i, m)).collect()
+        } else {
+            std::iter::once(0.0)
+                .chain((0..m).map(|i| width * (i as f64 + 0.5) / m as f64))
+                .chain(std::iter::once(width))
+                .collect()
+        };
+        let last = xs.len() - 1;
+        for (i, &x) in xs.iter().enumerate() {
+            points.push([x, y]);
+            interior.push(r > 0 && r < n_rows && i > 0 && i < last);
+        }
+    }
+    (points, interior)
+}
+
+/// SplitMix64: a tiny deterministic hash used as a pseudo-random generator.
+fn splitmix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Uniform number in `[-1, 1)` from a seed and two integers.
+fn hash_unit(seed: u64, a: u64, b: u64) -> f64 {
+    let h = splitmix64(splitmix64(seed ^ splitmix64(a)) ^ b);
+    (h >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+}
+
+fn delaunay_faces(pts: &[[f64; 2]]) -> Result<Vec<[usize; 3]>, MeshError> {
+    // Only reachable through a bug in a generator: they always include the corners.
+    delaunay::triangulate(pts).ok_or(MeshError::InvalidParameter {
+        name: "points",
+        value: pts.len() as f64,
+        reason: "planar point set must contain the corners of its bounding box",
+    })
+}
+
+/// Delaunay-triangulates planar points into a flat mesh (z = 0, normals +z), after
+/// `smoothing` rounds of Laplacian smoothing of the free points (each moved to the mean of
+/// its Delaunay neighbours, then re-triangulated).
+fn planar_delaunay(
+    mut pts: Vec<[f64; 2]>,
+    fixed: &[bool],
+    smoothing: usize,
+) -> Result<Mesh, MeshError> {
+    let mut faces = delaunay_faces(&pts)?;
+    for _ in 0..smoothing {
+        let mut sum = vec![[0.0f64; 2]; pts.len()];
+        let mut count = vec![0usize; pts.len()];
+        for t in &faces {
+            // Every interior edge appears in two triangles: it is counted twice for both
+            // ends, which leaves the mean unchanged.
+            for e in 0..3 {
+                let (a, b) = (t[e], t[(e + 1) % 3]);
+                for (u, w) in [(a, b), (b, a)] {
+                    sum[u][0] += pts[w][0];
+                    sum[u][1] += pts[w][1];
+                    count[u] += 1;
+                }
+            }
+        }
+        for v in 0..pts.len() {
+            if !fixed[v] && count[v] > 0 {
+                pts[v] = [sum[v][0] / count[v] as f64, sum[v][1] / count[v] as f64];
+            }
+        }
+        faces = delaunay_faces(&pts)?;
+    }
+    let positions = pts.iter().map(|p| Vector3::new(p[0], p[1], 0.0)).collect();
+    let faces = faces.iter().map(|t| [t[0], t[1], t[2]]).collect();
+    Mesh::new(positions, faces)
+}
+
+/// Largest vertex count of [`irregular_rectangle`] (its Delaunay step is quadratic).
+pub const MAX_DELAUNAY_POINTS: usize = 20_000;
+
+/// Well-shaped irregular triangulation of `[0, width] × [0, height]` (m).
+///
+/// Starts from a staggered lattice of near-equilateral triangles with `n` intervals across
+/// the shorter side (rows run along x), displaces every interior lattice point by up to 25 % of the lattice spacing in
+/// x and y (less within one spacing of the boundary) with a hash of `(seed, point)`, and Delaunay-triangulates the result (so valences
+/// vary too, and angles stay as large as the points allow). Boundary vertices stay on the
+/// lattice. At most [`MAX_DELAUNAY_POINTS`] vertices (else `InvalidParameter`).
+/// Deterministic: the same arguments always give the same mesh.
+pub fn irregular_rectangle(
+    width: f64,
+    height: f64,
+    n: usize,
+    seed: u64,
+) -> Result<Mesh, MeshError> {
+    positive("width", width)?;
+    positive("height", height)?;
+    at_least("n", n, 1)?;
+    // `n` intervals across the shorter side; the other side gets as many as keep the
+    // triangles closest to equilateral (row spacing = √3/2 · horizontal spacing).
+    let row_ratio = 3f64.sqrt() / 2.0;
+    let (rows, m) = if height <= width {
+        let dy = height / n as f64;
+        (n, ((width * row_ratio / dy).round() as usize).max(1))
+    } else {
+        let dx = width / n as f64;
+        (((height / (dx * row_ratio)).round() as usize).max(1), n)
+    };
+    let n_points = (rows + 1) * (m + 1);
+    if n_points > MAX_DELAUNAY_POINTS {
+        return Err(MeshError::InvalidParameter {
+            name: "n",
+            value: n as f64,
+            reason: "too fine: more than 20 000 vertices (the Delaunay step is quadratic)",
+        });
+    }
+    let dy = height / rows as f64;
+    let (mut pts, interior) = staggered(width, height, rows, m);
+    let dx = width / m as f64;
+    let amp = 0.25 * dy.min(dx);
+    for (v, p) in pts.iter_mut().enumerate() {
+        if interior[v] {
+            // Less jitter next to the sides, where the staggered rows end half a spacing
+            // from the boundary.
+            let d = p[0].min(width - p[0]).min(p[1]).min(height - p[1]);
+            let a = amp * (d / dx).min(1.0);
+            p[0] += a * hash_unit(seed, v as u64, 0);
+            p[1] += a * hash_unit(seed, v as u64, 1);
+        }
+    }
+    let fixed: Vec<bool> = interior.iter().map(|&i| !i).collect();
+    planar_delaunay(pts, &fixed, 0)
+}
+
+/// The seed's unit square `[0, 1]²` (m) with exactly 108 vertices and 184 faces.
+///
+/// 30 boundary vertices (8 intervals on the bottom and top sides, 7 on the left and right)
+/// and 78 interior vertices, placed by a golden-ratio (Fibonacci) lattice, then relaxed by 30
+/// rounds of Laplacian smoothing with Delaunay re-triangulation: an unstructured,
+/// near-equilateral mesh like the mesher-generated one of the paper.
+pub fn seed_square() -> Result<Mesh, MeshError> {
+    let mut pts: Vec<[f64; 2]> = Vec::with_capacity(108);
+    // Counter-clockwise around the boundary, corners once.
+    for i in 0..8 {
+        pts.push([i as f64 / 8.0, 0.0]);
+    }
+    for j in 0..7 {
+        pts.push([1.0, j as f64 / 7.0]);
+    }
+    for i in 0..8 {
+        pts.push([1.0 - i as f64 / 8.0, 1.0]);
+    }
+    for j in 0..7 {
+        pts.push([0.0, 1.0 - j as f64 / 7.0]);
+    }
+    let n_boundary = pts.len();
+    let n_interior = 78;
+    let golden = (5f64.sqrt() - 1.0) / 2.0;
+    let margin = 0.06;
+    for i in 0..n_interior {
+        let u = (i as f64 + 0.5) / n_interior as f64;
+        let w = (i as f64 * golden + 0.5).fract();
+        pts.push([
+            margin + (1.0 - 2.0 * margin) * u,
+            margin + (1.0 - 2.0 * margin) * w,
+        ]);
+    }
+    let fixed: Vec<bool> = (0..pts.len()).map(|v| v < n_boundary).collect();
+    planar_delaunay(pts, &fixed, 30)
+}
+
+/// Icosphere of `radius` (m) at subdivision `level`: [`geodesic_sphere`] with frequency
+/// `2^level`, i.e. the icosahedron with every face split into `4^level` triangles.
+/// `10·4^level + 2` vertices, `20·4^level` faces (level 2: 162 / 320, level 5:
+/// 10 242 / 20 480); outward normals; `level ≤ 10`.
+pub fn icosphere(radius: f64, level: usize) -> Result<Mesh, MeshError> {
+    if level > 10 {
+        return Err(MeshError::InvalidParameter {
+            name: "level",
+            value: level as f64,
+            reason: "must be <= 10",
+        });
+    }
+    geodesic_sphere(radius, 1 << level)
+}
+
+/// Geodesic sphere of `radius` (m): every face of an icosahedron is split into a regular
+/// grid of `frequency²` triangles in one step and the grid points are projected radially onto
+/// the sphere. `10 f² + 2` vertices, `20 f²` faces, outward normals, `1 ≤ frequency ≤ 1024`.
+///
+/// One-step splitting (rather than repeated halving with projection after every step) makes
+/// the vertex distribution a smooth image of the flat grid inside each icosahedron face, so
+/// geometric quantities such as mid-edge normals converge at second order in the mesh size.
+pub fn geodesic_sphere(radius: f64, frequency: usize) -> Result<Mesh, MeshError> {
+    positive("radius", radius)?;
+    at_least("frequency", frequency, 1)?;
+    if frequency > 1024 {
+        return Err(MeshError::InvalidParameter {
+            name: "frequency",
+            value: frequency as f64,
+            reason: "must be <= 1024",
+        });
+    }
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let corners: Vec<Vector3<f64>> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .iter()
+    .map(|p| Vector3::from(*p).normalize())
+    .collect();
+    let ico: [[usize; 3]; 20] = [
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    let n = frequency;
+    let mut positions: Vec<Vector3<f64>> = corners.iter().map(|c| c * radius).collect();
+    // Points on icosahedron edges are shared by two faces: key (low corner, high corner,
+    // steps from the low corner).
+    let mut on_edge: HashMap<(usize, usize, usize), usize> = HashMap::new();
+    let mut faces = Vec::with_capacity(20 * n * n);
+    let mut grid = vec![0usize; (n + 1) * (n + 1)];
+    for tri in &ico {
+        for i in 0..=n {
+            for j in 0..=(n - i) {
+                // Barycentric weights (n − i − j, i, j) on corners (A, B, C).
+                let w = [n - i - j, i, j];
+                let nonzero: Vec<usize> = (0..3).filter(|&k| w[k] > 0).collect();
+                let id = match nonzero.as_slice() {
+                    [k] => tri[*k],
+                    [k, l] => {
+                        let (lo, hi, steps) = if tri[*k] < tri[*l] {
+                            (tri[*k], tri[*l], w[*l])
+                        } else {
+                            (tri[*l], tri[*k], w[*k])
+                        };
+                        let p = (corners[lo] * (n - steps) as f64 + corners[hi] * steps as f64)
+                            .normalize()
+                            * radius;
+                        *on_edge.entry((lo, hi, steps)).or_insert_with(|| {
+                            positions.push(p);
+                            positions.len() - 1
+                        })
+                    }
+                    _ => {
+                        let p = (0..3)
+                            .map(|k| corners[tri[k]] * w[k] as f64)
+                            .sum::<Vector3<f64>>();
+                        positions.push(p.normalize() * radius);
+                        positions.len() - 1
+                    }
+                };
+                grid[i * (n + 1) + j] = id;
+            }
+        }
+        let g = |i: usize, j: usize| grid[i * (n + 1) + j];
+        for i in 0..n {
+            for j in 0..(n - i) {
+                faces.push([g(i, j), g(i + 1, j), g(i, j + 1)]);
+                if i + j + 2 <= n {
+                    faces.push([g(i + 1, j), g(i + 1, j + 1), g(i, j + 1)]);
+                }
+            }
+        }
+    }
+    Mesh::new(positions, faces)
+}
+
+/// Patch of a cylinder of `radius` (m) around the z axis: angle `θ ∈ [0, angle]` (rad),
+/// `z ∈ [0, length]` (m), `n_around × n_along` quads split with alternating diagonals, outward
+/// normals. With `angle = 2π` (to 1e-12) the patch closes into a tube (`n_around ≥ 3`).
+pub fn cylinder_patch(
+    radius: f64,
+    angle: f64,
+    length: f64,
+    n_around: usize,
+    n_along: usize,
+) -> Result<Mesh, MeshError> {
+    positive("radius", radius)?;
+    positive("angle", angle)?;
+    positive("length", length)?;
+    at_least("n_along", n_along, 1)?;
+    if angle > TAU + 1e-12 {
+        return Err(MeshError::InvalidParameter {
+            name: "angle",
+            value: angle,
+            reason: "must be <= 2 pi",
+        });
+    }
+    let closed = (angle - TAU).abs() <= 1e-12;
+    at_least("n_around", n_around, if closed { 3 } else { 1 })?;
+    let n_theta = if closed { n_around } else { n_around + 1 };
+    let mut positions = Vec::with_capacity(n_theta * (n_along + 1));
+    for j in 0..=n_along {
+        let z = lattice(length, j, n_along);
+        for i in 0..n_theta {
+            let th = angle * i as f64 / n_around as f64;
+            positions.push(Vector3::new(radius * th.cos(), radius * th.sin(), z));
+        }
+    }
+    let id = |i: usize, j: usize| j * n_theta + i % n_theta;
+    let mut faces = Vec::with_capacity(2 * n_around * n_along);
+    for j in 0..n_along {
+        for i in 0..n_around {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            if (i + j) % 2 == 0 {
+                faces.push([a, b, c]);
+                faces.push([a, c, d]);
+            } else {
+                faces.push([a, b, d]);
+                faces.push([b, c, d]);
+            }
+        }
+    }
+    Mesh::new(positions, faces)
+}
+
+/// Triangulates between two closed rings given by `(vertex, unwrapped angle)`, both starting
+/// near angle 0 and increasing; the first vertex is repeated at the end with angle + 2π.
+fn merge_rings(inner: &[(usize, f64)], outer: &[(usize, f64)], faces: &mut Vec<[usize; 3]>) {
+    let close = |ring: &[(usize, f64)]| -> Vec<(usize, f64)> {
+        let mut r = ring.to_vec();
+        r.push((ring[0].0, ring[0].1 + TAU));
+        r
+    };
+    // Travelling counter-clockwise, the inner ring lies to the left.
+    merge_strip(&close(outer), &close(inner), faces);
+}
+
+/// Disc of `radius` (m) centred at the origin in the plane z = 0: a centre vertex and
+/// `n_rings` equally spaced rings, ring `k` with `6k` vertices. `1 + 3 n (n + 1)` vertices,
+/// `6 n²` faces, normals `+z`.
+pub fn disc(radius: f64, n_rings: usize) -> Result<Mesh, MeshError> {
+    positive("radius", radius)?;
+    at_least("n_rings", n_rings, 1)?;
+    let mut positions = vec![Vector3::zeros()];
+    let mut faces = Vec::with_capacity(6 * n_rings * n_rings);
+    let mut prev: Vec<(usize, f64)> = Vec::new();
+    for k in 1..=n_rings {
+        let r = radius * k as f64 / n_rings as f64;
+        let n = 6 * k;
+        let ring: Vec<(usize, f64)> = (0..n)
+            .map(|m| {
+                let th = TAU * m as f64 / n as f64;
+                positions.push(Vector3::new(r * th.cos(), r * th.sin(), 0.0));
+                (positions.len() - 1, th)
+            })
+            .collect();
+        if k == 1 {
+            for m in 0..n {
+                faces.push([0, ring[m].0, ring[(m + 1) % n].0]);
+            }
+        } else {
+            merge_rings(&prev, &ring, &mut faces);
+        }
+        prev = ring;
+    }
+    Mesh::new(positions, faces)
+}
+
+/// Annulus `r_in ≤ r ≤ r_out` (m) in the plane z = 0: `n_rings + 1` rings of `n_around`
+/// vertices, every other ring rotated by half a step (staggered), `(n_rings + 1) n_around`
+/// vertices, `2 n_rings n_around` faces, normals `+z`.
+pub fn annulus(r_in: f64, r_out: f64, n_rings: usize, n_around: usize) -> Result<Mesh, MeshError> {
+    positive("r_in", r_in)?;
+    positive("r_out", r_out)?;
+    if r_out <= r_in {
+        return Err(MeshError::InvalidParameter {
+            name: "r_out",
+            value: r_out,
+            reason: "must be > r_in",
+        });
+    }
+    at_least("n_rings", n_rings, 1)?;
+    at_least("n_around", n_around, 3)?;
+    let mut positions = Vec::with_capacity((n_rings + 1) * n_around);
+    let mut faces = Vec::with_capacity(2 * n_rings * n_around);
+    let mut prev: Vec<(usize, f64)> = Vec::new();
+    for k in 0..=n_rings {
+        let r = r_in + (r_out - r_in) * k as f64 / n_rings as f64;
+        let shift = if k % 2 == 1 { 0.5 } else { 0.0 };
+        let ring: Vec<(usize, f64)> = (0..n_around)
+            .map(|m| {
+                let th = TAU * (m as f64 + shift) / n_around as f64;
+                positions.push(Vector3::new(r * th.cos(), r * th.sin(), 0.0));
+                (positions.len() - 1, th)
+            })
+            .collect();
+        if k > 0 {
+            merge_rings(&prev, &ring, &mut faces);
+        }
+        prev = ring;
+    }
+    Mesh::new(positions, faces)
+}
