@@ -1,1 +1,11 @@
-//! thinshell: scenes, run loop and command-line tool (placeholder, filled by a later issue).
+//! thinshell: scenes, the run loop and the `thinshell` command-line tool.
+//!
+//! A scene file (`docs/scenes.md`) is loaded and validated by [`scene`], turned into exactly the
+//! energy terms, loads and stimulus it asks for, and run with an observer that reports progress
+//! and writes output. The CLI (`thinshell run | check | info`) and `cargo xtask` are thin layers
+//! over this library.
+
+pub mod cli;
+pub mod mesh_info;
+pub mod reference;
+pub mod scene;

@@ -1,5 +1,93 @@
-//! The `thinshell` command-line tool.
-fn main() {
-    eprintln!("thinshell: no subcommands yet");
-    std::process::exit(2);
+//! The `thinshell` command-line tool: `run`, `check` and `info`.
+//!
+//! Exit codes: 0 success, 2 bad input (scene, mesh, arguments), 1 a simulation that failed (the
+//! last good state is written).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use clap::{Parser, Subcommand};
+use thinshell::cli::{self, Failure};
+
+#[derive(Parser)]
+#[command(name = "thinshell", version, about = "Thin elastic shells with environmentally driven rest shapes")]
+struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scene: progress bar, frames (VTK/OBJ), steps.csv and summary.json.
+    Run {
+        /// The scene file (TOML, see docs/scenes.md).
+        scene: PathBuf,
+        /// Output directory (default: out/<scene name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Override a scene value, e.g. `--set integrator.dt=1e-4` (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Validate a scene and print what would be simulated, without running it.
+    Check {
+        /// The scene file.
+        scene: PathBuf,
+        /// Override a scene value (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+    },
+    /// Print statistics of a mesh (OBJ) and the problems found in it.
+    Info {
+        /// The mesh file (OBJ).
+        mesh: PathBuf,
+    },
+}
+
+fn main() -> ExitCode {
+    let args = match Args::try_parse() {
+        Ok(a) => a,
+        Err(e) => {
+            // clap prints help/version to stdout with success, usage errors to stderr.
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    let result = match args.command {
+        Command::Run {
+            scene,
+            out,
+            set,
+            quiet,
+        } => {
+            let stop = Arc::new(AtomicBool::new(false));
+            let flag = Arc::clone(&stop);
+            // A second Ctrl-C while stopping falls through to the default handler (kill).
+            let _ = ctrlc::set_handler(move || {
+                if flag.swap(true, Ordering::SeqCst) {
+                    std::process::exit(130);
+                }
+            });
+            cli::run(&scene, out.as_deref(), &set, quiet, &stop)
+        }
+        Command::Check { scene, set } => cli::check(&scene, &set),
+        Command::Info { mesh } => cli::info(&mesh),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure::BadInput(msg)) => {
+            eprintln!("thinshell: error: {msg}");
+            ExitCode::from(2)
+        }
+        Err(Failure::Simulation(msg)) => {
+            eprintln!("thinshell: simulation failed: {msg}");
+            ExitCode::from(1)
+        }
+    }
 }
