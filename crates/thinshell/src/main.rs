@@ -12,7 +12,11 @@ use clap::{Parser, Subcommand};
 use thinshell::cli::{self, Failure};
 
 #[derive(Parser)]
-#[command(name = "thinshell", version, about = "Thin elastic shells with environmentally driven rest shapes")]
+#[command(
+    name = "thinshell",
+    version,
+    about = "Thin elastic shells with environmentally driven rest shapes"
+)]
 struct Args {
     #[command(subcommand)]
     command: Command,

@@ -146,7 +146,11 @@ impl fmt::Display for MeshInfo {
             "boundary: {} edges, {} vertices{}",
             self.boundary_edges,
             self.boundary_vertices,
-            if self.boundary_edges == 0 { " (closed)" } else { "" }
+            if self.boundary_edges == 0 {
+                " (closed)"
+            } else {
+                ""
+            }
         )?;
         let (lo, hi) = self.bounding_box;
         writeln!(

@@ -47,7 +47,11 @@ pub fn map_xy(x: &[Vector3<f64>], m: &Matrix2<f64>) -> Vec<Vector3<f64>> {
 
 impl SquareCase {
     /// All three, in the seed's order.
-    pub const ALL: [SquareCase; 3] = [SquareCase::Enlarged, SquareCase::Rhombus, SquareCase::Cylinder];
+    pub const ALL: [SquareCase; 3] = [
+        SquareCase::Enlarged,
+        SquareCase::Rhombus,
+        SquareCase::Cylinder,
+    ];
 
     /// Short name used in tables and files.
     pub fn name(self) -> &'static str {
@@ -135,7 +139,10 @@ mod tests {
     fn rigid_motion_is_invisible() {
         let x = SquareCase::Cylinder.equilibrium(&grid());
         let rot = Rotation3::from_euler_angles(0.3, -1.1, 2.0);
-        let y: Vec<_> = x.iter().map(|p| rot * p + Vector3::new(1.0, -2.0, 0.5)).collect();
+        let y: Vec<_> = x
+            .iter()
+            .map(|p| rot * p + Vector3::new(1.0, -2.0, 0.5))
+            .collect();
         assert!(rms_distance_modulo_rigid(&x, &y).unwrap() < 1e-14);
     }
 
@@ -151,7 +158,11 @@ mod tests {
         let c = y.iter().sum::<Vector3<f64>>() / y.len() as f64;
         let rms_r = (y.iter().map(|p| (p - c).norm_squared()).sum::<f64>() / y.len() as f64).sqrt();
         let d = rms_distance_modulo_rigid(&z, &y).unwrap();
-        assert!((d - 0.025 * rms_r).abs() < 1e-12, "{d} vs {}", 0.025 * rms_r);
+        assert!(
+            (d - 0.025 * rms_r).abs() < 1e-12,
+            "{d} vs {}",
+            0.025 * rms_r
+        );
     }
 
     #[test]

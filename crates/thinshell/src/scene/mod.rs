@@ -238,9 +238,7 @@ fn apply_overrides(text: &str, origin: &str, overrides: &[String]) -> Result<Str
             assignment: a.clone(),
             message: message.to_string(),
         };
-        let (key, raw) = a
-            .split_once('=')
-            .ok_or_else(|| err("expected key=value"))?;
+        let (key, raw) = a.split_once('=').ok_or_else(|| err("expected key=value"))?;
         let key = key.trim();
         if key.is_empty() || key.split('.').any(|k| k.trim().is_empty()) {
             return Err(err("empty key"));

@@ -56,7 +56,11 @@ fn finite_all(key: &str, v: &[f64]) -> Check {
 
 fn matrix(key: &str, m: &[[f64; 2]; 2], spd: bool) -> Check {
     finite_all(key, &[m[0][0], m[0][1], m[1][0], m[1][1]])?;
-    let scale = m[0][0].abs().max(m[1][1].abs()).max(m[0][1].abs()).max(1e-300);
+    let scale = m[0][0]
+        .abs()
+        .max(m[1][1].abs())
+        .max(m[0][1].abs())
+        .max(1e-300);
     if (m[0][1] - m[1][0]).abs() > 1e-12 * scale {
         return Err(problem(key, "must be symmetric"));
     }
@@ -173,7 +177,10 @@ fn mesh(m: &MeshSpec) -> Check {
     };
     for (key, is_given) in given {
         if is_given && !allowed.contains(&key) {
-            return Err(problem(format!("mesh.{key}"), format!("does not apply {what}")));
+            return Err(problem(
+                format!("mesh.{key}"),
+                format!("does not apply {what}"),
+            ));
         }
     }
     for (key, v) in [
@@ -199,10 +206,16 @@ fn mesh(m: &MeshSpec) -> Check {
     ] {
         if let Some(v) = v {
             if v < min {
-                return Err(problem(format!("mesh.{key}"), format!("must be ≥ {min}, got {v}")));
+                return Err(problem(
+                    format!("mesh.{key}"),
+                    format!("must be ≥ {min}, got {v}"),
+                ));
             }
             if v > 4096 {
-                return Err(problem(format!("mesh.{key}"), format!("must be ≤ 4096, got {v}")));
+                return Err(problem(
+                    format!("mesh.{key}"),
+                    format!("must be ≤ 4096, got {v}"),
+                ));
             }
         }
     }
@@ -317,7 +330,10 @@ fn region(key: &str, r: &RegionSpec) -> Check {
         finite_all(&format!("{key}.half_space.point"), &h.point)?;
         finite_all(&format!("{key}.half_space.normal"), &h.normal)?;
         if h.normal.iter().all(|&c| c == 0.0) {
-            return Err(problem(format!("{key}.half_space.normal"), "must not be zero"));
+            return Err(problem(
+                format!("{key}.half_space.normal"),
+                "must not be zero",
+            ));
         }
     }
     if let Some(s) = &r.sphere {
@@ -328,7 +344,10 @@ fn region(key: &str, r: &RegionSpec) -> Check {
         finite_all(&format!("{key}.box.min"), &b.min)?;
         finite_all(&format!("{key}.box.max"), &b.max)?;
         if (0..3).any(|i| b.min[i] > b.max[i]) {
-            return Err(problem(format!("{key}.box"), "needs min ≤ max in every coordinate"));
+            return Err(problem(
+                format!("{key}.box"),
+                "needs min ≤ max in every coordinate",
+            ));
         }
     }
     if let Some(v) = &r.vertices {
@@ -366,7 +385,11 @@ fn growth(s: &SceneFile, growth_on: bool, diffusion_on: bool) -> Check {
     };
     match g.model {
         GrowthModelKind::Isotropic => {
-            absent("growth.coefficient", &g.coefficient, "to isotropic growth (use p)")?;
+            absent(
+                "growth.coefficient",
+                &g.coefficient,
+                "to isotropic growth (use p)",
+            )?;
             if let Some(p) = g.p {
                 finite("growth.p", p)?;
             }
@@ -393,10 +416,17 @@ fn growth(s: &SceneFile, growth_on: bool, diffusion_on: bool) -> Check {
         ));
     }
     if !is_diffusion {
-        absent(&format!("{k}.diffusivity"), &st.diffusivity, "without diffusion")?;
+        absent(
+            &format!("{k}.diffusivity"),
+            &st.diffusivity,
+            "without diffusion",
+        )?;
         absent(&format!("{k}.layers"), &st.layers, "without diffusion")?;
         if !st.sources.is_empty() {
-            return Err(problem(format!("{k}.sources"), "do not apply without diffusion"));
+            return Err(problem(
+                format!("{k}.sources"),
+                "do not apply without diffusion",
+            ));
         }
     }
     match st.kind {
@@ -428,8 +458,16 @@ fn growth(s: &SceneFile, growth_on: bool, diffusion_on: bool) -> Check {
                     "`directed_heat` drives isotropic growth only",
                 ));
             }
-            absent(&format!("{k}.top"), &st.top, "to directed heat (use `value`)")?;
-            absent(&format!("{k}.bottom"), &st.bottom, "to directed heat (use `value`)")?;
+            absent(
+                &format!("{k}.top"),
+                &st.top,
+                "to directed heat (use `value`)",
+            )?;
+            absent(
+                &format!("{k}.bottom"),
+                &st.bottom,
+                "to directed heat (use `value`)",
+            )?;
             let v = st
                 .value
                 .ok_or_else(|| problem(format!("{k}.value"), "is required (the hot value)"))?;
@@ -445,14 +483,18 @@ fn growth(s: &SceneFile, growth_on: bool, diffusion_on: bool) -> Check {
             Ok(())
         }
         StimulusKind::Diffusion => {
-            for (key, v) in [("value", &st.value), ("top", &st.top), ("bottom", &st.bottom)] {
+            for (key, v) in [
+                ("value", &st.value),
+                ("top", &st.top),
+                ("bottom", &st.bottom),
+            ] {
                 absent(&format!("{k}.{key}"), v, "to diffusion (use `sources`)")?;
             }
             absent(&format!("{k}.hot"), &st.hot, "to diffusion")?;
             absent(&format!("{k}.held"), &st.held, "to diffusion")?;
-            let d = st.diffusivity.ok_or_else(|| {
-                problem(format!("{k}.diffusivity"), "is required by diffusion")
-            })?;
+            let d = st
+                .diffusivity
+                .ok_or_else(|| problem(format!("{k}.diffusivity"), "is required by diffusion"))?;
             positive(&format!("{k}.diffusivity"), d)?;
             if let Some(l) = st.layers {
                 if !(1..=64).contains(&l) {
@@ -572,9 +614,8 @@ fn integrator(i: &IntegratorSpec, on: &dyn Fn(Effect) -> bool) -> Check {
                 "a dynamic integrator (implicit/explicit) needs effect `inertia`",
             ));
         }
-        let dt = i
-            .dt
-            .ok_or_else(|| problem("integrator.dt", "is required by dynamic integrators"))?;
+        let dt =
+            i.dt.ok_or_else(|| problem("integrator.dt", "is required by dynamic integrators"))?;
         positive("integrator.dt", dt)?;
         match (i.steps, i.end_time) {
             (Some(_), Some(_)) | (None, None) => {
@@ -610,7 +651,11 @@ fn integrator(i: &IntegratorSpec, on: &dyn Fn(Effect) -> bool) -> Check {
         if i.steps == Some(0) {
             return Err(problem("integrator.steps", "must be ≥ 1"));
         }
-        absent("integrator.end_time", &i.end_time, "to a static solve (use steps)")?;
+        absent(
+            "integrator.end_time",
+            &i.end_time,
+            "to a static solve (use steps)",
+        )?;
     }
     let n = &i.newton;
     if i.kind == IntegratorKind::Explicit && *n != NewtonSpec::default() {
