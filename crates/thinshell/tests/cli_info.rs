@@ -1,0 +1,90 @@
+//! `thinshell info` end to end: statistics of good meshes, one clear error line and exit code 2
+//! for bad ones.
+#![allow(clippy::unwrap_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_thinshell"))
+}
+
+fn data(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data")
+        .join(rel)
+}
+
+fn tmp(name: &str, content: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("thinshell-cli-info-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, content).unwrap();
+    p
+}
+
+#[test]
+fn info_reports_the_seed_meshes() {
+    let out = bin()
+        .arg("info")
+        .arg(data("meshes/seed_square.obj"))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let s = String::from_utf8(out.stdout).unwrap();
+    assert!(s.contains("vertices 108  faces 184"), "{s}");
+    assert!(s.contains("Euler characteristic 1"), "{s}");
+    assert!(s.contains("problems: none"), "{s}");
+    let out = bin()
+        .arg("info")
+        .arg(data("meshes/seed_sphere.obj"))
+        .output()
+        .unwrap();
+    let s = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        s.contains("vertices 162  faces 320") && s.contains("(closed)"),
+        "{s}"
+    );
+}
+
+#[test]
+fn info_reports_flipped_faces() {
+    // Two triangles of a square, the second with the opposite orientation.
+    let p = tmp(
+        "flipped.obj",
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 4 3\n",
+    );
+    let out = bin().arg("info").arg(&p).output().unwrap();
+    assert!(out.status.success());
+    let s = String::from_utf8(out.stdout).unwrap();
+    assert!(s.contains("1 face(s) had the opposite orientation"), "{s}");
+}
+
+#[test]
+fn bad_meshes_give_one_line_and_exit_code_2() {
+    let cases = [
+        ("missing.obj", None),
+        (
+            "nonmanifold.obj",
+            Some("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n"),
+        ),
+        ("range.obj", Some("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n")),
+        (
+            "degenerate.obj",
+            Some("v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"),
+        ),
+        ("empty.obj", Some("# nothing\n")),
+        ("nan.obj", Some("v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")),
+    ];
+    for (name, content) in cases {
+        let p = match content {
+            Some(c) => tmp(name, c),
+            None => PathBuf::from("/nonexistent/missing.obj"),
+        };
+        let out = bin().arg("info").arg(&p).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{name}");
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(err.trim_end().lines().count(), 1, "{name}: {err}");
+        assert!(err.starts_with("thinshell: error: "), "{name}: {err}");
+    }
+}
