@@ -1,0 +1,393 @@
+//! Whole-mesh assembly of energy, gradient and sparse Hessian.
+//!
+//! [`Assembler::new`] builds, once per (mesh, dofs, terms), the stencils, the lower-triangular
+//! Hessian pattern over the free dofs and the *gather maps*: for every gradient coordinate and
+//! every Hessian nonzero the list of per-face buffer entries that contribute to it, in a fixed
+//! order. [`Assembler::evaluate`] then
+//! 1. evaluates every face in parallel (rayon) into its own slot of a per-face buffer
+//!    (gradient and the 21 vertex-pair 3×3 blocks of its Hessian), and
+//! 2. gathers: every gradient coordinate and every nonzero sums its contributions in the
+//!    precomputed order, in parallel over coordinates / nonzeros.
+//!
+//! No thread ever adds into shared memory, so results are bit-identical for any number of
+//! threads, and nothing is allocated per evaluation beyond rayon's bookkeeping.
+
+mod pattern;
+
+use crate::dofs::{DofMap, check_len};
+use crate::error::EnergyError;
+use crate::kernel::{
+    EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want, eval_face,
+};
+use crate::rest::{DampingState, RestState};
+use crate::shell::ShellModel;
+use crate::stencils::Stencils;
+use faer::sparse::SparseColMat;
+use nalgebra::{SMatrix, Vector3};
+use pattern::{NONE, Pattern, TRANSPOSED, pair};
+use rayon::prelude::*;
+use thinshell_mesh::{FaceId, Mesh, VertexId};
+
+/// Nonzeros per parallel work item of the Hessian gather.
+const GATHER_CHUNK: usize = 2048;
+
+/// Where [`Assembler::evaluate`] writes derivatives (the energy is always returned).
+#[derive(Debug, Default)]
+pub struct EvalOutput<'a> {
+    /// Full gradient ∂E/∂x (N), length `3·n_vertices`, vertex-major, including pinned
+    /// coordinates; overwritten.
+    pub gradient: Option<&'a mut [f64]>,
+    /// Hessian ∂²E/∂x² (N/m) over the free dofs, lower triangle, in a matrix obtained from
+    /// [`Assembler::hessian_template`]; its values are overwritten.
+    pub hessian: Option<(&'a mut SparseColMat<usize, f64>, HessianMode)>,
+}
+
+/// Assembles energy, gradient and Hessian of a mesh. Owns the sparsity pattern, the gather
+/// maps and the per-face buffers; build once per (mesh connectivity, [`DofMap`], [`Terms`]).
+pub struct Assembler {
+    terms: Terms,
+    n_vertices: usize,
+    n_slots: usize,
+    stencils: Stencils,
+    pattern: Pattern,
+    /// Per-face gradient and Hessian blocks of the last evaluation (layout: `pattern` module).
+    buffer: Vec<f64>,
+    /// Per-face energies of the last evaluation.
+    energies: Vec<EnergyTerms>,
+    /// Whether `buffer` holds Hessian blocks of the last evaluation.
+    has_hessian: bool,
+}
+
+impl std::fmt::Debug for Assembler {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Assembler")
+            .field("terms", &self.terms)
+            .field("n_vertices", &self.n_vertices)
+            .field("n_faces", &self.energies.len())
+            .field("n_free", &self.n_free())
+            .field("nnz", &self.nnz())
+            .finish_non_exhaustive()
+    }
+}
+
+impl Assembler {
+    /// Precomputes stencils, pattern and gather maps for `mesh` with unknowns `dofs` and the
+    /// energy `terms`. The Hessian stencil of a face is its three vertices plus, when bending
+    /// or damping is on, its flap vertices.
+    pub fn new(mesh: &Mesh, dofs: &DofMap, terms: Terms) -> Result<Assembler, EnergyError> {
+        check_len("dof map vertices", mesh.n_vertices(), dofs.n_vertices())?;
+        let n_slots = if terms.bend || terms.damping { 6 } else { 3 };
+        let stencils = Stencils::new(mesh);
+        let pattern = Pattern::new(&stencils, dofs, n_slots)?;
+        Ok(Assembler {
+            terms,
+            n_vertices: mesh.n_vertices(),
+            n_slots,
+            buffer: vec![0.0; mesh.n_faces() * pattern.stride],
+            energies: vec![EnergyTerms::default(); mesh.n_faces()],
+            stencils,
+            pattern,
+            has_hessian: false,
+        })
+    }
+
+    /// The terms this assembler was built for.
+    pub fn terms(&self) -> Terms {
+        self.terms
+    }
+
+    /// Number of free dofs (rows and columns of the Hessian).
+    pub fn n_free(&self) -> usize {
+        self.pattern.diagonal.len()
+    }
+
+    /// Number of stored Hessian entries (lower triangle).
+    pub fn nnz(&self) -> usize {
+        self.pattern.nz_block.len()
+    }
+
+    /// A Hessian with the assembler's pattern: `n_free × n_free`, lower triangle only, every
+    /// diagonal entry present, all values 0. Allocate once and pass it to every evaluation.
+    pub fn hessian_template(&self) -> SparseColMat<usize, f64> {
+        SparseColMat::new(self.pattern.symbolic.clone(), vec![0.0; self.nnz()])
+    }
+
+    /// Position of the diagonal entry (d, d) in the Hessian's value array, per free dof (for
+    /// adding mass or a regularisation μI in place).
+    pub fn diagonal_offsets(&self) -> &[usize] {
+        &self.pattern.diagonal
+    }
+
+    /// Energy terms (J) of `model.terms` at positions `x` (m, one per vertex) with the rest
+    /// state `rest` and, when damping is on, the damping state; writes the gradient and/or
+    /// Hessian requested in `out`.
+    ///
+    /// Errors: `model.terms` differ from the assembler's ([`EnergyError::TermsMismatch`]);
+    /// invalid material; wrong lengths; damping on without a [`DampingState`]; a Hessian not
+    /// made by [`Assembler::hessian_template`]; a face producing NaN/inf
+    /// ([`EnergyError::NonFinite`], the lowest such face).
+    pub fn evaluate(
+        &mut self,
+        model: &ShellModel,
+        x: &[Vector3<f64>],
+        rest: &RestState,
+        damping: Option<&DampingState>,
+        out: EvalOutput<'_>,
+    ) -> Result<EnergyTerms, EnergyError> {
+        let terms = model.terms;
+        if terms != self.terms {
+            return Err(EnergyError::TermsMismatch {
+                assembler: self.terms,
+                model: terms,
+            });
+        }
+        model.material.validate()?;
+        let n_faces = self.energies.len();
+        check_len("positions", self.n_vertices, x.len())?;
+        check_len("rest a_bar", n_faces, rest.a_bar.len())?;
+        check_len("rest b_bar", n_faces, rest.b_bar.len())?;
+        let damping = if terms.damping {
+            let d = damping.ok_or(EnergyError::MissingDamping)?;
+            check_len("damping a_prev", n_faces, d.a_prev.len())?;
+            check_len("damping b_prev", n_faces, d.b_prev.len())?;
+            if !(d.dt.is_finite() && d.dt > 0.0) {
+                return Err(EnergyError::InvalidParameter {
+                    name: "dt",
+                    value: d.dt,
+                    reason: "must be finite and > 0",
+                });
+            }
+            Some(d)
+        } else {
+            None
+        };
+        let EvalOutput { gradient, hessian } = out;
+        if let Some(g) = &gradient {
+            check_len("gradient", 3 * self.n_vertices, g.len())?;
+        }
+        if let Some((h, _)) = &hessian {
+            self.check_pattern(h)?;
+        }
+        let want = Want {
+            gradient: gradient.is_some(),
+            hessian: hessian.as_ref().map(|(_, mode)| *mode),
+        };
+
+        self.evaluate_faces(model, x, rest, damping, want)?;
+        self.has_hessian = want.hessian.is_some();
+
+        // Fixed-order sums: face order, independent of the thread count.
+        let total = self
+            .energies
+            .iter()
+            .fold(EnergyTerms::default(), |mut acc, e| {
+                acc += *e;
+                acc
+            });
+        if let Some(g) = gradient {
+            self.gather_gradient(g);
+        }
+        if let Some((h, _)) = hessian {
+            self.gather_hessian_values(h.val_mut());
+        }
+        Ok(total)
+    }
+
+    /// Per-face kernels, in parallel, into `self.buffer` / `self.energies`.
+    fn evaluate_faces(
+        &mut self,
+        model: &ShellModel,
+        x: &[Vector3<f64>],
+        rest: &RestState,
+        damping: Option<&DampingState>,
+        want: Want,
+    ) -> Result<(), EnergyError> {
+        let sff = model.sff.as_dyn();
+        let (stride, n_slots) = (self.pattern.stride, self.n_slots);
+        let stencils = &self.stencils;
+        let copy_gradient = want.gradient || want.hessian.is_some();
+        let bad_face = self
+            .buffer
+            .par_chunks_mut(stride)
+            .zip(self.energies.par_iter_mut())
+            .enumerate()
+            .map_init(FaceEval::default, |fe, (f, (buf, energy))| {
+                let stencil = stencils.stencil(f, x);
+                let face_rest = FaceRest {
+                    a_bar: rest.a_bar[f],
+                    b_bar: rest.b_bar[f],
+                };
+                let face_damping = damping.map(|d| FaceDamping {
+                    a_prev: d.a_prev[f],
+                    b_prev: d.b_prev[f],
+                    dt: d.dt,
+                });
+                eval_face(
+                    sff,
+                    &model.material,
+                    &stencil,
+                    &face_rest,
+                    face_damping.as_ref(),
+                    model.terms,
+                    want,
+                    fe,
+                );
+                *energy = fe.energy;
+                // A NaN or ±inf anywhere makes the sum non-finite.
+                let mut check = fe.energy.total();
+                if copy_gradient {
+                    let n = 3 * n_slots;
+                    buf[..n].copy_from_slice(&fe.gradient.as_slice()[..n]);
+                    check += buf[..n].iter().sum::<f64>();
+                }
+                if want.hessian.is_some() {
+                    let blocks = &mut buf[3 * n_slots..];
+                    for s1 in 0..n_slots {
+                        for s2 in 0..=s1 {
+                            let b = &mut blocks[9 * pair(s1, s2)..9 * pair(s1, s2) + 9];
+                            for a in 0..3 {
+                                for c in 0..3 {
+                                    b[3 * a + c] = fe.hessian[(3 * s1 + a, 3 * s2 + c)];
+                                }
+                            }
+                            check += b.iter().sum::<f64>();
+                        }
+                    }
+                }
+                (!check.is_finite()).then_some(f)
+            })
+            .flatten()
+            .min();
+        match bad_face {
+            Some(f) => Err(EnergyError::NonFinite {
+                face: FaceId::new(f),
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Gradient gather: each vertex sums its face slots in the precomputed order.
+    fn gather_gradient(&self, gradient: &mut [f64]) {
+        let p = &self.pattern;
+        let buf = &self.buffer;
+        gradient.par_chunks_mut(3).enumerate().for_each(|(v, g)| {
+            let mut s = [0.0; 3];
+            for &src in &p.grad_src[p.grad_ptr[v]..p.grad_ptr[v + 1]] {
+                let src = src as usize;
+                s[0] += buf[src];
+                s[1] += buf[src + 1];
+                s[2] += buf[src + 2];
+            }
+            g.copy_from_slice(&s);
+        });
+    }
+
+    /// Hessian gather: each nonzero sums its face-block entries in the precomputed order.
+    fn gather_hessian_values(&self, values: &mut [f64]) {
+        let p = &self.pattern;
+        let buf = &self.buffer;
+        values
+            .par_chunks_mut(GATHER_CHUNK)
+            .enumerate()
+            .for_each(|(chunk, vals)| {
+                let start = chunk * GATHER_CHUNK;
+                for (i, val) in vals.iter_mut().enumerate() {
+                    let k = start + i;
+                    let blk = p.nz_block[k] as usize;
+                    let e = p.nz_entry[k] as usize;
+                    let et = 3 * (e % 3) + e / 3;
+                    let mut s = 0.0;
+                    for &src in &p.block_src[p.block_ptr[blk]..p.block_ptr[blk + 1]] {
+                        let base = (src & !TRANSPOSED) as usize;
+                        let off = if src & TRANSPOSED != 0 { et } else { e };
+                        s += buf[base + off];
+                    }
+                    *val = s;
+                }
+            });
+    }
+
+    /// Refills `hessian`'s values from the per-face blocks of the last [`Assembler::evaluate`]
+    /// that computed a Hessian (the gather step alone: for benchmarks, or to fill a second
+    /// matrix). Errors if there is none or the pattern differs.
+    pub fn gather_hessian(
+        &self,
+        hessian: &mut SparseColMat<usize, f64>,
+    ) -> Result<(), EnergyError> {
+        self.check_pattern(hessian)?;
+        if !self.has_hessian {
+            return Err(EnergyError::NoHessianEvaluated);
+        }
+        self.gather_hessian_values(hessian.val_mut());
+        Ok(())
+    }
+
+    /// Per-face energies (J) of the last evaluation, in face order.
+    pub fn face_energies(&self) -> &[EnergyTerms] {
+        &self.energies
+    }
+
+    /// Adds the symmetric part `(B + Bᵀ)/2` of a 9×9 block `B` over face `f`'s three vertices
+    /// (dofs `x_i, x_j, x_k`, 3 coordinates each, N/m) to `hessian`'s lower triangle; pinned
+    /// coordinates are skipped. For per-face loads such as pressure.
+    pub fn add_face_block(
+        &self,
+        f: FaceId,
+        block: &SMatrix<f64, 9, 9>,
+        hessian: &mut SparseColMat<usize, f64>,
+    ) -> Result<(), EnergyError> {
+        let blocks = self
+            .pattern
+            .face_blocks
+            .get(f.idx())
+            .ok_or(EnergyError::FaceOutOfRange {
+                face: f,
+                n_faces: self.energies.len(),
+            })?;
+        self.check_pattern(hessian)?;
+        let values = hessian.val_mut();
+        for s1 in 0..3 {
+            for s2 in 0..=s1 {
+                let gb = blocks[pair(s1, s2)];
+                let offsets = &self.pattern.block_offsets[(gb & !TRANSPOSED) as usize];
+                let transposed = gb & TRANSPOSED != 0;
+                for a in 0..3 {
+                    for c in 0..3 {
+                        let (i, j) = (3 * s1 + a, 3 * s2 + c);
+                        let e = if transposed { 3 * c + a } else { 3 * a + c };
+                        let o = offsets[e];
+                        if o != NONE {
+                            values[o as usize] += 0.5 * (block[(i, j)] + block[(j, i)]);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `Err` unless `h` has exactly this assembler's pattern.
+    fn check_pattern(&self, h: &SparseColMat<usize, f64>) -> Result<(), EnergyError> {
+        let (mine, theirs) = (self.pattern.symbolic.as_ref(), h.symbolic());
+        let same = theirs.nrows() == mine.nrows()
+            && theirs.ncols() == mine.ncols()
+            && theirs.col_ptr() == mine.col_ptr()
+            && theirs.col_nnz().is_none()
+            && theirs.row_idx() == mine.row_idx();
+        if same {
+            Ok(())
+        } else {
+            Err(EnergyError::HessianPatternMismatch)
+        }
+    }
+
+    /// Vertex slots per face stencil: 3 (stretching only) or 6 (with flap vertices).
+    pub fn stencil_size(&self) -> usize {
+        self.n_slots
+    }
+
+    /// The stencil vertices of face `f` (see [`Stencils::vertices`]); `None` out of range.
+    pub fn stencil_vertices(&self, f: FaceId) -> Option<&[VertexId; 6]> {
+        (f.idx() < self.stencils.n_faces()).then(|| self.stencils.vertices(f.idx()))
+    }
+}

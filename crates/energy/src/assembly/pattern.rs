@@ -1,0 +1,223 @@
+//! Construction of the Hessian sparsity pattern and of the gather maps (done once).
+//!
+//! Per-face buffer layout (`stride` f64 per face): first the gradient, `3·n_slots` entries
+//! (slot-major, x y z), then one 3×3 block per unordered slot pair `s1 ≥ s2`, at pair index
+//! `p = s1(s1+1)/2 + s2`, row-major: `B[3a + c] = H_local[3 s1 + a, 3 s2 + c]`.
+//!
+//! A face's slot pair `(s1, s2)` over vertices `(v1, v2)` contributes to the global vertex
+//! block `(max, min)` of the lower triangle — transposed when `v1 < v2`. With vertex-major,
+//! monotone dof numbering ([`DofMap`]) a block with row vertex > column vertex lies entirely
+//! below the diagonal; a diagonal block keeps its lower entries only.
+
+use crate::dofs::DofMap;
+use crate::error::EnergyError;
+use crate::stencils::Stencils;
+use faer::sparse::SymbolicSparseColMat;
+
+/// Flag bit in a contribution: read the face block transposed.
+pub(super) const TRANSPOSED: u32 = 1 << 31;
+/// Marker for "no value" (pinned coordinate or upper triangle) in [`Pattern::block_offsets`].
+pub(super) const NONE: u32 = u32::MAX;
+
+/// Number of unordered slot pairs for `n` slots.
+pub(super) const fn n_pairs(n: usize) -> usize {
+    n * (n + 1) / 2
+}
+
+/// Pair index of slots `s1 ≥ s2`.
+pub(super) const fn pair(s1: usize, s2: usize) -> usize {
+    s1 * (s1 + 1) / 2 + s2
+}
+
+/// Everything the assembler precomputes from (mesh topology, dofs, stencil size).
+pub(super) struct Pattern {
+    /// Lower-triangular CSC structure over the free dofs.
+    pub symbolic: SymbolicSparseColMat<usize>,
+    /// Position of (d, d) in the value array, per free dof.
+    pub diagonal: Vec<usize>,
+    /// f64 per face in the per-face buffer.
+    pub stride: usize,
+    /// Per vertex (CSR): buffer offsets of the face gradient slots that touch it.
+    pub grad_ptr: Vec<usize>,
+    /// See `grad_ptr`.
+    pub grad_src: Vec<u32>,
+    /// Per global vertex block (CSR): buffer offsets of face blocks, with [`TRANSPOSED`].
+    pub block_ptr: Vec<usize>,
+    /// See `block_ptr`.
+    pub block_src: Vec<u32>,
+    /// Value-array position of each of the 9 entries `3a + c` of a global block, or [`NONE`].
+    pub block_offsets: Vec<[u32; 9]>,
+    /// Per nonzero: its global block.
+    pub nz_block: Vec<u32>,
+    /// Per nonzero: its entry `3a + c` in the block.
+    pub nz_entry: Vec<u8>,
+    /// Per face: global block (with [`TRANSPOSED`]) of the slot pairs among its three vertices,
+    /// in pair order (0,0), (1,0), (1,1), (2,0), (2,1), (2,2).
+    pub face_blocks: Vec<[u32; 6]>,
+}
+
+impl Pattern {
+    /// Builds the pattern for stencils with `n_slots` (3: face only, 6: with flaps).
+    pub fn new(stencils: &Stencils, dofs: &DofMap, n_slots: usize) -> Result<Pattern, EnergyError> {
+        let n_faces = stencils.n_faces();
+        let n_vertices = dofs.n_vertices();
+        let stride = 3 * n_slots + 9 * n_pairs(n_slots);
+        let too_large = |what, count| EnergyError::TooLarge { what, count };
+        if n_faces.saturating_mul(stride) >= TRANSPOSED as usize {
+            return Err(too_large(
+                "per-face buffer entries",
+                n_faces.saturating_mul(stride),
+            ));
+        }
+        let grad_base = 3 * n_slots;
+
+        // Face-block contributions keyed by global block (column vertex, row vertex); the
+        // stable sort keeps face order inside a block, which fixes the summation order.
+        let mut contrib: Vec<(u32, u32, u32)> =
+            Vec::with_capacity(n_faces * n_pairs(n_slots) + n_vertices);
+        let mut grad: Vec<(u32, u32)> = Vec::with_capacity(n_faces * n_slots);
+        for f in 0..n_faces {
+            let v = stencils.vertices(f);
+            let base = f * stride;
+            for s1 in 0..n_slots {
+                if !stencils.slot_present(f, s1) {
+                    continue;
+                }
+                let v1 = v[s1].0;
+                grad.push((v1, (base + 3 * s1) as u32));
+                for s2 in 0..=s1 {
+                    if !stencils.slot_present(f, s2) {
+                        continue;
+                    }
+                    let v2 = v[s2].0;
+                    let src = (base + grad_base + 9 * pair(s1, s2)) as u32;
+                    let (r, c) = (v1.max(v2), v1.min(v2));
+                    if v1 == v2 && s1 != s2 {
+                        // The same vertex in two slots (e.g. a tetrahedron's flaps): B + Bᵀ.
+                        contrib.push((c, r, src));
+                        contrib.push((c, r, src | TRANSPOSED));
+                    } else {
+                        contrib.push((c, r, if v1 < v2 { src | TRANSPOSED } else { src }));
+                    }
+                }
+            }
+        }
+        // Every vertex gets its diagonal block (every diagonal entry present), sorted first
+        // within its column and contributing nothing.
+        contrib.extend((0..n_vertices as u32).map(|v| (v, v, NONE)));
+        contrib.sort_by_key(|&(c, r, src)| (c, r, src != NONE));
+        grad.sort_by_key(|&(v, _)| v);
+
+        let mut block_ptr = vec![0];
+        let mut block_src = Vec::with_capacity(contrib.len());
+        let mut block_vertices: Vec<(u32, u32)> = Vec::new();
+        for &(c, r, src) in &contrib {
+            if block_vertices.last() != Some(&(c, r)) {
+                if !block_vertices.is_empty() {
+                    block_ptr.push(block_src.len());
+                }
+                block_vertices.push((c, r));
+            }
+            if src != NONE {
+                block_src.push(src);
+            }
+        }
+        block_ptr.push(block_src.len());
+
+        // CSC over free dofs, column by column: the blocks of column vertex c are sorted by
+        // row vertex, and dofs are monotone in (vertex, axis), so rows come out sorted.
+        let n_free = dofs.n_free();
+        let mut col_ptr = Vec::with_capacity(n_free + 1);
+        let mut row_idx: Vec<usize> = Vec::new();
+        let mut block_offsets = vec![[NONE; 9]; block_vertices.len()];
+        let mut diagonal = vec![0; n_free];
+        let mut first = 0;
+        while first < block_vertices.len() {
+            let c = block_vertices[first].0;
+            let last = first + block_vertices[first..].partition_point(|&(cc, _)| cc == c);
+            for axis_c in 0..3 {
+                let Some(col) = dofs.dof(thinshell_mesh::VertexId(c), axis_c) else {
+                    continue;
+                };
+                debug_assert_eq!(col, col_ptr.len());
+                col_ptr.push(row_idx.len());
+                for (k, &(_, r)) in block_vertices[first..last].iter().enumerate() {
+                    for axis_r in 0..3 {
+                        if r == c && axis_r < axis_c {
+                            continue;
+                        }
+                        let Some(row) = dofs.dof(thinshell_mesh::VertexId(r), axis_r) else {
+                            continue;
+                        };
+                        if row == col {
+                            diagonal[col] = row_idx.len();
+                        }
+                        let pos = u32::try_from(row_idx.len())
+                            .ok()
+                            .filter(|&p| p != NONE)
+                            .ok_or(too_large("Hessian nonzeros", row_idx.len()))?;
+                        block_offsets[first + k][3 * axis_r + axis_c] = pos;
+                        row_idx.push(row);
+                    }
+                }
+            }
+            first = last;
+        }
+        col_ptr.push(row_idx.len());
+        let nnz = row_idx.len();
+        let symbolic = SymbolicSparseColMat::new_checked(n_free, n_free, col_ptr, None, row_idx);
+
+        let mut nz_block = vec![0u32; nnz];
+        let mut nz_entry = vec![0u8; nnz];
+        for (b, offs) in block_offsets.iter().enumerate() {
+            for (e, &o) in offs.iter().enumerate() {
+                if o != NONE {
+                    nz_block[o as usize] = b as u32;
+                    nz_entry[o as usize] = e as u8;
+                }
+            }
+        }
+
+        let mut grad_ptr = vec![0; n_vertices + 1];
+        for &(v, _) in &grad {
+            grad_ptr[v as usize + 1] += 1;
+        }
+        for v in 0..n_vertices {
+            grad_ptr[v + 1] += grad_ptr[v];
+        }
+        let grad_src = grad.into_iter().map(|(_, s)| s).collect();
+
+        let block_of = |c: u32, r: u32| {
+            // Blocks are sorted by (column, row); every face pair's block exists.
+            block_vertices.partition_point(|&k| k < (c, r)) as u32
+        };
+        let face_blocks = (0..n_faces)
+            .map(|f| {
+                let v = stencils.vertices(f);
+                let mut out = [0u32; 6];
+                for s1 in 0..3 {
+                    for s2 in 0..=s1 {
+                        let (v1, v2) = (v[s1].0, v[s2].0);
+                        let b = block_of(v1.min(v2), v1.max(v2));
+                        out[pair(s1, s2)] = if v1 < v2 { b | TRANSPOSED } else { b };
+                    }
+                }
+                out
+            })
+            .collect();
+
+        Ok(Pattern {
+            symbolic,
+            diagonal,
+            stride,
+            grad_ptr,
+            grad_src,
+            block_ptr,
+            block_src,
+            block_offsets,
+            nz_block,
+            nz_entry,
+            face_blocks,
+        })
+    }
+}

@@ -1,0 +1,260 @@
+//! Mid-edge average second fundamental form (model.md §1).
+//!
+//! Local edge e of face (x0, x1, x2) is opposite vertex e; its neighbour face, in consistent
+//! orientation, is (x_{e+2}, x_{e+1}, q_e) with q_e = flap vertex `x[3+e]`. With e1 = x1 − x0,
+//! e2 = x2 − x0 and mid-edge unit normals n_e:
+//!
+//! b11 = 2 (n1 − n0)·e1,  b22 = 2 (n2 − n0)·e2,  b12 = (n1 − n0)·e2 + (n2 − n0)·e1,
+//!
+//! i.e. b_k = Σ_e n_e·(α_ke e1 + β_ke e2) with the coefficients in [`COEF`].
+
+// Index loops over the stencil's vertex blocks mirror the block formulas in the comments.
+#![allow(clippy::needless_range_loop)]
+
+use super::{SecondFundamentalForm, SffDerivatives};
+use crate::kernel::FaceStencil;
+use nalgebra::{Matrix2, Matrix3, SMatrix, Vector3};
+
+/// Normalised average of the two unit face normals per interior edge; face normal on a boundary edge.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MidEdgeAverage;
+
+/// (α_ke, β_ke): b_k = Σ_e n_e·(α_ke e1 + β_ke e2), k = (b11, b12, b22), e = local edge.
+const COEF: [[(f64, f64); 3]; 3] = [
+    [(-2.0, 0.0), (2.0, 0.0), (0.0, 0.0)],
+    [(-1.0, -1.0), (0.0, 1.0), (1.0, 0.0)],
+    [(0.0, -2.0), (0.0, 0.0), (0.0, 2.0)],
+];
+
+/// 3×18 matrix stored as six 3×3 blocks (one per stencil vertex).
+type Blocks = [Matrix3<f64>; 6];
+
+#[inline]
+fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
+}
+
+/// Vertex-block indices of the triangle (p0, p1, p2) whose normal is the neighbour across edge e.
+#[inline]
+fn neighbour_blocks(e: usize) -> [usize; 3] {
+    [(e + 2) % 3, (e + 1) % 3, 3 + e]
+}
+
+/// Unnormalised normal c = (p1 − p0) × (p2 − p0) and its Jacobian blocks w.r.t. p0, p1, p2:
+/// dc = [p2 − p1]× dp0 − [p2 − p0]× dp1 + [p1 − p0]× dp2.
+#[inline]
+fn cross_normal(p: [&Vector3<f64>; 3]) -> (Vector3<f64>, [Matrix3<f64>; 3]) {
+    let e1 = p[1] - p[0];
+    let e2 = p[2] - p[0];
+    (e1.cross(&e2), [skew(&(p[2] - p[1])), -skew(&e2), skew(&e1)])
+}
+
+/// Unit vector m = u/|u|, and P/|u| with P = I − m mᵀ (Jacobian of u ↦ u/|u|).
+#[inline]
+fn normalize_jac(u: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>, f64) {
+    let len = u.norm();
+    let m = u / len;
+    let p = (Matrix3::identity() - m * m.transpose()) / len;
+    (m, p, len)
+}
+
+/// Contracted Hessian ∇²_u (w·u/|u|) = −(m (Pw)ᵀ + (Pw) mᵀ + (m·w) P)/|u|², P = I − m mᵀ.
+#[inline]
+fn normalize_hess(m: &Vector3<f64>, len: f64, w: &Vector3<f64>) -> Matrix3<f64> {
+    let p = Matrix3::identity() - m * m.transpose();
+    let pw = p * w;
+    let mpw = m * pw.transpose();
+    -(mpw + mpw.transpose() + p * m.dot(w)) / (len * len)
+}
+
+/// Adds the constant contracted Hessian of ν·((p1 − p0) × (p2 − p0)) on the blocks `idx`:
+/// block (i, j) = C_ij [ν]× with C = [[0, −1, 1], [1, 0, −1], [−1, 1, 0]].
+#[inline]
+fn add_cross_hess(h: &mut SMatrix<f64, 18, 18>, idx: [usize; 3], nu: &Vector3<f64>) {
+    const C: [[f64; 3]; 3] = [[0.0, -1.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 0.0]];
+    let s = skew(nu);
+    for (i, &bi) in idx.iter().enumerate() {
+        for (j, &bj) in idx.iter().enumerate() {
+            if C[i][j] != 0.0 {
+                let mut v = h.fixed_view_mut::<3, 3>(3 * bi, 3 * bj);
+                v += s * C[i][j];
+            }
+        }
+    }
+}
+
+/// Adds Jᵀ M J for J given as blocks on `idx` (3×3 each) and symmetric M.
+#[inline]
+fn add_jt_m_j<const N: usize>(
+    h: &mut SMatrix<f64, 18, 18>,
+    idx: &[usize; N],
+    jac: &[Matrix3<f64>; N],
+    m: &Matrix3<f64>,
+) {
+    for (i, &bi) in idx.iter().enumerate() {
+        let left = jac[i].transpose() * m;
+        for (j, &bj) in idx.iter().enumerate() {
+            let mut v = h.fixed_view_mut::<3, 3>(3 * bi, 3 * bj);
+            v += left * jac[j];
+        }
+    }
+}
+
+impl SecondFundamentalForm for MidEdgeAverage {
+    fn b(&self, s: &FaceStencil) -> Matrix2<f64> {
+        let x = &s.x;
+        let nf = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
+        let mut n = [nf; 3];
+        for (e, ne) in n.iter_mut().enumerate() {
+            if s.flap[e] {
+                let [i0, i1, i2] = neighbour_blocks(e);
+                let ng = (x[i1] - x[i0]).cross(&(x[i2] - x[i0])).normalize();
+                *ne = (nf + ng).normalize();
+            }
+        }
+        let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
+        let mut bk = [0.0; 3];
+        for (k, row) in COEF.iter().enumerate() {
+            for (e, &(al, be)) in row.iter().enumerate() {
+                bk[k] += n[e].dot(&(e1 * al + e2 * be));
+            }
+        }
+        Matrix2::new(bk[0], bk[1], bk[1], bk[2])
+    }
+
+    fn b_derivatives(
+        &self,
+        s: &FaceStencil,
+        hessian: Option<(&Vector3<f64>, &mut SMatrix<f64, 18, 18>)>,
+    ) -> SffDerivatives {
+        let x = &s.x;
+        let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
+        let face_idx = [0usize, 1, 2];
+        let (cf, jcf) = cross_normal([&x[0], &x[1], &x[2]]);
+        let (nf, pf, lf) = normalize_jac(&cf);
+        let jnf = [pf * jcf[0], pf * jcf[1], pf * jcf[2]];
+
+        // Per edge: unit normal n_e and its Jacobian blocks; interior-edge data for the Hessian.
+        let mut n = [nf; 3];
+        let mut jn: [Blocks; 3] = [[Matrix3::zeros(); 6]; 3];
+        let mut js: [Blocks; 3] = [[Matrix3::zeros(); 6]; 3];
+        struct Interior {
+            s_m: Vector3<f64>,
+            s_len: f64,
+            s_p: Matrix3<f64>,
+            g_m: Vector3<f64>,
+            g_len: f64,
+            g_p: Matrix3<f64>,
+            jcg: [Matrix3<f64>; 3],
+        }
+        let mut interior: [Option<Interior>; 3] = [None, None, None];
+        for e in 0..3 {
+            if s.flap[e] {
+                let gi = neighbour_blocks(e);
+                let (cg, jcg) = cross_normal([&x[gi[0]], &x[gi[1]], &x[gi[2]]]);
+                let (ng, pg, lg) = normalize_jac(&cg);
+                let (sm, ps, ls) = normalize_jac(&(nf + ng));
+                n[e] = sm;
+                for b in 0..3 {
+                    js[e][b] += jnf[b];
+                    js[e][gi[b]] += pg * jcg[b];
+                }
+                for b in 0..6 {
+                    jn[e][b] = ps * js[e][b];
+                }
+                interior[e] = Some(Interior {
+                    s_m: sm,
+                    s_len: ls,
+                    s_p: ps * ls,
+                    g_m: ng,
+                    g_len: lg,
+                    g_p: pg * lg,
+                    jcg,
+                });
+            } else {
+                jn[e][..3].copy_from_slice(&jnf);
+            }
+        }
+
+        // b and its Jacobian.
+        let mut bk = [0.0; 3];
+        let mut jac = SMatrix::<f64, 3, 18>::zeros();
+        for (k, row) in COEF.iter().enumerate() {
+            for (e, &(al, be)) in row.iter().enumerate() {
+                if al == 0.0 && be == 0.0 {
+                    continue;
+                }
+                let v = e1 * al + e2 * be;
+                bk[k] += n[e].dot(&v);
+                let vt = v.transpose();
+                for b in 0..6 {
+                    let mut r = jac.fixed_view_mut::<1, 3>(k, 3 * b);
+                    r += vt * jn[e][b];
+                }
+                // n_e · dv with v = α e1 + β e2.
+                let nt = n[e].transpose();
+                let mut r = jac.fixed_view_mut::<1, 3>(k, 0);
+                r -= nt * (al + be);
+                let mut r = jac.fixed_view_mut::<1, 3>(k, 3);
+                r += nt * al;
+                let mut r = jac.fixed_view_mut::<1, 3>(k, 6);
+                r += nt * be;
+            }
+        }
+
+        if let Some((w, h)) = hessian {
+            // Σ_k w_k b_k = Σ_e n_e·p_e, p_e = A_e e1 + B_e e2 (linear in positions).
+            let mut mu_f = Vector3::zeros();
+            for e in 0..3 {
+                let (mut ca, mut cb) = (0.0, 0.0);
+                for k in 0..3 {
+                    ca += w[k] * COEF[k][e].0;
+                    cb += w[k] * COEF[k][e].1;
+                }
+                let p = e1 * ca + e2 * cb;
+                // Mixed term J_neᵀ J_pe + J_peᵀ J_ne; J_pe blocks: x0 −(A+B) I, x1 A I, x2 B I.
+                let cp = [-(ca + cb), ca, cb];
+                for b in 0..6 {
+                    let jt = jn[e][b].transpose();
+                    for (c, &coef) in cp.iter().enumerate() {
+                        if coef != 0.0 {
+                            let t = jt * coef;
+                            let mut v = h.fixed_view_mut::<3, 3>(3 * b, 3 * c);
+                            v += t;
+                            let mut v = h.fixed_view_mut::<3, 3>(3 * c, 3 * b);
+                            v += t.transpose();
+                        }
+                    }
+                }
+                match &interior[e] {
+                    None => mu_f += p,
+                    Some(it) => {
+                        // n_e = N(s), s = n_f + n_g.
+                        let hs = normalize_hess(&it.s_m, it.s_len, &p);
+                        let gi = neighbour_blocks(e);
+                        let idx = [0usize, 1, 2, gi[2]];
+                        let jse = [js[e][0], js[e][1], js[e][2], js[e][gi[2]]];
+                        add_jt_m_j(h, &idx, &jse, &hs);
+                        let mu = it.s_p * p / it.s_len;
+                        mu_f += mu;
+                        // n_g = N(c_g) contracted with μ.
+                        let hg = normalize_hess(&it.g_m, it.g_len, &mu);
+                        add_jt_m_j(h, &gi, &it.jcg, &hg);
+                        let nu = it.g_p * mu / it.g_len;
+                        add_cross_hess(h, gi, &nu);
+                    }
+                }
+            }
+            // Face normal once, with the accumulated adjoint μ_f.
+            let hf = normalize_hess(&nf, lf, &mu_f);
+            add_jt_m_j(h, &face_idx, &jcf, &hf);
+            let nu = pf * mu_f;
+            add_cross_hess(h, face_idx, &nu);
+        }
+
+        SffDerivatives {
+            b: Matrix2::new(bk[0], bk[1], bk[1], bk[2]),
+            jacobian: jac,
+        }
+    }
+}

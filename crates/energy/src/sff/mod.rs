@@ -1,0 +1,51 @@
+//! Second fundamental form discretisations.
+
+mod mid_edge_average;
+
+pub use mid_edge_average::MidEdgeAverage;
+
+use crate::kernel::FaceStencil;
+use nalgebra::{Matrix2, SMatrix};
+
+/// Output of [`SecondFundamentalForm::b_derivatives`].
+#[derive(Clone, Debug)]
+pub struct SffDerivatives {
+    /// b (m), symmetric.
+    pub b: Matrix2<f64>,
+    /// Jacobian: rows b11, b12, b22 w.r.t. the 18 stencil dofs (dimensionless).
+    pub jacobian: SMatrix<f64, 3, 18>,
+}
+
+/// A discrete second fundamental form b of a face (basis (e1, e2), sign of model.md §1:
+/// b ≈ −a/r on a sphere of radius r with outward normals).
+pub trait SecondFundamentalForm: Sync {
+    /// b of the face (no derivatives). `stencil.x[3+e]` is ignored when `!stencil.flap[e]`
+    /// (boundary edge: the face normal is used).
+    fn b(&self, stencil: &FaceStencil) -> Matrix2<f64>;
+
+    /// b and its Jacobian (rows b11, b12, b22 w.r.t. the 18 stencil dofs). When `hessian` is
+    /// `Some((w, h))`, ADDS the contracted Hessian Σ_k w_k ∇²b_k (18×18, w = (w11, w12, w22))
+    /// to `h`; the third-order tensor is never formed.
+    fn b_derivatives(
+        &self,
+        stencil: &FaceStencil,
+        hessian: Option<(&nalgebra::Vector3<f64>, &mut SMatrix<f64, 18, 18>)>,
+    ) -> SffDerivatives;
+}
+
+/// Choice of second fundamental form discretisation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SffKind {
+    /// Normalised average of the two unit face normals per edge (model.md §1).
+    #[default]
+    MidEdgeAverage,
+}
+
+impl SffKind {
+    /// The implementation as a trait object.
+    pub fn as_dyn(self) -> &'static dyn SecondFundamentalForm {
+        match self {
+            SffKind::MidEdgeAverage => &MidEdgeAverage,
+        }
+    }
+}

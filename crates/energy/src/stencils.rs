@@ -1,0 +1,75 @@
+//! Per-face stencils (face vertices + flap vertices) from the mesh topology, built once.
+
+use crate::kernel::FaceStencil;
+use nalgebra::Vector3;
+use thinshell_mesh::{FaceId, Mesh, VertexId};
+
+/// The six stencil vertices of every face: `[i, j, k, flap_0, flap_1, flap_2]`, flap `e`
+/// across local edge `e` (opposite local vertex `e`), `None` on a boundary edge.
+#[derive(Clone, Debug)]
+pub struct Stencils {
+    vertices: Vec<[VertexId; 6]>,
+    flap: Vec<[bool; 3]>,
+}
+
+impl Stencils {
+    /// Reads the stencils of all faces of `mesh` from its topology.
+    pub fn new(mesh: &Mesh) -> Stencils {
+        let topo = mesh.topology();
+        let (vertices, flap) = mesh
+            .faces()
+            .iter()
+            .enumerate()
+            .map(|(f, face)| {
+                let flaps = topo.flap_vertices(FaceId::new(f));
+                let mut v = [face[0], face[1], face[2], face[0], face[1], face[2]];
+                let mut has = [false; 3];
+                for e in 0..3 {
+                    if let Some(w) = flaps[e] {
+                        v[3 + e] = w;
+                        has[e] = true;
+                    }
+                }
+                (v, has)
+            })
+            .unzip();
+        Stencils { vertices, flap }
+    }
+
+    /// Number of faces.
+    pub fn n_faces(&self) -> usize {
+        self.vertices.len()
+    }
+
+    /// Stencil vertex ids of face `f`; slot `3 + e` holds face vertex `e` when `!flap(f)[e]`.
+    pub fn vertices(&self, f: usize) -> &[VertexId; 6] {
+        &self.vertices[f]
+    }
+
+    /// Which flap vertices of face `f` exist.
+    pub fn flap(&self, f: usize) -> [bool; 3] {
+        self.flap[f]
+    }
+
+    /// Whether stencil slot `s` (0..6) of face `f` is a real vertex.
+    pub fn slot_present(&self, f: usize, s: usize) -> bool {
+        s < 3 || self.flap[f][s - 3]
+    }
+
+    /// The kernel stencil of face `f` at positions `x` (length checked by the caller; a
+    /// missing flap slot repeats the opposite face vertex so that it stays finite).
+    pub fn stencil(&self, f: usize, x: &[Vector3<f64>]) -> FaceStencil {
+        let v = &self.vertices[f];
+        FaceStencil {
+            x: [
+                x[v[0].idx()],
+                x[v[1].idx()],
+                x[v[2].idx()],
+                x[v[3].idx()],
+                x[v[4].idx()],
+                x[v[5].idx()],
+            ],
+            flap: self.flap[f],
+        }
+    }
+}
