@@ -1,5 +1,63 @@
-//! `cargo xtask <task>`.
-fn main() {
-    eprintln!("xtask: no tasks yet");
-    std::process::exit(2);
+//! Project tasks, run as `cargo xtask <task>` (an alias in `.cargo/config.toml` that builds in
+//! release, sharing the test build).
+//!
+//! - `bench-square`: the seed's three square experiments, the seed's way and the fast way.
+//! - `bench-sphere`: the seed's two sphere experiments with energy plots and rendered shapes.
+
+mod bench_square;
+mod plot;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "cargo xtask", about = "thinshell project tasks")]
+struct Args {
+    #[command(subcommand)]
+    task: Task,
+}
+
+#[derive(Subcommand)]
+enum Task {
+    /// The seed's square experiments (enlarged square, rhombus, cylindrical patch): the seed's
+    /// way (implicit Euler, Δt = 5e-6 s, no line search, 1000 steps) against the fastest way to the
+    /// analytic equilibrium. Writes target/xtask/bench-square.json and energy plots.
+    BenchSquare {
+        /// Only the fast methods (skips the 1000-step seed runs).
+        #[arg(long)]
+        quick: bool,
+    },
+}
+
+/// Where tasks write their results: `<workspace>/target/xtask`.
+pub fn out_dir() -> PathBuf {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("."));
+    root.join("target").join("xtask")
+}
+
+/// The workspace root (scene files are found relative to it).
+pub fn workspace_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("."))
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let result = match args.task {
+        Task::BenchSquare { quick } => bench_square::run(quick),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
 }

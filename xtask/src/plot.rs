@@ -21,8 +21,6 @@ pub enum Mark {
     Line,
     /// One circle per point.
     Points,
-    /// Polyline with circles on the points.
-    LinePoints,
 }
 
 /// One named data series.
@@ -88,10 +86,18 @@ fn bounds(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
         return if log { (0.1, 10.0) } else { (0.0, 1.0) };
     }
     if log {
-        let (lo, hi) = if hi / lo < 1.0 + 1e-9 { (lo / 2.0, hi * 2.0) } else { (lo, hi) };
+        let (lo, hi) = if hi / lo < 1.0 + 1e-9 {
+            (lo / 2.0, hi * 2.0)
+        } else {
+            (lo, hi)
+        };
         (lo / 1.3, hi * 1.3)
     } else {
-        let pad = if hi > lo { 0.05 * (hi - lo) } else { lo.abs().max(1.0) * 0.05 };
+        let pad = if hi > lo {
+            0.05 * (hi - lo)
+        } else {
+            lo.abs().max(1.0) * 0.05
+        };
         (lo - pad, hi + pad)
     }
 }
@@ -114,7 +120,13 @@ where
         (false, false) => draw_axes(chart, &root, x0..x1, y0..y1, pts),
         (true, false) => draw_axes(chart, &root, (x0..x1).log_scale(), y0..y1, pts),
         (false, true) => draw_axes(chart, &root, x0..x1, (y0..y1).log_scale(), pts),
-        (true, true) => draw_axes(chart, &root, (x0..x1).log_scale(), (y0..y1).log_scale(), pts),
+        (true, true) => draw_axes(
+            chart,
+            &root,
+            (x0..x1).log_scale(),
+            (y0..y1).log_scale(),
+            pts,
+        ),
     }
 }
 
@@ -153,19 +165,17 @@ where
         let color = Palette99::pick(i).to_rgba();
         let data = pts(s);
         let legend = move |(x, y): (i32, i32)| PathElement::new(vec![(x, y), (x + 20, y)], color);
-        if matches!(s.mark, Mark::Line | Mark::LinePoints) {
+        if s.mark == Mark::Line {
             ctx.draw_series(LineSeries::new(data.clone(), color.stroke_width(2)))
                 .map_err(err)?
                 .label(&s.name)
                 .legend(legend);
         }
-        if matches!(s.mark, Mark::Points | Mark::LinePoints) {
-            let dots = ctx
-                .draw_series(data.iter().map(|&p| Circle::new(p, 4, color.filled())))
-                .map_err(err)?;
-            if s.mark == Mark::Points {
-                dots.label(&s.name).legend(legend);
-            }
+        if s.mark == Mark::Points {
+            ctx.draw_series(data.iter().map(|&p| Circle::new(p, 4, color.filled())))
+                .map_err(err)?
+                .label(&s.name)
+                .legend(legend);
         }
     }
     ctx.configure_series_labels()

@@ -9,3 +9,4 @@ pub mod cli;
 pub mod mesh_info;
 pub mod reference;
 pub mod scene;
+pub mod sim;

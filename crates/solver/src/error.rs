@@ -1,0 +1,120 @@
+//! The error type of the crate.
+
+/// Everything that can go wrong in the solver.
+///
+/// Dof indices refer to the objective's unknowns (`0..n_dofs`), iterations count from 0.
+/// Errors of a Newton solve that made progress carry the residual history and the last accepted
+/// iterate, so a caller can inspect or restart from it — never silent garbage.
+#[derive(thiserror::Error, Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum SolverError {
+    /// A setting is out of its admissible range.
+    #[error("invalid setting `{name}` = {value}: {requirement}")]
+    InvalidSetting {
+        /// Name of the field (as in the settings struct).
+        name: &'static str,
+        /// The value given.
+        value: f64,
+        /// What the value must satisfy.
+        requirement: &'static str,
+    },
+    /// A vector handed to the solver has the wrong length.
+    #[error("{what}: length {found}, expected {expected}")]
+    DimensionMismatch {
+        /// Which vector or matrix.
+        what: &'static str,
+        /// Expected length (number of dofs).
+        expected: usize,
+        /// Length found.
+        found: usize,
+    },
+    /// The Hessian sparsity pattern is unusable (missing diagonal, upper-triangle entry, …).
+    #[error("invalid Hessian pattern at dof {dof}: {reason}")]
+    InvalidPattern {
+        /// Column (dof) where the problem was found.
+        dof: usize,
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// The objective's force scale is not a positive finite number.
+    #[error("objective force scale must be positive and finite, got {0}")]
+    InvalidForceScale(f64),
+    /// The objective's length scale is not a positive finite number.
+    #[error("objective length scale must be positive and finite, got {0}")]
+    InvalidLengthScale(f64),
+    /// Per-dof coordinates for the nested-dissection ordering are not finite.
+    #[error("dof {dof}: ordering coordinate is not finite")]
+    NonFiniteCoordinate {
+        /// Offending dof.
+        dof: usize,
+    },
+    /// The objective value or gradient is NaN or infinite at an accepted iterate.
+    #[error("non-finite {what} at Newton iteration {iteration} (dof {dof:?})")]
+    NonFinite {
+        /// `"value"`, `"gradient"`, `"Hessian"` or `"Newton direction"`.
+        what: &'static str,
+        /// Newton iteration at which it was detected.
+        iteration: usize,
+        /// First offending dof, if the quantity is a vector.
+        dof: Option<usize>,
+    },
+    /// The Hessian is not positive definite and regularisation is switched off.
+    #[error(
+        "Hessian not positive definite at Newton iteration {iteration} (pivot {pivot} in the permuted order); enable regularisation"
+    )]
+    NotPositiveDefinite {
+        /// Newton iteration.
+        iteration: usize,
+        /// Failing pivot, in faer's permuted order (a diagnostic only).
+        pivot: usize,
+    },
+    /// Regularisation reached its largest shift without a successful factorisation (the Hessian
+    /// holds NaN or is wildly indefinite).
+    #[error(
+        "regularisation failed at Newton iteration {iteration}: still not positive definite with mu = {mu:e} after {attempts} attempts"
+    )]
+    RegularizationFailed {
+        /// Newton iteration.
+        iteration: usize,
+        /// Last relative shift tried.
+        mu: f64,
+        /// Number of factorisation attempts.
+        attempts: usize,
+    },
+    /// The backtracking line search found no acceptable step.
+    #[error(
+        "line search failed at Newton iteration {iteration} after {backtracks} backtracks (relative residual {:e})",
+        residuals.last().copied().unwrap_or(f64::NAN)
+    )]
+    LineSearchFailed {
+        /// Newton iteration.
+        iteration: usize,
+        /// Backtracks tried in that iteration.
+        backtracks: usize,
+        /// Relative residual ‖∇f‖∞ / force scale of every accepted iterate.
+        residuals: Vec<f64>,
+        /// The last accepted iterate.
+        last_good: Vec<f64>,
+    },
+    /// Newton reached `max_iterations` without meeting a convergence criterion.
+    #[error(
+        "Newton did not converge in {iterations} iterations (relative residual {:e}, tolerance {tolerance:e})",
+        residuals.last().copied().unwrap_or(f64::NAN)
+    )]
+    NewtonDidNotConverge {
+        /// Relative residual ‖∇f‖∞ / force scale of every accepted iterate (first = initial).
+        residuals: Vec<f64>,
+        /// Iterations performed.
+        iterations: usize,
+        /// The gradient tolerance that was not met.
+        tolerance: f64,
+        /// The last accepted iterate (the best one found when line search is on).
+        last_good: Vec<f64>,
+    },
+    /// faer reported a failure other than a non-positive pivot (out of memory, index overflow).
+    #[error("sparse linear algebra failed: {0}")]
+    Linear(String),
+    /// An error reported by the objective (e.g. the energy assembly).
+    #[error("objective evaluation failed: {0}")]
+    Objective(String),
+}

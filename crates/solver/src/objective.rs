@@ -1,0 +1,54 @@
+//! The function Newton minimises.
+
+use faer::sparse::SparseColMat;
+
+use crate::SolverError;
+
+/// A twice differentiable scalar function of `n_dofs` unknowns with a sparse Hessian.
+///
+/// Implementations: the incremental potential of implicit Euler, the total potential of a
+/// static solve, and synthetic objectives in tests. Conventions:
+/// - `x`, gradients: flat slices of length [`n_dofs`](Objective::n_dofs) (free dofs only);
+/// - the Hessian is a faer `SparseColMat<usize, f64>` holding the **lower triangle only**
+///   (row ≥ column, every diagonal entry present), with the pattern of
+///   [`hessian_template`](Objective::hessian_template), which must not change between calls;
+///   [`hessian`](Objective::hessian) overwrites its values;
+/// - [`value`](Objective::value) and [`gradient`](Objective::gradient) must return the same
+///   value at the same `x`.
+///
+/// A trial point where the function is undefined (e.g. an inverted element) may return
+/// `Ok(f64::INFINITY)` or NaN from `value`: the line search then backtracks. An `Err` aborts
+/// the solve.
+pub trait Objective {
+    /// Number of unknowns.
+    fn n_dofs(&self) -> usize;
+
+    /// Value f(x) (J for energies).
+    fn value(&mut self, x: &[f64]) -> Result<f64, SolverError>;
+
+    /// Writes ∇f(x) into `g` (overwritten) and returns f(x).
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<f64, SolverError>;
+
+    /// Overwrites the values of `h` (a matrix with the template's pattern) with ∇²f(x), lower
+    /// triangle.
+    fn hessian(&mut self, x: &[f64], h: &mut SparseColMat<usize, f64>) -> Result<(), SolverError>;
+
+    /// The Hessian's sparsity pattern (lower triangle, every diagonal present); values ignored.
+    fn hessian_template(&self) -> SparseColMat<usize, f64>;
+
+    /// Typical magnitude of a gradient entry (N for energies); the gradient tolerance is relative
+    /// to it. Must be positive and finite.
+    fn force_scale(&self) -> f64;
+
+    /// Typical length (m) the step tolerance is relative to. Default 1.
+    fn length_scale(&self) -> f64 {
+        1.0
+    }
+
+    /// Per-dof coordinates (m) for the geometric nested-dissection ordering, if the unknowns have
+    /// positions (the three dofs of a vertex share its position). Default `None`: a graph-based
+    /// nested dissection is used instead.
+    fn dof_coordinates(&self) -> Option<Vec<[f64; 3]>> {
+        None
+    }
+}

@@ -1,0 +1,440 @@
+//! Scene → [`Simulation`]: mesh, start state, rest forms, pins, loads, energy terms.
+
+use nalgebra::{Matrix2, Vector3};
+use thinshell_energy::{
+    Assembler, DofMap, EnergyError, EnergyTerms, HessianMode, Material, RestState, SffKind,
+    ShellModel, Terms, lumped_mass,
+};
+use thinshell_mesh::{Mesh, MeshError, VertexId, generators, io};
+use thinshell_solver::{NewtonSettings, SolverError};
+
+use super::Simulation;
+use crate::reference::{map_xy, wrap_cylinder};
+use crate::scene::Scene;
+use crate::scene::schema::{Effect, HessianSpec, IntegratorKind, MeshSpec, RegionSpec, RestSource};
+
+/// Why a scene could not be turned into a simulation.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum BuildError {
+    /// The mesh could not be loaded or generated.
+    #[error("{origin}: mesh: {source}")]
+    Mesh {
+        /// The scene.
+        origin: String,
+        /// Why.
+        source: MeshError,
+    },
+    /// Rest state, material or assembly set-up failed.
+    #[error("{origin}: {source}")]
+    Energy {
+        /// The scene.
+        origin: String,
+        /// Why.
+        source: EnergyError,
+    },
+    /// Solver settings rejected.
+    #[error("{origin}: solver: {source}")]
+    Solver {
+        /// The scene.
+        origin: String,
+        /// Why.
+        source: SolverError,
+    },
+    /// A value that only the built mesh can check (a vertex index out of range, no free
+    /// unknowns, …), or an effect this version cannot simulate yet.
+    #[error("{origin}: `{key}` {message}")]
+    Invalid {
+        /// The scene.
+        origin: String,
+        /// Dotted key.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+fn m2(m: &[[f64; 2]; 2]) -> Matrix2<f64> {
+    Matrix2::new(m[0][0], m[0][1], m[1][0], m[1][1])
+}
+
+fn make_mesh(scene: &Scene, spec: &MeshSpec) -> Result<Mesh, MeshError> {
+    if let Some(path) = &spec.obj {
+        return io::load_obj(scene.base_dir.join(path));
+    }
+    let g = spec.generator.as_deref().unwrap_or("");
+    let w = spec.width.unwrap_or(1.0);
+    let h = spec.height.unwrap_or(1.0);
+    let r = spec.radius.unwrap_or(1.0);
+    match g {
+        "seed_square" => generators::seed_square(),
+        "rectangle" => generators::rectangle(w, h, spec.nx.unwrap_or(10), spec.ny.unwrap_or(10)),
+        "irregular_rectangle" => {
+            generators::irregular_rectangle(w, h, spec.n.unwrap_or(10), spec.seed.unwrap_or(1))
+        }
+        "icosphere" => generators::icosphere(r, spec.level.unwrap_or(2) as usize),
+        "cylinder_patch" => generators::cylinder_patch(
+            r,
+            spec.angle.unwrap_or(std::f64::consts::PI),
+            spec.length.unwrap_or(1.0),
+            spec.n_around.unwrap_or(16),
+            spec.n_along.unwrap_or(8),
+        ),
+        "disc" => generators::disc(r, spec.n_rings.unwrap_or(8)),
+        "annulus" => generators::annulus(
+            spec.inner_radius.unwrap_or(0.5),
+            spec.outer_radius.unwrap_or(1.0),
+            spec.n_rings.unwrap_or(4),
+            spec.n_around.unwrap_or(32),
+        ),
+        // Unknown names are rejected by scene validation already.
+        _ => Err(MeshError::InvalidParameter {
+            name: "generator",
+            value: f64::NAN,
+            reason: "unknown generator",
+        }),
+    }
+}
+
+/// Vertices of the reference mesh inside a region.
+fn region_vertices(
+    origin: &str,
+    key: &str,
+    region: &RegionSpec,
+    x: &[Vector3<f64>],
+) -> Result<Vec<usize>, BuildError> {
+    let v3 = |a: &[f64; 3]| Vector3::new(a[0], a[1], a[2]);
+    let inside: Vec<usize> = if let Some(list) = &region.vertices {
+        if let Some(&bad) = list.iter().find(|&&i| i >= x.len()) {
+            return Err(BuildError::Invalid {
+                origin: origin.into(),
+                key: format!("{key}.vertices"),
+                message: format!("vertex {bad} out of range (the mesh has {})", x.len()),
+            });
+        }
+        list.clone()
+    } else if let Some(h) = &region.half_space {
+        let (p, n) = (v3(&h.point), v3(&h.normal));
+        (0..x.len()).filter(|&i| (x[i] - p).dot(&n) > 0.0).collect()
+    } else if let Some(s) = &region.sphere {
+        let c = v3(&s.center);
+        (0..x.len())
+            .filter(|&i| (x[i] - c).norm() < s.radius)
+            .collect()
+    } else if let Some(b) = &region.aabb {
+        (0..x.len())
+            .filter(|&i| (0..3).all(|k| b.min[k] <= x[i][k] && x[i][k] <= b.max[k]))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    if inside.is_empty() {
+        return Err(BuildError::Invalid {
+            origin: origin.into(),
+            key: key.into(),
+            message: "contains no vertex of the mesh".into(),
+        });
+    }
+    Ok(inside)
+}
+
+impl Simulation {
+    /// Builds the simulation a scene describes. Only the requested energy terms are assembled;
+    /// mass is computed only with `inertia`; loads only when their effect is on.
+    pub fn build(scene: &Scene) -> Result<Simulation, BuildError> {
+        let s = &scene.file;
+        let origin = scene.origin.clone();
+        let on = |e: Effect| s.effects.contains(&e);
+        let invalid = |key: &str, message: String| BuildError::Invalid {
+            origin: origin.clone(),
+            key: key.into(),
+            message,
+        };
+        let energy_err = |source| BuildError::Energy {
+            origin: origin.clone(),
+            source,
+        };
+        for (effect, key) in [
+            (Effect::Growth, "growth"),
+            (Effect::Diffusion, "growth.stimulus"),
+            (Effect::Pressure, "pressure"),
+        ] {
+            if on(effect) {
+                return Err(invalid(
+                    key,
+                    format!(
+                        "effect `{}` is not supported by the scene runner yet",
+                        effect.key()
+                    ),
+                ));
+            }
+        }
+        if !s.boundary.prescribed.is_empty() {
+            return Err(invalid(
+                "boundary.prescribed",
+                "prescribed motion is not supported by the scene runner yet".into(),
+            ));
+        }
+        let mesh = make_mesh(scene, &s.mesh).map_err(|source| BuildError::Mesh {
+            origin: origin.clone(),
+            source,
+        })?;
+        let n = mesh.n_vertices();
+        let x_ref = mesh.positions().to_vec();
+
+        // Start state.
+        let mut x = x_ref.clone();
+        if let Some(m) = &s.initial.linear_xy {
+            x = map_xy(&x, &m2(m));
+        }
+        if let Some(k) = s.initial.scale {
+            x.iter_mut().for_each(|p| *p *= k);
+        }
+        if let Some(w) = &s.initial.wrap_cylinder {
+            x = wrap_cylinder(&x, w.radius, w.center_x.unwrap_or(0.5));
+        }
+        let v0 = s
+            .initial
+            .velocity
+            .map_or(Vector3::zeros(), |v| Vector3::new(v[0], v[1], v[2]));
+        let v = vec![v0; n];
+
+        let mat = &s.material;
+        let material = Material {
+            thickness: mat.thickness,
+            young: mat.young,
+            poisson: mat.poisson,
+            density: mat.density,
+            viscosity: mat.viscosity,
+        };
+        material.validate().map_err(energy_err)?;
+        let terms = Terms {
+            stretch: on(Effect::Stretching),
+            bend: on(Effect::Bending),
+            damping: on(Effect::Damping),
+        };
+        let sff = SffKind::MidEdgeAverage;
+        let model = ShellModel {
+            material,
+            terms,
+            sff,
+        };
+        let rest = match s.rest.from {
+            RestSource::Mesh => RestState::from_mesh(&mesh, &x_ref, sff),
+            RestSource::Planar => {
+                let a = s.rest.a_xy.as_ref().map_or(Matrix2::identity(), m2);
+                let b = s.rest.b_xy.as_ref().map_or(Matrix2::zeros(), m2);
+                RestState::from_planar(&mesh, a, b)
+            }
+        }
+        .map_err(energy_err)?;
+
+        // Pins and clamps.
+        let mut pinned: Vec<(VertexId, usize)> = Vec::new();
+        for (i, pin) in s.boundary.pins.iter().enumerate() {
+            let key = format!("boundary.pins[{i}].region");
+            let axes: Vec<usize> = pin
+                .axes
+                .as_deref()
+                .unwrap_or("xyz")
+                .chars()
+                .filter_map(|c| "xyz".find(c))
+                .collect();
+            for vtx in region_vertices(&origin, &key, &pin.region, &x_ref)? {
+                pinned.extend(axes.iter().map(|&a| (VertexId::new(vtx), a)));
+            }
+        }
+        for (i, clamp) in s.boundary.clamps.iter().enumerate() {
+            let key = format!("boundary.clamps[{i}].region");
+            let inside = region_vertices(&origin, &key, &clamp.region, &x_ref)?;
+            let mut mark = vec![false; n];
+            inside.iter().for_each(|&i| mark[i] = true);
+            let topo = mesh.topology();
+            let mut count = 0;
+            for &e in topo.boundary_edges() {
+                let edge = topo.edge(e);
+                let [a, b] = edge.vertices;
+                if mark[a.idx()] && mark[b.idx()] {
+                    count += 1;
+                    // Both rows: the edge's vertices and the third vertex of its face.
+                    let f = mesh.faces()[edge.left.idx()];
+                    for vtx in f {
+                        pinned.extend((0..3).map(|k| (vtx, k)));
+                    }
+                }
+            }
+            if count == 0 {
+                return Err(invalid(
+                    &key,
+                    "contains no boundary edge of the mesh".into(),
+                ));
+            }
+        }
+        pinned.sort_unstable();
+        pinned.dedup();
+        let dofs = DofMap::with_pinned(n, pinned).map_err(energy_err)?;
+        if dofs.n_free() == 0 {
+            return Err(invalid(
+                "boundary",
+                "pins every coordinate: nothing is left to simulate".into(),
+            ));
+        }
+        let assembler = Assembler::new(&mesh, &dofs, terms).map_err(energy_err)?;
+
+        // Mass only when inertia is simulated (or gravity needs it).
+        let needs_mass = on(Effect::Inertia) || on(Effect::Gravity);
+        let mass = if needs_mass {
+            lumped_mass(&mesh, &rest, &material).map_err(energy_err)?
+        } else {
+            Vec::new()
+        };
+        let mut force = vec![0.0; 3 * n];
+        if let Some(g) = s.gravity.as_ref().filter(|_| on(Effect::Gravity)) {
+            for (i, m) in mass.iter().enumerate() {
+                for k in 0..3 {
+                    force[3 * i + k] += m * g.acceleration[k];
+                }
+            }
+        }
+        if on(Effect::PointLoads) {
+            for (i, p) in s.point_loads.iter().enumerate() {
+                if p.vertex >= n {
+                    return Err(invalid(
+                        &format!("point_loads[{i}].vertex"),
+                        format!("vertex {} out of range (the mesh has {n})", p.vertex),
+                    ));
+                }
+                for k in 0..3 {
+                    force[3 * p.vertex + k] += p.force[k];
+                }
+            }
+        }
+        let mass = if on(Effect::Inertia) {
+            mass
+        } else {
+            Vec::new()
+        };
+
+        // Integrator.
+        let it = &s.integrator;
+        let dt = it.dt.unwrap_or(1.0);
+        let steps = match (it.steps, it.end_time) {
+            (Some(k), _) => k,
+            (None, Some(t)) => (t / dt).ceil().max(1.0) as usize,
+            (None, None) => 1,
+        };
+        let static_solve = it.kind == IntegratorKind::Static;
+        let mut settings = NewtonSettings::default();
+        if static_solve {
+            settings.max_iterations = 500;
+            settings.gradient_tolerance = 1e-11;
+        }
+        let nw = &it.newton;
+        if let Some(v) = nw.tolerance {
+            settings.gradient_tolerance = v;
+        }
+        if let Some(v) = nw.step_tolerance {
+            settings.step_tolerance = v;
+        }
+        if let Some(v) = nw.max_iterations {
+            settings.max_iterations = v;
+        }
+        if let Some(v) = nw.line_search {
+            settings.line_search = v;
+        }
+        if let Some(v) = nw.regularization {
+            settings.regularization = v;
+        }
+        settings.validate().map_err(|source| BuildError::Solver {
+            origin: origin.clone(),
+            source,
+        })?;
+        let hessian_mode = match nw.hessian {
+            HessianSpec::Exact => HessianMode::Exact,
+            HessianSpec::GaussNewton => HessianMode::GaussNewton,
+            HessianSpec::Projected => HessianMode::ProjectedPsd,
+        };
+
+        // Scales for the convergence tests: the membrane force E·h·ℓ (N) and the mesh size (m).
+        let mut lo = Vector3::repeat(f64::INFINITY);
+        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+        for p in &x_ref {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        let diameter = (hi - lo).norm().max(f64::MIN_POSITIVE);
+        let edge = diameter / (mesh.n_faces() as f64).sqrt().max(1.0);
+        let load = force.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+        let force_scale = (material.young * material.thickness * edge).max(load);
+
+        let mut sim = Simulation {
+            name: scene.name(),
+            mesh,
+            effects: s.effects.clone(),
+            x_ref,
+            x,
+            v,
+            t: 0.0,
+            steps_done: 0,
+            steps_total: steps,
+            dt,
+            kind: it.kind,
+            model,
+            rest,
+            mass,
+            dofs,
+            assembler,
+            workspace: None,
+            settings,
+            hessian_mode,
+            force,
+            force_scale,
+            length_scale: diameter,
+            grad_full: vec![0.0; 3 * n],
+            energy: EnergyTerms::default(),
+        };
+        sim.energy = sim.current_energy().map_err(energy_err)?;
+        Ok(sim)
+    }
+
+    /// Elastic energies (stretch, bend) of the current state, J (damping is 0 at rest).
+    pub fn current_energy(&mut self) -> Result<EnergyTerms, EnergyError> {
+        let model = ShellModel {
+            terms: Terms {
+                damping: false,
+                ..self.model.terms
+            },
+            ..self.model
+        };
+        if !self.model.terms.damping {
+            return self.assembler.evaluate(
+                &model,
+                &self.x,
+                &self.rest,
+                None,
+                thinshell_energy::EvalOutput {
+                    gradient: None,
+                    hessian: None,
+                },
+            );
+        }
+        // The assembler is built for the damping term too: evaluate it against the state
+        // itself (zero damping energy).
+        let d = thinshell_energy::DampingState::from_positions(
+            &self.mesh,
+            &self.x,
+            self.model.sff,
+            self.dt,
+        )?;
+        self.assembler.evaluate(
+            &self.model,
+            &self.x,
+            &self.rest,
+            Some(&d),
+            thinshell_energy::EvalOutput {
+                gradient: None,
+                hessian: None,
+            },
+        )
+    }
+}
