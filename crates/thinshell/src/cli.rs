@@ -1,10 +1,16 @@
 //! The command implementations behind the `thinshell` binary, as library functions so that they
 //! can be tested without spawning processes.
 
-use std::path::Path;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
+use indicatif::{ProgressBar, ProgressStyle};
+
 use crate::mesh_info::mesh_info;
+use crate::scene::Scene;
+use crate::scene::schema::Format;
+use crate::sim::{Energies, Observer, Simulation, StepRecord};
 
 /// Why a command failed; decides the exit code.
 #[derive(Debug)]
@@ -24,18 +30,207 @@ pub fn info(path: &Path) -> Result<(), Failure> {
     Ok(())
 }
 
-/// `thinshell check SCENE`: validates a scene and prints what would be simulated.
-pub fn check(_scene: &Path, _overrides: &[String]) -> Result<(), Failure> {
-    Err(Failure::BadInput("check: not yet available".into()))
+/// Loads a scene with overrides and builds it; any problem is bad input.
+fn load(scene: &Path, overrides: &[String]) -> Result<(Scene, Simulation), Failure> {
+    let scene = Scene::load_with_overrides(scene, overrides)
+        .map_err(|e| Failure::BadInput(e.to_string()))?;
+    let sim = Simulation::build(&scene).map_err(|e| Failure::BadInput(e.to_string()))?;
+    Ok((scene, sim))
 }
 
-/// `thinshell run SCENE`.
+/// `thinshell check SCENE`: validates a scene and prints what would be simulated.
+pub fn check(scene: &Path, overrides: &[String]) -> Result<(), Failure> {
+    let (_, sim) = load(scene, overrides)?;
+    print!("{}", describe(&sim));
+    Ok(())
+}
+
+/// A few lines saying what a simulation will compute.
+pub fn describe(sim: &Simulation) -> String {
+    let mesh = sim.mesh();
+    let terms = sim.model().terms;
+    let effects: Vec<&str> = sim.effects().iter().map(|e| e.key()).collect();
+    let mut on = Vec::new();
+    if terms.stretch {
+        on.push("stretching");
+    }
+    if terms.bend {
+        on.push("bending (mid-edge average)");
+    }
+    if terms.damping {
+        on.push("Kelvin-Voigt damping");
+    }
+    format!(
+        "scene: {}\nmesh: {} vertices, {} faces, {} edges\neffects: {}\nenergy terms evaluated: {}\nunknowns: {} (of {} coordinates; {} pinned)\nintegrator: {:?}, dt = {:e} s, {} steps\ninitial elastic energy: {:e} J\n",
+        sim.name(),
+        mesh.n_vertices(),
+        mesh.n_faces(),
+        mesh.n_edges(),
+        effects.join(", "),
+        on.join(", "),
+        sim.n_unknowns(),
+        3 * mesh.n_vertices(),
+        3 * mesh.n_vertices() - sim.n_unknowns(),
+        sim.integrator(),
+        sim.dt(),
+        sim.steps_total(),
+        sim.energy().stretch + sim.energy().bend,
+    )
+}
+
+/// Writes frames, `steps.csv` and a progress bar while a simulation runs.
+struct Writer {
+    dir: PathBuf,
+    every: usize,
+    obj: bool,
+    csv: std::io::BufWriter<std::fs::File>,
+    bar: Option<ProgressBar>,
+    error: Option<String>,
+    frames: usize,
+}
+
+impl Writer {
+    fn frame(&mut self, sim: &Simulation) {
+        if !self.obj || self.error.is_some() {
+            return;
+        }
+        let path = self.dir.join(format!("frame_{:06}.obj", sim.steps_done()));
+        if let Err(e) = thinshell_mesh::io::save_obj(&path, sim.mesh(), sim.positions()) {
+            self.error = Some(format!("{}: {e}", path.display()));
+        } else {
+            self.frames += 1;
+        }
+    }
+}
+
+impl Observer for Writer {
+    fn start(&mut self, sim: &Simulation) {
+        self.frame(sim);
+    }
+
+    fn step(&mut self, sim: &Simulation, r: &StepRecord) {
+        if sim.steps_done() % self.every == 0 || sim.steps_done() == sim.steps_total() {
+            self.frame(sim);
+        }
+        let row = format!(
+            "{},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e},{:e},{:e},{:e},{:e}\n",
+            r.step,
+            r.time,
+            r.energy.stretch,
+            r.energy.bend,
+            r.energy.damping,
+            r.kinetic,
+            r.newton_iterations,
+            r.backtracks,
+            r.regularizations,
+            r.residual,
+            r.wall_s,
+            r.assembly_s,
+            r.factorization_s,
+            r.solve_s
+        );
+        if let Err(e) = self
+            .csv
+            .write_all(row.as_bytes())
+            .and_then(|_| self.csv.flush())
+        {
+            self.error.get_or_insert(format!("steps.csv: {e}"));
+        }
+        if let Some(bar) = &self.bar {
+            bar.set_position(sim.steps_done() as u64);
+            bar.set_message(format!("E = {:.4e} J", r.energy.elastic()));
+        }
+    }
+}
+
+/// `thinshell run SCENE`: runs a scene, writing frames (OBJ), `steps.csv` and `summary.json`
+/// into `out` (default `out/<scene name>`). Ctrl-C (the `stop` flag) ends the run cleanly after
+/// the current step.
 pub fn run(
-    _scene: &Path,
-    _out: Option<&Path>,
-    _overrides: &[String],
-    _quiet: bool,
-    _stop: &AtomicBool,
+    scene: &Path,
+    out: Option<&Path>,
+    overrides: &[String],
+    quiet: bool,
+    stop: &AtomicBool,
 ) -> Result<(), Failure> {
-    Err(Failure::BadInput("run: not yet available".into()))
+    let (scene, mut sim) = load(scene, overrides)?;
+    let dir = out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| Path::new("out").join(sim.name().replace([' ', '/', ','], "_")));
+    let io = |e: std::io::Error, p: &Path| Failure::BadInput(format!("{}: {e}", p.display()));
+    std::fs::create_dir_all(&dir).map_err(|e| io(e, &dir))?;
+    let csv_path = dir.join("steps.csv");
+    let mut csv =
+        std::io::BufWriter::new(std::fs::File::create(&csv_path).map_err(|e| io(e, &csv_path))?);
+    csv.write_all(b"step,time_s,stretch_J,bend_J,damping_J,kinetic_J,newton_iterations,backtracks,regularizations,residual,wall_s,assembly_s,factorization_s,solve_s\n")
+        .map_err(|e| io(e, &csv_path))?;
+    let bar = (!quiet).then(|| {
+        let bar = ProgressBar::new(sim.steps_total() as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{bar:40} {pos}/{len} steps  {per_sec}  {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar
+    });
+    let mut writer = Writer {
+        dir: dir.clone(),
+        every: scene.file.output.every,
+        obj: scene.file.output.formats.contains(&Format::Obj)
+            || scene.file.output.formats.contains(&Format::Vtk),
+        csv,
+        bar,
+        error: None,
+        frames: 0,
+    };
+    let result = sim.run(&mut writer, stop);
+    if let Some(bar) = &writer.bar {
+        bar.finish_and_clear();
+    }
+    let (status, failure) = match &result {
+        Ok(s) if s.interrupted => ("interrupted", None),
+        Ok(_) => ("completed", None),
+        Err(e) => ("failed", Some(e.to_string())),
+    };
+    if failure.is_some() {
+        // The last good state, for inspection.
+        writer.obj = true;
+        writer.frame(&sim);
+    }
+    let summary = serde_json::json!({
+        "scene": scene.origin,
+        "name": sim.name(),
+        "status": status,
+        "error": failure,
+        "steps": sim.steps_done(),
+        "steps_requested": sim.steps_total(),
+        "time_s": sim.time(),
+        "energy": Energies::from(sim.energy()),
+        "frames": writer.frames,
+        "wall_s": result.as_ref().map(|s| s.wall_s).ok(),
+        "newton_iterations": result.as_ref().map(|s| s.newton_iterations).ok(),
+    });
+    let summary_path = dir.join("summary.json");
+    let text = serde_json::to_string_pretty(&summary)
+        .map_err(|e| Failure::Simulation(format!("summary.json: {e}")))?;
+    std::fs::write(&summary_path, text).map_err(|e| io(e, &summary_path))?;
+    if let Some(e) = writer.error {
+        return Err(Failure::Simulation(format!("writing output: {e}")));
+    }
+    match (result, quiet) {
+        (Err(e), _) => Err(Failure::Simulation(e.to_string())),
+        (Ok(s), false) => {
+            println!(
+                "{}: {} {} of {} steps in {:.3} s, elastic energy {:.6e} J; output in {}",
+                sim.name(),
+                status,
+                s.steps,
+                s.steps_requested,
+                s.wall_s,
+                s.final_energy.elastic(),
+                dir.display()
+            );
+            Ok(())
+        }
+        (Ok(_), true) => Ok(()),
+    }
 }
