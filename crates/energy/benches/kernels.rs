@@ -1,0 +1,123 @@
+//! Per-face kernel cost: `cargo bench -p thinshell-energy --bench kernels`.
+#![allow(clippy::unwrap_used, missing_docs)]
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use nalgebra::{Matrix2, Vector3};
+use thinshell_energy::{
+    FaceDamping, FaceEval, FaceRest, FaceStencil, HessianMode, Material, SffKind, Terms, Want,
+    eval_face, forms::first_fundamental_form,
+};
+
+/// An interior face of a gently curved sheet with its three flaps.
+fn stencil() -> FaceStencil {
+    let z = |x: f64, y: f64| 0.3 * x * x - 0.2 * x * y + 0.1 * y * y;
+    let p = |x: f64, y: f64| Vector3::new(x, y, z(x, y));
+    FaceStencil {
+        x: [
+            p(0.0, 0.0),
+            p(0.1, 0.0),
+            p(0.05, 0.09),
+            p(0.11, 0.1),
+            p(-0.05, 0.08),
+            p(0.06, -0.09),
+        ],
+        flap: [true; 3],
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let s = stencil();
+    let a = first_fundamental_form(&[s.x[0], s.x[1], s.x[2]]);
+    let rest = FaceRest {
+        a_bar: a * 0.98,
+        b_bar: Matrix2::new(0.1, 0.02, 0.02, -0.05),
+    };
+    let damping = FaceDamping {
+        a_prev: a,
+        b_prev: Matrix2::zeros(),
+        dt: 1e-3,
+    };
+    let material = Material::paper();
+    let sff = SffKind::MidEdgeAverage.as_dyn();
+    let mut out = FaceEval::default();
+    let mut g = c.benchmark_group("eval_face");
+    g.sample_size(30);
+    let cases: [(&str, Want, bool); 6] = [
+        (
+            "energy",
+            Want {
+                gradient: false,
+                hessian: None,
+            },
+            false,
+        ),
+        (
+            "energy+gradient",
+            Want {
+                gradient: true,
+                hessian: None,
+            },
+            false,
+        ),
+        (
+            "energy+gradient+hessian(exact)",
+            Want {
+                gradient: true,
+                hessian: Some(HessianMode::Exact),
+            },
+            false,
+        ),
+        (
+            "energy+gradient+hessian(gauss-newton)",
+            Want {
+                gradient: true,
+                hessian: Some(HessianMode::GaussNewton),
+            },
+            false,
+        ),
+        (
+            "energy+gradient+hessian(projected)",
+            Want {
+                gradient: true,
+                hessian: Some(HessianMode::ProjectedPsd),
+            },
+            false,
+        ),
+        (
+            "energy+gradient+hessian(exact)+damping",
+            Want {
+                gradient: true,
+                hessian: Some(HessianMode::Exact),
+            },
+            true,
+        ),
+    ];
+    for (name, want, damp) in cases {
+        let terms = Terms {
+            stretch: true,
+            bend: true,
+            damping: damp,
+        };
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                eval_face(
+                    sff,
+                    &material,
+                    black_box(&s),
+                    &rest,
+                    damp.then_some(&damping),
+                    terms,
+                    want,
+                    &mut out,
+                );
+                black_box(out.energy.total())
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
