@@ -8,7 +8,49 @@
 //!   ([`SolverError`]) and carry the residual history and the last accepted iterate;
 //! - [`linear::SparseCholesky`]: faer's supernodal LLᵀ with the symbolic analysis done once per
 //!   pattern and all memory reused;
-//! - [`ordering`]: AMD or a geometric nested dissection ([`Ordering`]).
+//! - [`ordering`]: AMD or a geometric nested dissection ([`Ordering`]);
+//! - [`shell`]: a [`ShellSystem`] (mesh, [`ShellModel`](thinshell_energy::ShellModel), rest
+//!   state, [`Boundary`], [`Loads`]) advanced by an [`Integrator`]: [`ImplicitEuler`]
+//!   (incremental potential, model.md §3), [`ExplicitEuler`] (symplectic) or [`Static`].
+//!
+//! A paper sheet pinned on its boundary, one implicit step under gravity, then the static sag:
+//!
+//! ```
+//! use nalgebra::Vector3;
+//! use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
+//! use thinshell_mesh::generators;
+//! use thinshell_solver::{Boundary, ImplicitEuler, Integrator, Loads, ShellSystem, State, Static};
+//!
+//! let mesh = generators::rectangle(1.0, 1.0, 6, 6)?;
+//! let sff = SffKind::MidEdgeAverage;
+//! let rest = RestState::from_mesh(&mesh, mesh.positions(), sff)?;
+//! let model = ShellModel {
+//!     material: Material::paper(),
+//!     terms: Terms { stretch: true, bend: true, damping: false },
+//!     sff,
+//! };
+//! let boundary = Boundary {
+//!     pinned_vertices: mesh.topology().boundary_vertices().to_vec(),
+//!     ..Default::default()
+//! };
+//! let loads = Loads { gravity: Vector3::new(0.0, 0.0, -9.81), ..Default::default() };
+//! let x0 = mesh.positions().to_vec();
+//! let mut system = ShellSystem::new(mesh, model, rest, boundary, loads)?;
+//! let weight = system.mass().iter().sum::<f64>() * 9.81;
+//!
+//! let mut state = State::at_rest(x0.clone());
+//! let mut implicit = ImplicitEuler::new(1e-3);
+//! implicit.force_scale = Some(weight); // loads far below E·h·L: measure residuals against them
+//! let report = implicit.step(&mut system, &mut state)?;
+//! assert!(report.newton.unwrap().iterations >= 1 && state.t == 1e-3);
+//!
+//! let mut statics = Static::default();
+//! statics.force_scale = Some(weight);
+//! let mut x = x0.clone();
+//! statics.solve(&mut system, &mut x)?;
+//! assert!(x.iter().all(|p| p.z <= 0.0)); // sags along gravity, pins stay at z = 0
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 //!
 //! Minimise `f(x) = Σ (x_i − i)⁴/4 + x_i²/2` (a diagonal Hessian):
 //!
@@ -58,6 +100,7 @@ pub mod linear;
 pub mod newton;
 pub mod objective;
 pub mod ordering;
+pub mod shell;
 
 pub use error::SolverError;
 pub use linear::{FactorStats, RegularizationKind, SparseCholesky};
@@ -67,3 +110,7 @@ pub use newton::{
 };
 pub use objective::Objective;
 pub use ordering::Ordering;
+pub use shell::{
+    Boundary, ExplicitEuler, ImplicitEuler, Integrator, Loads, Prescribed, ShellSystem, State,
+    Static, StepReport,
+};

@@ -4,8 +4,9 @@
 //! [`linear`](crate::linear) (symbolic analysis done once in [`NewtonWorkspace::new`]), shifting
 //! the diagonal when H is not positive definite, then backtracks along `dx` until the Armijo
 //! condition `f(x + α dx) ≤ f(x) + c₁ α ∇fᵀdx` holds. It stops when
-//! `‖∇f‖∞ ≤ gradient_tolerance · force_scale` or when a full, unshifted Newton step is shorter
-//! than `step_tolerance · length_scale` (‖dx‖∞).
+//! `‖∇f‖∞ ≤ gradient_tolerance · force_scale` or when the unshifted Newton correction is
+//! shorter than `step_tolerance · length_scale` (‖dx‖∞; the gradient has then usually hit its
+//! round-off floor, e.g. under a large inertia term Λ/Δt²).
 
 use std::time::{Duration, Instant};
 
@@ -27,8 +28,8 @@ pub struct NewtonSettings {
     pub max_iterations: usize,
     /// Converged when `‖∇f‖∞ ≤ gradient_tolerance · force_scale` (dimensionless, > 0).
     pub gradient_tolerance: f64,
-    /// Converged when a full unshifted step has `‖dx‖∞ ≤ step_tolerance · length_scale`
-    /// (dimensionless, ≥ 0; 0 disables the criterion).
+    /// Converged when the unshifted Newton correction has `‖dx‖∞ ≤ step_tolerance ·
+    /// length_scale` (dimensionless, ≥ 0; 0 disables the criterion).
     pub step_tolerance: f64,
     /// Backtracking Armijo line search on the objective (otherwise full steps).
     pub line_search: bool,
@@ -177,7 +178,7 @@ impl NewtonSettings {
 pub enum Convergence {
     /// `‖∇f‖∞ ≤ gradient_tolerance · force_scale`.
     Gradient,
-    /// A full unshifted step shorter than `step_tolerance · length_scale`.
+    /// An unshifted Newton correction shorter than `step_tolerance · length_scale` (not taken).
     Step,
 }
 
@@ -445,6 +446,20 @@ pub fn newton_solve<O: Objective + ?Sized>(
         }
         let slope: f64 = ws.dx.iter().zip(&ws.g).map(|(d, g)| d * g).sum();
 
+        // An unshifted Newton correction below the step tolerance: x is converged (typically
+        // the gradient has reached its round-off floor). The step is not taken.
+        if outcome.mu == 0.0 && norm_inf(&ws.dx) <= settings.step_tolerance * length_scale {
+            return Ok(NewtonReport {
+                iterations: iteration,
+                convergence: Convergence::Step,
+                residuals,
+                values,
+                backtracks: backtracks_total,
+                regularizations: report_regs,
+                timings,
+            });
+        }
+
         // Backtracking line search. The first trial evaluates the gradient too (it is usually
         // accepted); later trials only the value.
         let mut alpha = 1.0;
@@ -529,20 +544,5 @@ pub fn newton_solve<O: Objective + ?Sized>(
         }
         residuals.push(norm_inf(&ws.g) / force_scale);
         values.push(f);
-
-        if alpha == 1.0
-            && outcome.mu == 0.0
-            && norm_inf(&ws.dx) <= settings.step_tolerance * length_scale
-        {
-            return Ok(NewtonReport {
-                iterations: iteration,
-                convergence: Convergence::Step,
-                residuals,
-                values,
-                backtracks: backtracks_total,
-                regularizations: report_regs,
-                timings,
-            });
-        }
     }
 }

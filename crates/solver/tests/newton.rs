@@ -388,3 +388,26 @@ fn non_finite_gradient_and_bad_inputs_are_typed_errors() {
         Err(SolverError::InvalidForceScale(0.0))
     );
 }
+
+#[test]
+fn unreachable_gradient_tolerance_stops_on_the_step_criterion() {
+    // 1e-30 · weight is far below the gradient's round-off floor: the solve must end on the
+    // step criterion (Newton correction below 1e-12 · L) instead of failing.
+    let start: Vec<[f64; 3]> = (0..=N)
+        .map(|i| [0.05 * (i as f64).sqrt(), 0.0, -(i as f64)])
+        .collect();
+    let mut net = chain(N, M, K, L, G, start.clone());
+    let settings = NewtonSettings {
+        gradient_tolerance: 1e-30,
+        ..Default::default()
+    };
+    let mut ws = NewtonWorkspace::new(&net, &settings).unwrap();
+    let mut x = net.unknowns(&start);
+    let report = newton_solve(&mut net, &mut x, &settings, &mut ws).unwrap();
+    assert_eq!(report.convergence, Convergence::Step);
+    assert!(
+        chain_error(&net, &x) < 1e-10,
+        "error {}",
+        chain_error(&net, &x)
+    );
+}

@@ -1,0 +1,93 @@
+//! Boundary conditions: pinned vertices and coordinates, clamped edges, prescribed motion.
+
+use nalgebra::Vector3;
+use thinshell_energy::DofMap;
+use thinshell_mesh::{EdgeId, Mesh, VertexId};
+
+use crate::SolverError;
+
+/// A vertex whose position is a given function of time `t` (s) → position (m). The vertex is
+/// removed from the unknowns; its position is set at the end time of every step.
+pub struct Prescribed {
+    /// The driven vertex.
+    pub vertex: VertexId,
+    /// Its position as a function of time.
+    pub position: Box<dyn Fn(f64) -> Vector3<f64> + Send + Sync>,
+}
+
+impl std::fmt::Debug for Prescribed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Prescribed")
+            .field("vertex", &self.vertex)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Which vertex coordinates are held. Pinned coordinates are removed from the unknowns and
+/// stay exactly at their initial value.
+#[derive(Debug, Default)]
+pub struct Boundary {
+    /// Vertices fixed in all three coordinates.
+    pub pinned_vertices: Vec<VertexId>,
+    /// Single coordinates `(vertex, axis)` fixed (axis 0, 1, 2 = x, y, z), e.g. a support that
+    /// only blocks z.
+    pub pinned_coordinates: Vec<(VertexId, usize)>,
+    /// Clamped edges: both edge vertices and the opposite vertex of the edge's face (the next
+    /// row inwards) are pinned, which fixes the edge's position and its tangent plane.
+    pub clamped_edges: Vec<EdgeId>,
+    /// Vertices moved along a prescribed path.
+    pub prescribed: Vec<Prescribed>,
+}
+
+impl Boundary {
+    /// All held `(vertex, axis)` pairs.
+    pub fn held_coordinates(&self, mesh: &Mesh) -> Result<Vec<(VertexId, usize)>, SolverError> {
+        let mut held: Vec<(VertexId, usize)> = self.pinned_coordinates.clone();
+        let mut whole: Vec<VertexId> = self.pinned_vertices.clone();
+        whole.extend(self.prescribed.iter().map(|p| p.vertex));
+        let edges = mesh.topology().edges();
+        for &e in &self.clamped_edges {
+            let edge = edges.get(e.idx()).ok_or(SolverError::InvalidSetting {
+                name: "clamped_edges",
+                value: e.idx() as f64,
+                requirement: "edge id out of range",
+            })?;
+            whole.extend_from_slice(&edge.vertices);
+            let face = mesh.faces()[edge.left.idx()];
+            whole.extend(face.iter().copied().filter(|v| !edge.vertices.contains(v)));
+        }
+        for v in whole {
+            held.extend((0..3).map(|a| (v, a)));
+        }
+        Ok(held)
+    }
+
+    /// The dof map of the free coordinates.
+    pub fn dof_map(&self, mesh: &Mesh) -> Result<DofMap, SolverError> {
+        DofMap::with_pinned(mesh.n_vertices(), self.held_coordinates(mesh)?)
+            .map_err(|e| SolverError::Objective(e.to_string()))
+    }
+
+    /// Sets the prescribed vertices of `x` to their positions at time `t`.
+    pub fn apply_prescribed(&self, x: &mut [Vector3<f64>], t: f64) -> Result<(), SolverError> {
+        for p in &self.prescribed {
+            let target = (p.position)(t);
+            if !target.iter().all(|c| c.is_finite()) {
+                return Err(SolverError::NonFiniteCoordinate {
+                    dof: 3 * p.vertex.idx(),
+                });
+            }
+            match x.get_mut(p.vertex.idx()) {
+                Some(slot) => *slot = target,
+                None => {
+                    return Err(SolverError::InvalidSetting {
+                        name: "prescribed",
+                        value: p.vertex.idx() as f64,
+                        requirement: "vertex out of range",
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}

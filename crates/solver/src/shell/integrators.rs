@@ -1,0 +1,397 @@
+//! Time integrators and the static solver, behind the [`Integrator`] trait.
+//!
+//! - [`ImplicitEuler`]: minimises the incremental potential
+//!   `Φ(x) = 1/(2Δt²)(x − x̃)ᵀΛ(x − x̃) + E(x) + E_damp(x; xⁿ) − F_extᵀx`, `x̃ = xⁿ + Δt vⁿ`
+//!   (model.md §3), with Newton; optional halving of Δt on failure.
+//! - [`ExplicitEuler`]: symplectic Euler `vⁿ⁺¹ = vⁿ + Δt Λ⁻¹(F_ext − ∇E(xⁿ))`,
+//!   `xⁿ⁺¹ = xⁿ + Δt vⁿ⁺¹`; conditionally stable.
+//! - [`Static`]: minimises `E(x) − F_extᵀx`. Rigid motions (a null space when too few
+//!   coordinates are held) are handled by a small shift `κ·mean|H_dd|` of the Hessian diagonal
+//!   only (the gradient is exact, so the equilibrium is unchanged; the iterates simply do not
+//!   drift along rigid modes), plus Newton's regularisation when needed.
+
+use nalgebra::Vector3;
+use thinshell_energy::{DampingState, EnergyTerms, EvalOutput};
+
+use super::loads::face_volume_gradient;
+use super::system::{Inertia, ShellObjective, ShellSystem, State, energy_error};
+use crate::{NewtonReport, NewtonSettings, NewtonWorkspace, Objective, SolverError, newton_solve};
+
+/// What one step did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepReport {
+    /// Time at the end of the step (s).
+    pub t: f64,
+    /// Step length actually taken (s; smaller than requested after adaptive halving).
+    pub dt: f64,
+    /// The Newton solve (iterations, residuals, backtracks, regularisations, timings);
+    /// `None` for explicit steps.
+    pub newton: Option<NewtonReport>,
+    /// Halvings of Δt before the step succeeded.
+    pub halvings: usize,
+    /// Energy terms (J) at the end of the step (implicit, static) or its start (explicit).
+    pub energies: EnergyTerms,
+}
+
+/// Advances a [`State`] of a [`ShellSystem`] by one step.
+pub trait Integrator {
+    /// One step; on error `state` is unchanged.
+    fn step(
+        &mut self,
+        system: &mut ShellSystem,
+        state: &mut State,
+    ) -> Result<StepReport, SolverError>;
+}
+
+/// `g −= p ∂V/∂x`: the pressure force enters like an external force.
+pub(crate) fn add_pressure_gradient(system: &ShellSystem, x: &[Vector3<f64>], g: &mut [f64]) {
+    let p = system.loads.pressure;
+    if p == 0.0 {
+        return;
+    }
+    for face in system.mesh.faces() {
+        let gv = face_volume_gradient([x[face[0].idx()], x[face[1].idx()], x[face[2].idx()]]);
+        for (s, v) in face.iter().enumerate() {
+            let base = 3 * v.idx();
+            for (gc, gvc) in g[base..base + 3].iter_mut().zip(gv[s].iter()) {
+                *gc -= p * gvc;
+            }
+        }
+    }
+}
+
+fn check_dt(dt: f64) -> Result<(), SolverError> {
+    if dt.is_finite() && dt > 0.0 {
+        Ok(())
+    } else {
+        Err(SolverError::InvalidSetting {
+            name: "dt",
+            value: dt,
+            requirement: "must be positive and finite",
+        })
+    }
+}
+
+fn check_state(system: &ShellSystem, state: &State) -> Result<(), SolverError> {
+    let n = system.mesh.n_vertices();
+    for (what, len) in [("state.x", state.x.len()), ("state.v", state.v.len())] {
+        if len != n {
+            return Err(SolverError::DimensionMismatch {
+                what,
+                expected: n,
+                found: len,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Static equilibrium: minimise `E(x) − F_extᵀx` over the free dofs.
+#[derive(Debug)]
+pub struct Static {
+    /// Newton parameters.
+    pub newton: NewtonSettings,
+    /// Relative Hessian diagonal shift κ against rigid-motion null spaces (≥ 0).
+    pub hessian_shift: f64,
+    /// Force scale (N) for the gradient tolerance; `None`: [`ShellSystem::force_scale`].
+    pub force_scale: Option<f64>,
+    workspace: Option<NewtonWorkspace>,
+}
+
+impl Default for Static {
+    fn default() -> Self {
+        Static {
+            newton: NewtonSettings::default(),
+            hessian_shift: 1e-10,
+            force_scale: None,
+            workspace: None,
+        }
+    }
+}
+
+impl Static {
+    /// Solves for the equilibrium starting from `x` (overwritten; held coordinates kept).
+    pub fn solve(
+        &mut self,
+        system: &mut ShellSystem,
+        x: &mut [Vector3<f64>],
+    ) -> Result<NewtonReport, SolverError> {
+        if system.model.terms.damping {
+            return Err(SolverError::InvalidSetting {
+                name: "terms.damping",
+                value: 1.0,
+                requirement: "a static solve has no damping (build the system without it)",
+            });
+        }
+        if !(self.hessian_shift.is_finite() && self.hessian_shift >= 0.0) {
+            return Err(SolverError::InvalidSetting {
+                name: "hessian_shift",
+                value: self.hessian_shift,
+                requirement: "must be non-negative and finite",
+            });
+        }
+        let force_scale = self.force_scale.unwrap_or_else(|| system.force_scale());
+        let mut u = system.gather(x);
+        let n3 = 3 * x.len();
+        let mut obj = ShellObjective {
+            sys: system,
+            x_full: x.to_vec(),
+            grad_full: vec![0.0; n3],
+            inertia: None,
+            damping: None,
+            hessian_shift: self.hessian_shift,
+            force_scale,
+            last_terms: EnergyTerms::default(),
+        };
+        let ws = match &mut self.workspace {
+            Some(ws) if ws.n_dofs() == u.len() => ws,
+            slot => slot.insert(NewtonWorkspace::new(&obj, &self.newton)?),
+        };
+        let result = newton_solve(&mut obj, &mut u, &self.newton, ws);
+        let sys = obj.sys;
+        sys.scatter(&u, x);
+        result
+    }
+}
+
+impl Integrator for Static {
+    fn step(
+        &mut self,
+        system: &mut ShellSystem,
+        state: &mut State,
+    ) -> Result<StepReport, SolverError> {
+        check_state(system, state)?;
+        let mut x = state.x.clone();
+        system.boundary.apply_prescribed(&mut x, state.t)?;
+        let report = self.solve(system, &mut x)?;
+        let energies = system.energy(&x)?;
+        state.x = x;
+        state.v.iter_mut().for_each(|v| *v = Vector3::zeros());
+        Ok(StepReport {
+            t: state.t,
+            dt: 0.0,
+            newton: Some(report),
+            halvings: 0,
+            energies,
+        })
+    }
+}
+
+/// Implicit (backward) Euler by minimisation of the incremental potential.
+#[derive(Debug)]
+pub struct ImplicitEuler {
+    /// Time step Δt (s).
+    pub dt: f64,
+    /// Newton parameters.
+    pub newton: NewtonSettings,
+    /// Force scale (N) for the gradient tolerance; `None`: [`ShellSystem::force_scale`].
+    pub force_scale: Option<f64>,
+    /// Times Δt may be halved when Newton fails (0: no adaptivity).
+    pub max_halvings: usize,
+    workspace: Option<NewtonWorkspace>,
+}
+
+impl ImplicitEuler {
+    /// Fixed step `dt` (s) with default Newton settings.
+    pub fn new(dt: f64) -> ImplicitEuler {
+        ImplicitEuler {
+            dt,
+            newton: NewtonSettings::default(),
+            force_scale: None,
+            max_halvings: 0,
+            workspace: None,
+        }
+    }
+
+    fn try_step(
+        &mut self,
+        system: &mut ShellSystem,
+        state: &State,
+        dt: f64,
+    ) -> Result<(State, NewtonReport, EnergyTerms), SolverError> {
+        let t1 = state.t + dt;
+        let mut x1 = state.x.clone();
+        system.boundary.apply_prescribed(&mut x1, t1)?;
+        let damping = if system.model.terms.damping {
+            Some(
+                DampingState::from_positions(&system.mesh, &state.x, system.model.sff, dt)
+                    .map_err(energy_error)?,
+            )
+        } else {
+            None
+        };
+        let coords = system.dofs.free_coordinates().to_vec();
+        let x_tilde: Vec<f64> = coords
+            .iter()
+            .map(|&c| state.x[c / 3][c % 3] + dt * state.v[c / 3][c % 3])
+            .collect();
+        let m_over_dt2 = coords
+            .iter()
+            .map(|&c| system.mass[c / 3] / (dt * dt))
+            .collect();
+        let mut u = x_tilde.clone();
+        let force_scale = self.force_scale.unwrap_or_else(|| system.force_scale());
+        let n3 = 3 * x1.len();
+        let mut obj = ShellObjective {
+            sys: system,
+            x_full: x1.clone(),
+            grad_full: vec![0.0; n3],
+            inertia: Some(Inertia {
+                x_tilde,
+                m_over_dt2,
+            }),
+            damping,
+            hessian_shift: 0.0,
+            force_scale,
+            last_terms: EnergyTerms::default(),
+        };
+        // Start from the inertial prediction x̃ unless it is an invalid (e.g. inverted)
+        // configuration; then from xⁿ.
+        if !obj.value(&u)?.is_finite() {
+            u = obj.sys.gather(&state.x);
+        }
+        let ws = match &mut self.workspace {
+            Some(ws) if ws.n_dofs() == u.len() => ws,
+            slot => slot.insert(NewtonWorkspace::new(&obj, &self.newton)?),
+        };
+        let report = newton_solve(&mut obj, &mut u, &self.newton, ws)?;
+        let energies = obj.last_terms;
+        obj.sys.scatter(&u, &mut x1);
+        let v1 = x1.iter().zip(&state.x).map(|(a, b)| (a - b) / dt).collect();
+        Ok((
+            State {
+                x: x1,
+                v: v1,
+                t: t1,
+            },
+            report,
+            energies,
+        ))
+    }
+}
+
+impl Integrator for ImplicitEuler {
+    fn step(
+        &mut self,
+        system: &mut ShellSystem,
+        state: &mut State,
+    ) -> Result<StepReport, SolverError> {
+        check_dt(self.dt)?;
+        check_state(system, state)?;
+        let mut dt = self.dt;
+        let mut halvings = 0;
+        loop {
+            match self.try_step(system, state, dt) {
+                Ok((next, report, energies)) => {
+                    *state = next;
+                    return Ok(StepReport {
+                        t: state.t,
+                        dt,
+                        newton: Some(report),
+                        halvings,
+                        energies,
+                    });
+                }
+                Err(e)
+                    if halvings < self.max_halvings
+                        && !matches!(e, SolverError::InvalidSetting { .. }) =>
+                {
+                    halvings += 1;
+                    dt *= 0.5;
+                }
+                Err(e) => return Err(e),
+            }
+        }
+    }
+}
+
+/// Symplectic (semi-implicit) Euler with lumped masses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExplicitEuler {
+    /// Time step Δt (s).
+    pub dt: f64,
+}
+
+impl Integrator for ExplicitEuler {
+    fn step(
+        &mut self,
+        system: &mut ShellSystem,
+        state: &mut State,
+    ) -> Result<StepReport, SolverError> {
+        let dt = self.dt;
+        check_dt(dt)?;
+        check_state(system, state)?;
+        let n = state.x.len();
+        // Damping forces use the previous configuration xⁿ − Δt vⁿ.
+        let damping = if system.model.terms.damping {
+            let prev: Vec<Vector3<f64>> = state
+                .x
+                .iter()
+                .zip(&state.v)
+                .map(|(x, v)| x - dt * v)
+                .collect();
+            Some(
+                DampingState::from_positions(&system.mesh, &prev, system.model.sff, dt)
+                    .map_err(energy_error)?,
+            )
+        } else {
+            None
+        };
+        let mut g = vec![0.0; 3 * n];
+        let energies = system
+            .assembler
+            .evaluate(
+                &system.model,
+                &state.x,
+                &system.rest,
+                damping.as_ref(),
+                EvalOutput {
+                    gradient: Some(&mut g),
+                    hessian: None,
+                },
+            )
+            .map_err(energy_error)?;
+        add_pressure_gradient(system, &state.x, &mut g);
+        let t1 = state.t + dt;
+        let mut x1 = state.x.clone();
+        let mut v1 = state.v.clone();
+        for (vtx, (x, v)) in x1.iter_mut().zip(v1.iter_mut()).enumerate() {
+            for a in 0..3 {
+                let c = 3 * vtx + a;
+                if system.dofs.coordinate_dof(c).is_some() {
+                    v[a] += dt * (system.f_ext[c] - g[c]) / system.mass[vtx];
+                    x[a] += dt * v[a];
+                } else {
+                    v[a] = 0.0;
+                }
+            }
+        }
+        system.boundary.apply_prescribed(&mut x1, t1)?;
+        for p in &system.boundary.prescribed {
+            let i = p.vertex.idx();
+            v1[i] = (x1[i] - state.x[i]) / dt;
+        }
+        if let Some(c) = x1
+            .iter()
+            .chain(&v1)
+            .flat_map(|p| p.iter())
+            .position(|c| !c.is_finite())
+        {
+            return Err(SolverError::NonFinite {
+                what: "explicit state",
+                iteration: 0,
+                dof: Some(c),
+            });
+        }
+        state.x = x1;
+        state.v = v1;
+        state.t = t1;
+        Ok(StepReport {
+            t: t1,
+            dt,
+            newton: None,
+            halvings: 0,
+            energies,
+        })
+    }
+}
