@@ -14,22 +14,17 @@
 //! ```
 
 mod build;
-mod objective;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use nalgebra::Vector3;
 use serde::Serialize;
-use thinshell_energy::{
-    Assembler, DampingState, DofMap, EnergyTerms, EvalOutput, HessianMode, RestState, ShellModel,
-};
+use thinshell_energy::{EnergyTerms, ShellModel};
 use thinshell_mesh::Mesh;
-use thinshell_solver::{NewtonSettings, NewtonWorkspace, Objective, SolverError, newton_solve};
+use thinshell_solver::{Integrator, ShellSystem, SolverError, State};
 
 pub use build::BuildError;
-pub use objective::STATIC_SHIFT;
-use objective::StepObjective;
 
 use crate::scene::schema::{Effect, IntegratorKind};
 
@@ -134,33 +129,19 @@ pub struct StepError {
     pub source: SolverError,
 }
 
-/// A built simulation: mesh, state, energy terms, loads and integrator settings.
+/// A built simulation: the shell system (mesh, energy terms, rest state, boundary conditions,
+/// loads), its state and the integrator the scene chose.
 pub struct Simulation {
     pub(crate) name: String,
-    pub(crate) mesh: Mesh,
     pub(crate) effects: Vec<Effect>,
     pub(crate) x_ref: Vec<Vector3<f64>>,
-    pub(crate) x: Vec<Vector3<f64>>,
-    pub(crate) v: Vec<Vector3<f64>>,
-    pub(crate) t: f64,
+    pub(crate) system: ShellSystem,
+    pub(crate) state: State,
+    pub(crate) integrator: Box<dyn Integrator + Send>,
+    pub(crate) kind: IntegratorKind,
+    pub(crate) dt: f64,
     pub(crate) steps_done: usize,
     pub(crate) steps_total: usize,
-    pub(crate) dt: f64,
-    pub(crate) kind: IntegratorKind,
-    pub(crate) model: ShellModel,
-    pub(crate) rest: RestState,
-    /// Lumped mass per vertex, kg (empty without inertia).
-    pub(crate) mass: Vec<f64>,
-    pub(crate) dofs: DofMap,
-    pub(crate) assembler: Assembler,
-    pub(crate) workspace: Option<NewtonWorkspace>,
-    pub(crate) settings: NewtonSettings,
-    pub(crate) hessian_mode: HessianMode,
-    /// External force per coordinate (3·n), N.
-    pub(crate) force: Vec<f64>,
-    pub(crate) force_scale: f64,
-    pub(crate) length_scale: f64,
-    pub(crate) grad_full: Vec<f64>,
     pub(crate) energy: EnergyTerms,
 }
 
@@ -171,15 +152,15 @@ impl Simulation {
     }
     /// The mesh (connectivity and reference positions).
     pub fn mesh(&self) -> &Mesh {
-        &self.mesh
+        &self.system.mesh
     }
     /// Current positions, m.
     pub fn positions(&self) -> &[Vector3<f64>] {
-        &self.x
+        &self.state.x
     }
     /// Current velocities, m/s.
     pub fn velocities(&self) -> &[Vector3<f64>] {
-        &self.v
+        &self.state.v
     }
     /// Positions of the mesh as given (the reference configuration), m.
     pub fn reference_positions(&self) -> &[Vector3<f64>] {
@@ -187,7 +168,7 @@ impl Simulation {
     }
     /// Current time, s.
     pub fn time(&self) -> f64 {
-        self.t
+        self.state.t
     }
     /// Steps completed.
     pub fn steps_done(&self) -> usize {
@@ -207,11 +188,16 @@ impl Simulation {
     }
     /// Number of unknowns (free coordinates).
     pub fn n_unknowns(&self) -> usize {
-        self.dofs.n_free()
+        self.system.dofs().n_free()
     }
     /// The energy terms evaluated.
     pub fn model(&self) -> &ShellModel {
-        &self.model
+        &self.system.model
+    }
+
+    /// The shell system (mesh, model, rest state, boundary conditions, loads).
+    pub fn system(&self) -> &ShellSystem {
+        &self.system
     }
     /// The integrator.
     pub fn integrator(&self) -> IntegratorKind {
@@ -224,9 +210,10 @@ impl Simulation {
 
     /// Kinetic energy ½ Σ λ_i |v_i|², J.
     pub fn kinetic_energy(&self) -> f64 {
-        self.mass
+        self.system
+            .mass()
             .iter()
-            .zip(&self.v)
+            .zip(&self.state.v)
             .map(|(m, v)| 0.5 * m * v.norm_squared())
             .sum()
     }
@@ -255,163 +242,46 @@ impl Simulation {
             steps: self.steps_done,
             steps_requested: self.steps_total,
             interrupted,
-            time: self.t,
+            time: self.state.t,
             final_energy: self.energy.into(),
             newton_iterations: iterations,
             wall_s: t0.elapsed().as_secs_f64(),
         })
     }
 
-    /// Takes one step with the scene's integrator.
+    /// Takes one step with the scene's integrator; on failure the state is unchanged.
     pub fn step(&mut self) -> Result<StepRecord, StepError> {
         let start = Instant::now();
         let step = self.steps_done + 1;
-        let time = self.t;
-        let fail = |source| StepError { step, time, source };
-        let mut record = match self.kind {
-            IntegratorKind::Explicit => self.explicit_step().map_err(fail)?,
-            IntegratorKind::Implicit | IntegratorKind::Static => {
-                self.newton_step().map_err(fail)?
-            }
-        };
+        let time = self.state.t;
+        let report = self
+            .integrator
+            .step(&mut self.system, &mut self.state)
+            .map_err(|source| StepError { step, time, source })?;
+        if self.kind == IntegratorKind::Static {
+            // Quasi-static: the pseudo-time advances by one step per solve.
+            self.state.t = time + self.dt;
+        }
         self.steps_done = step;
-        self.t += self.dt;
-        record.step = step;
-        record.time = self.t;
-        record.energy = self.energy.into();
-        record.kinetic = self.kinetic_energy();
-        record.wall_s = start.elapsed().as_secs_f64();
+        self.energy = report.energies;
+        let mut record = StepRecord {
+            step,
+            time: self.state.t,
+            energy: self.energy.into(),
+            kinetic: self.kinetic_energy(),
+            ..StepRecord::default()
+        };
+        if let Some(n) = &report.newton {
+            record.newton_iterations = n.iterations;
+            record.backtracks = n.backtracks;
+            record.regularizations = n.regularizations.len();
+            record.residual = n.residuals.last().copied().unwrap_or(0.0);
+            record.assembly_s = secs(n.timings.assembly);
+            record.factorization_s = secs(n.timings.factorization);
+            record.solve_s = secs(n.timings.solve);
+        }
+        record.wall_s = secs(start.elapsed());
         Ok(record)
-    }
-
-    fn damping_state(&self) -> Result<Option<DampingState>, SolverError> {
-        if !self.model.terms.damping {
-            return Ok(None);
-        }
-        DampingState::from_positions(&self.mesh, &self.x, self.model.sff, self.dt)
-            .map(Some)
-            .map_err(|e| SolverError::Objective(e.to_string()))
-    }
-
-    /// Implicit Euler or a static solve by Newton.
-    fn newton_step(&mut self) -> Result<StepRecord, SolverError> {
-        let damping = self.damping_state()?;
-        let free = self.dofs.free_coordinates().to_vec();
-        let coord = |x: &[Vector3<f64>], c: usize| x[c / 3][c % 3];
-        let x_prev = self.x.clone();
-        let dynamic = self.kind == IntegratorKind::Implicit;
-        // x̃ = xⁿ + Δt vⁿ is both the inertia target and the initial guess.
-        let x_tilde: Vec<f64> = free
-            .iter()
-            .map(|&c| {
-                if dynamic {
-                    coord(&self.x, c) + self.dt * coord(&self.v, c)
-                } else {
-                    coord(&self.x, c)
-                }
-            })
-            .collect();
-        let mass_dof: Vec<f64> = if dynamic {
-            free.iter().map(|&c| self.mass[c / 3]).collect()
-        } else {
-            Vec::new()
-        };
-        let mut unknowns = x_tilde.clone();
-        let mut x_full = self.x.clone();
-        let mut objective = StepObjective {
-            assembler: &mut self.assembler,
-            model: &self.model,
-            rest: &self.rest,
-            damping: damping.as_ref(),
-            dofs: &self.dofs,
-            x_full: &mut x_full,
-            grad_full: &mut self.grad_full,
-            force: &self.force,
-            inertia: dynamic.then_some((&mass_dof[..], &x_tilde[..], self.dt)),
-            hessian_mode: self.hessian_mode,
-            force_scale: self.force_scale,
-            length_scale: self.length_scale,
-            last_energy: EnergyTerms::default(),
-        };
-        if self.workspace.is_none() {
-            self.workspace = Some(NewtonWorkspace::new(&objective, &self.settings)?);
-        }
-        let ws = self
-            .workspace
-            .as_mut()
-            .ok_or_else(|| SolverError::Objective("no Newton workspace".into()))?;
-        let report = newton_solve(&mut objective, &mut unknowns, &self.settings, ws)?;
-        // Energies of the accepted state (the last evaluation may have been a trial point).
-        objective.value(&unknowns)?;
-        let energy = objective.last_energy;
-        for (d, &c) in free.iter().enumerate() {
-            self.x[c / 3][c % 3] = unknowns[d];
-        }
-        if dynamic {
-            for (i, (v, (x, xp))) in self
-                .v
-                .iter_mut()
-                .zip(self.x.iter().zip(&x_prev))
-                .enumerate()
-            {
-                *v = (x - xp) / self.dt;
-                let _ = i;
-            }
-        }
-        self.energy = energy;
-        let timings = report.timings;
-        Ok(StepRecord {
-            newton_iterations: report.iterations,
-            backtracks: report.backtracks,
-            regularizations: report.regularizations.len(),
-            residual: report.residuals.last().copied().unwrap_or(0.0),
-            assembly_s: secs(timings.assembly),
-            factorization_s: secs(timings.factorization),
-            solve_s: secs(timings.solve),
-            ..StepRecord::default()
-        })
-    }
-
-    /// Symplectic Euler: vⁿ⁺¹ = vⁿ + Δt Λ⁻¹ F(xⁿ), xⁿ⁺¹ = xⁿ + Δt vⁿ⁺¹; pinned coordinates keep
-    /// zero velocity.
-    fn explicit_step(&mut self) -> Result<StepRecord, SolverError> {
-        let damping = self.damping_state()?;
-        let t = Instant::now();
-        let energy = self
-            .assembler
-            .evaluate(
-                &self.model,
-                &self.x,
-                &self.rest,
-                damping.as_ref(),
-                EvalOutput {
-                    gradient: Some(&mut self.grad_full),
-                    hessian: None,
-                },
-            )
-            .map_err(|e| SolverError::Objective(e.to_string()))?;
-        let assembly = t.elapsed();
-        for &c in self.dofs.free_coordinates() {
-            let (i, k) = (c / 3, c % 3);
-            let f = self.force[c] - self.grad_full[c];
-            self.v[i][k] += self.dt * f / self.mass[i];
-            self.x[i][k] += self.dt * self.v[i][k];
-        }
-        if let Some((i, p)) = self
-            .x
-            .iter()
-            .enumerate()
-            .find(|(_, p)| !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()))
-        {
-            return Err(SolverError::Objective(format!(
-                "explicit Euler diverged: vertex {i} position {p:?} (time step above the stability limit?)"
-            )));
-        }
-        self.energy = energy;
-        Ok(StepRecord {
-            assembly_s: secs(assembly),
-            ..StepRecord::default()
-        })
     }
 }
 
