@@ -1,4 +1,4 @@
-#![allow(clippy::unwrap_used)]
+#![allow(clippy::unwrap_used, clippy::needless_range_loop)]
 //! Finite-difference and analytic checks of the per-face kernels.
 //! FD: central differences with step h = 1e-6 (positions are O(1)), tolerance 1e-6 relative
 //! to the largest entry (FD truncation O(h²) ≈ 1e-12, round-off O(ε/h) ≈ 1e-10).

@@ -175,8 +175,7 @@ pub fn run(
     let mut writer = Writer {
         dir: dir.clone(),
         every: scene.file.output.every,
-        obj: scene.file.output.formats.contains(&Format::Obj)
-            || scene.file.output.formats.contains(&Format::Vtk),
+        obj: scene.file.output.formats.contains(&Format::Obj),
         csv,
         bar,
         error: None,

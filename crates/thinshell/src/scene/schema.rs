@@ -563,7 +563,7 @@ pub struct OutputSpec {
     /// Write a frame every n steps (default 10; the first and last are always written).
     #[serde(default = "default_every")]
     pub every: usize,
-    /// Frame formats (default ["vtk"]). The per-step CSV and `summary.json` are always written.
+    /// Frame formats (default ["obj"]). The per-step CSV and `summary.json` are always written.
     #[serde(default = "default_formats")]
     pub formats: Vec<Format>,
 }
@@ -572,7 +572,7 @@ fn default_every() -> usize {
     10
 }
 fn default_formats() -> Vec<Format> {
-    vec![Format::Vtk]
+    vec![Format::Obj]
 }
 
 impl Default for OutputSpec {
