@@ -1,6 +1,7 @@
 //! Whole-mesh assembly on icospheres (1 280, 20 480, 81 920 faces), one thread and all
-//! threads: energy; energy + gradient; energy + gradient + Hessian (exact and Gauss–Newton);
-//! and the Hessian gather ("fill") alone.
+//! threads: energy; energy + gradient; energy + gradient + Hessian (exact and Gauss–Newton;
+//! projected to PSD on the smallest mesh only); the Hessian gather ("fill") alone; and, on the
+//! 20 480-face mesh, the per-face kernel alone in a sequential loop ("kernel_only").
 //!
 //! `cargo bench -p thinshell-energy --bench assembly`; criterion reports time per evaluation
 //! and faces per second (throughput = number of faces). Results are quoted per face in
@@ -14,9 +15,10 @@ use nalgebra::Vector3;
 use std::hint::black_box;
 use std::time::Duration;
 use thinshell_energy::{
-    Assembler, DofMap, EvalOutput, HessianMode, Material, RestState, SffKind, ShellModel, Terms,
+    Assembler, DofMap, EvalOutput, FaceEval, FaceRest, HessianMode, Material, RestState, SffKind,
+    ShellModel, Stencils, Terms, Want, eval_face,
 };
-use thinshell_mesh::generators;
+use thinshell_mesh::{Mesh, generators};
 
 fn bench(c: &mut Criterion) {
     let terms = Terms {
@@ -98,13 +100,102 @@ fn bench(c: &mut Criterion) {
                     })
                 });
             }
+            if level == 3 {
+                // Per-face 18×18 eigen-decomposition: measured on the small mesh only.
+                group.bench_function(id("energy_gradient_hessian_psd"), |b| {
+                    pool.install(|| {
+                        b.iter(|| {
+                            let out = EvalOutput {
+                                gradient: Some(&mut g),
+                                hessian: Some((&mut h, HessianMode::ProjectedPsd)),
+                            };
+                            asm.evaluate(&model, black_box(&x), &rest, None, out)
+                                .unwrap()
+                        })
+                    })
+                });
+            }
             // The gather step alone, from the per-face blocks of the last Hessian evaluation.
             group.bench_function(id("fill"), |b| {
                 pool.install(|| b.iter(|| asm.gather_hessian(black_box(&mut h)).unwrap()))
             });
         }
         group.finish();
+        if level == 5 {
+            kernel_only(c, &mesh, &x, &rest, &model);
+        }
     }
+}
+
+/// The per-face kernel alone in a sequential loop (stencil construction included, no
+/// buffers, no gather): shows how much of the assembly time is the kernel's.
+fn kernel_only(
+    c: &mut Criterion,
+    mesh: &Mesh,
+    x: &[Vector3<f64>],
+    rest: &RestState,
+    model: &ShellModel,
+) {
+    let stencils = Stencils::new(mesh);
+    let sff = model.sff.as_dyn();
+    let mut group = c.benchmark_group(format!("kernel_only/{}", mesh.n_faces()));
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2))
+        .sampling_mode(SamplingMode::Flat)
+        .throughput(Throughput::Elements(mesh.n_faces() as u64));
+    let wants = [
+        (
+            "energy",
+            Want {
+                gradient: false,
+                hessian: None,
+            },
+        ),
+        (
+            "energy_gradient",
+            Want {
+                gradient: true,
+                hessian: None,
+            },
+        ),
+        (
+            "energy_gradient_hessian_exact",
+            Want {
+                gradient: true,
+                hessian: Some(HessianMode::Exact),
+            },
+        ),
+    ];
+    for (name, want) in wants {
+        let mut out = FaceEval::default();
+        group.bench_function(BenchmarkId::new(name, "1t"), |b| {
+            b.iter(|| {
+                let mut sum = 0.0;
+                for f in 0..mesh.n_faces() {
+                    let face_rest = FaceRest {
+                        a_bar: rest.a_bar[f],
+                        b_bar: rest.b_bar[f],
+                    };
+                    let stencil = stencils.stencil(f, x);
+                    eval_face(
+                        sff,
+                        &model.material,
+                        &stencil,
+                        &face_rest,
+                        None,
+                        model.terms,
+                        want,
+                        &mut out,
+                    );
+                    sum += out.energy.total() + out.gradient[0] + out.hessian[(0, 0)];
+                }
+                black_box(sum)
+            })
+        });
+    }
+    group.finish();
 }
 
 criterion_group!(benches, bench);

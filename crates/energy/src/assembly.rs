@@ -50,11 +50,13 @@ pub struct Assembler {
     n_slots: usize,
     stencils: Stencils,
     pattern: Pattern,
-    /// Per-face gradient and Hessian blocks of the last evaluation (layout: `pattern` module).
-    buffer: Vec<f64>,
+    /// Per-face gradients of the last evaluation (layout: `pattern` module).
+    grad_buffer: Vec<f64>,
+    /// Per-face Hessian blocks of the last evaluation (layout: `pattern` module).
+    hess_buffer: Vec<f64>,
     /// Per-face energies of the last evaluation.
     energies: Vec<EnergyTerms>,
-    /// Whether `buffer` holds Hessian blocks of the last evaluation.
+    /// Whether `hess_buffer` holds Hessian blocks of the last evaluation.
     has_hessian: bool,
 }
 
@@ -83,7 +85,8 @@ impl Assembler {
             terms,
             n_vertices: mesh.n_vertices(),
             n_slots,
-            buffer: vec![0.0; mesh.n_faces() * pattern.stride],
+            grad_buffer: vec![0.0; mesh.n_faces() * pattern.grad_stride],
+            hess_buffer: vec![0.0; mesh.n_faces() * pattern.hess_stride],
             energies: vec![EnergyTerms::default(); mesh.n_faces()],
             stencils,
             pattern,
@@ -193,7 +196,7 @@ impl Assembler {
         Ok(total)
     }
 
-    /// Per-face kernels, in parallel, into `self.buffer` / `self.energies`.
+    /// Per-face kernels, in parallel, into the per-face buffers and `self.energies`.
     fn evaluate_faces(
         &mut self,
         model: &ShellModel,
@@ -203,15 +206,17 @@ impl Assembler {
         want: Want,
     ) -> Result<(), EnergyError> {
         let sff = model.sff.as_dyn();
-        let (stride, n_slots) = (self.pattern.stride, self.n_slots);
+        let n_slots = self.n_slots;
+        let (grad_stride, hess_stride) = (self.pattern.grad_stride, self.pattern.hess_stride);
         let stencils = &self.stencils;
         let copy_gradient = want.gradient || want.hessian.is_some();
         let bad_face = self
-            .buffer
-            .par_chunks_mut(stride)
+            .grad_buffer
+            .par_chunks_mut(grad_stride)
+            .zip(self.hess_buffer.par_chunks_mut(hess_stride))
             .zip(self.energies.par_iter_mut())
             .enumerate()
-            .map_init(FaceEval::default, |fe, (f, (buf, energy))| {
+            .map_init(FaceEval::default, |fe, (f, ((grad, hess), energy))| {
                 let stencil = stencils.stencil(f, x);
                 let face_rest = FaceRest {
                     a_bar: rest.a_bar[f],
@@ -233,28 +238,26 @@ impl Assembler {
                     fe,
                 );
                 *energy = fe.energy;
-                // A NaN or ±inf anywhere makes the sum non-finite.
-                let mut check = fe.energy.total();
+                let mut finite = fe.energy.total().is_finite();
                 if copy_gradient {
-                    let n = 3 * n_slots;
-                    buf[..n].copy_from_slice(&fe.gradient.as_slice()[..n]);
-                    check += buf[..n].iter().sum::<f64>();
+                    grad.copy_from_slice(&fe.gradient.as_slice()[..grad_stride]);
+                    finite &= all_finite(grad);
                 }
                 if want.hessian.is_some() {
-                    let blocks = &mut buf[3 * n_slots..];
+                    // nalgebra is column-major: column 3 s2 + c holds rows 3 s1 .. 3 s1 + 3.
+                    let h = fe.hessian.as_slice();
                     for s1 in 0..n_slots {
                         for s2 in 0..=s1 {
-                            let b = &mut blocks[9 * pair(s1, s2)..9 * pair(s1, s2) + 9];
-                            for a in 0..3 {
-                                for c in 0..3 {
-                                    b[3 * a + c] = fe.hessian[(3 * s1 + a, 3 * s2 + c)];
-                                }
+                            let b = &mut hess[9 * pair(s1, s2)..9 * pair(s1, s2) + 9];
+                            for c in 0..3 {
+                                let col = 18 * (3 * s2 + c) + 3 * s1;
+                                b[3 * c..3 * c + 3].copy_from_slice(&h[col..col + 3]);
                             }
-                            check += b.iter().sum::<f64>();
                         }
                     }
+                    finite &= all_finite(hess);
                 }
-                (!check.is_finite()).then_some(f)
+                (!finite).then_some(f)
             })
             .flatten()
             .min();
@@ -269,7 +272,7 @@ impl Assembler {
     /// Gradient gather: each vertex sums its face slots in the precomputed order.
     fn gather_gradient(&self, gradient: &mut [f64]) {
         let p = &self.pattern;
-        let buf = &self.buffer;
+        let buf = &self.grad_buffer;
         gradient.par_chunks_mut(3).enumerate().for_each(|(v, g)| {
             let mut s = [0.0; 3];
             for &src in &p.grad_src[p.grad_ptr[v]..p.grad_ptr[v + 1]] {
@@ -285,7 +288,7 @@ impl Assembler {
     /// Hessian gather: each nonzero sums its face-block entries in the precomputed order.
     fn gather_hessian_values(&self, values: &mut [f64]) {
         let p = &self.pattern;
-        let buf = &self.buffer;
+        let buf = &self.hess_buffer;
         values
             .par_chunks_mut(GATHER_CHUNK)
             .enumerate()
@@ -294,12 +297,17 @@ impl Assembler {
                 for (i, val) in vals.iter_mut().enumerate() {
                     let k = start + i;
                     let blk = p.nz_block[k] as usize;
+                    // Row-major entry e = 3a + c; face blocks are stored column-major.
                     let e = p.nz_entry[k] as usize;
-                    let et = 3 * (e % 3) + e / 3;
+                    let e_col_major = 3 * (e % 3) + e / 3;
                     let mut s = 0.0;
                     for &src in &p.block_src[p.block_ptr[blk]..p.block_ptr[blk + 1]] {
                         let base = (src & !TRANSPOSED) as usize;
-                        let off = if src & TRANSPOSED != 0 { et } else { e };
+                        let off = if src & TRANSPOSED != 0 {
+                            e
+                        } else {
+                            e_col_major
+                        };
                         s += buf[base + off];
                     }
                     *val = s;
@@ -390,4 +398,21 @@ impl Assembler {
     pub fn stencil_vertices(&self, f: FaceId) -> Option<&[VertexId; 6]> {
         (f.idx() < self.stencils.n_faces()).then(|| self.stencils.vertices(f.idx()))
     }
+}
+
+/// Whether every entry is finite. `x · 0` is 0 for finite x and NaN for NaN or ±inf (and, unlike
+/// a plain sum, cannot overflow); four independent lanes keep the adds pipelined.
+fn all_finite(v: &[f64]) -> bool {
+    let mut acc = [0.0f64; 4];
+    let chunks = v.chunks_exact(4);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for (a, x) in acc.iter_mut().zip(c) {
+            *a += x * 0.0;
+        }
+    }
+    for (a, x) in acc.iter_mut().zip(rest) {
+        *a += x * 0.0;
+    }
+    acc.iter().all(|a| *a == 0.0)
 }

@@ -20,6 +20,7 @@
 //! use thinshell_energy::{
 //!     Assembler, DofMap, EvalOutput, HessianMode, Material, RestState, SffKind, ShellModel, Terms,
 //! };
+//! use nalgebra::Vector3;
 //! use thinshell_mesh::generators;
 //!
 //! let mesh = generators::icosphere(0.1, 2)?; // 162 vertices, 320 faces, radius 0.1 m
@@ -30,7 +31,7 @@
 //! let mut assembler = Assembler::new(&mesh, &DofMap::all_free(mesh.n_vertices()), terms)?;
 //!
 //! // Squash the sphere by 10 % along z.
-//! let x: Vec<_> = mesh.positions().iter().map(|p| p.component_mul(&[1.0, 1.0, 0.9].into())).collect();
+//! let x: Vec<_> = mesh.positions().iter().map(|p| Vector3::new(p.x, p.y, 0.9 * p.z)).collect();
 //! let mut gradient = vec![0.0; 3 * mesh.n_vertices()];
 //! let mut hessian = assembler.hessian_template(); // allocate once, refill every iteration
 //! let energy = assembler.evaluate(&model, &x, &rest, None, EvalOutput {
@@ -84,3 +85,8 @@ pub use rest::{DampingState, RestState};
 pub use sff::{MidEdgeAverage, SecondFundamentalForm, SffKind};
 pub use shell::ShellModel;
 pub use stencils::Stencils;
+
+/// The README's example, compiled and run as a doctest so that it cannot go stale.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

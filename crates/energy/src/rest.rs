@@ -24,12 +24,8 @@ pub struct RestState {
     pub b_bar: Vec<Matrix2<f64>>,
 }
 
-/// The forms (a, b) of every face of `mesh` at positions `x`.
-fn forms_of(
-    mesh: &Mesh,
-    x: &[Vector3<f64>],
-    sff: SffKind,
-) -> Result<(Vec<Matrix2<f64>>, Vec<Matrix2<f64>>), EnergyError> {
+/// The forms (a, b) of every face of `mesh` at positions `x` (not validated).
+fn forms_of(mesh: &Mesh, x: &[Vector3<f64>], sff: SffKind) -> Result<RestState, EnergyError> {
     check_len("positions", mesh.n_vertices(), x.len())?;
     if let Some(v) = x.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
         return Err(EnergyError::NonFiniteVertex {
@@ -45,7 +41,7 @@ fn forms_of(
         a.push(first_fundamental_form(&[st.x[0], st.x[1], st.x[2]]));
         b.push(b_form.b(&st));
     }
-    Ok((a, b))
+    Ok(RestState { a_bar: a, b_bar: b })
 }
 
 impl RestState {
@@ -57,8 +53,7 @@ impl RestState {
         x: &[Vector3<f64>],
         sff: SffKind,
     ) -> Result<RestState, EnergyError> {
-        let (a_bar, b_bar) = forms_of(mesh, x, sff)?;
-        let rest = RestState { a_bar, b_bar };
+        let rest = forms_of(mesh, x, sff)?;
         rest.validate(mesh)?;
         Ok(rest)
     }
@@ -155,7 +150,10 @@ impl DampingState {
                 reason: "must be finite and > 0",
             });
         }
-        let (a_prev, b_prev) = forms_of(mesh, x_prev, sff)?;
+        let RestState {
+            a_bar: a_prev,
+            b_bar: b_prev,
+        } = forms_of(mesh, x_prev, sff)?;
         for (f, a) in a_prev.iter().enumerate() {
             if let Err(reason) = form_problem(a, true) {
                 return Err(EnergyError::InvalidRestForm {

@@ -1,8 +1,11 @@
 //! Construction of the Hessian sparsity pattern and of the gather maps (done once).
 //!
-//! Per-face buffer layout (`stride` f64 per face): first the gradient, `3·n_slots` entries
-//! (slot-major, x y z), then one 3×3 block per unordered slot pair `s1 ≥ s2`, at pair index
-//! `p = s1(s1+1)/2 + s2`, row-major: `B[3a + c] = H_local[3 s1 + a, 3 s2 + c]`.
+//! Per-face buffers: the gradient buffer holds `3·n_slots` f64 per face (slot-major, x y z);
+//! the Hessian buffer one 3×3 block per unordered slot pair `s1 ≥ s2` (`9·n_pairs` f64 per
+//! face), at pair index `p = s1(s1+1)/2 + s2`, column-major like nalgebra (so that it is
+//! copied in runs of three): `B[3c + a] = H_local[3 s1 + a, 3 s2 + c]`. Global block entries
+//! are numbered row-major, `e = 3a + c`: a block read untransposed uses index `3c + a`, a
+//! transposed one `3a + c`.
 //!
 //! A face's slot pair `(s1, s2)` over vertices `(v1, v2)` contributes to the global vertex
 //! block `(max, min)` of the lower triangle — transposed when `v1 < v2`. With vertex-major,
@@ -35,13 +38,15 @@ pub(super) struct Pattern {
     pub symbolic: SymbolicSparseColMat<usize>,
     /// Position of (d, d) in the value array, per free dof.
     pub diagonal: Vec<usize>,
-    /// f64 per face in the per-face buffer.
-    pub stride: usize,
-    /// Per vertex (CSR): buffer offsets of the face gradient slots that touch it.
+    /// f64 per face in the gradient buffer.
+    pub grad_stride: usize,
+    /// f64 per face in the Hessian buffer.
+    pub hess_stride: usize,
+    /// Per vertex (CSR): gradient-buffer offsets of the face slots that touch it.
     pub grad_ptr: Vec<usize>,
     /// See `grad_ptr`.
     pub grad_src: Vec<u32>,
-    /// Per global vertex block (CSR): buffer offsets of face blocks, with [`TRANSPOSED`].
+    /// Per global vertex block (CSR): Hessian-buffer offsets of face blocks, with [`TRANSPOSED`].
     pub block_ptr: Vec<usize>,
     /// See `block_ptr`.
     pub block_src: Vec<u32>,
@@ -61,15 +66,14 @@ impl Pattern {
     pub fn new(stencils: &Stencils, dofs: &DofMap, n_slots: usize) -> Result<Pattern, EnergyError> {
         let n_faces = stencils.n_faces();
         let n_vertices = dofs.n_vertices();
-        let stride = 3 * n_slots + 9 * n_pairs(n_slots);
+        let (grad_stride, hess_stride) = (3 * n_slots, 9 * n_pairs(n_slots));
         let too_large = |what, count| EnergyError::TooLarge { what, count };
-        if n_faces.saturating_mul(stride) >= TRANSPOSED as usize {
+        if n_faces.saturating_mul(hess_stride) >= TRANSPOSED as usize {
             return Err(too_large(
                 "per-face buffer entries",
-                n_faces.saturating_mul(stride),
+                n_faces.saturating_mul(hess_stride),
             ));
         }
-        let grad_base = 3 * n_slots;
 
         // Face-block contributions keyed by global block (column vertex, row vertex); the
         // stable sort keeps face order inside a block, which fixes the summation order.
@@ -78,19 +82,18 @@ impl Pattern {
         let mut grad: Vec<(u32, u32)> = Vec::with_capacity(n_faces * n_slots);
         for f in 0..n_faces {
             let v = stencils.vertices(f);
-            let base = f * stride;
             for s1 in 0..n_slots {
                 if !stencils.slot_present(f, s1) {
                     continue;
                 }
                 let v1 = v[s1].0;
-                grad.push((v1, (base + 3 * s1) as u32));
-                for s2 in 0..=s1 {
+                grad.push((v1, (f * grad_stride + 3 * s1) as u32));
+                for (s2, w) in v.iter().enumerate().take(s1 + 1) {
                     if !stencils.slot_present(f, s2) {
                         continue;
                     }
-                    let v2 = v[s2].0;
-                    let src = (base + grad_base + 9 * pair(s1, s2)) as u32;
+                    let v2 = w.0;
+                    let src = (f * hess_stride + 9 * pair(s1, s2)) as u32;
                     let (r, c) = (v1.max(v2), v1.min(v2));
                     if v1 == v2 && s1 != s2 {
                         // The same vertex in two slots (e.g. a tetrahedron's flaps): B + Bᵀ.
@@ -209,7 +212,8 @@ impl Pattern {
         Ok(Pattern {
             symbolic,
             diagonal,
-            stride,
+            grad_stride,
+            hess_stride,
             grad_ptr,
             grad_src,
             block_ptr,
