@@ -92,20 +92,7 @@ pub fn rectangle(width: f64, height: f64, nx: usize, ny: usize) -> Result<Mesh, 
             ));
         }
     }
-    let id = |i: usize, j: usize| j * (nx + 1) + i;
-    let mut faces = Vec::with_capacity(2 * nx * ny);
-    for j in 0..ny {
-        for i in 0..nx {
-            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
-            if (i + j) % 2 == 0 {
-                faces.push([a, b, c]);
-                faces.push([a, c, d]);
-            } else {
-                faces.push([a, b, d]);
-                faces.push([b, c, d]);
-            }
-        }
-    }
+    let faces = grid_faces(nx, ny, |i, j| j * (nx + 1) + i);
     Mesh::new(positions, faces)
 }
 
@@ -443,20 +430,7 @@ pub fn cylinder_patch(
             positions.push(Vector3::new(radius * th.cos(), radius * th.sin(), z));
         }
     }
-    let id = |i: usize, j: usize| j * n_theta + i % n_theta;
-    let mut faces = Vec::with_capacity(2 * n_around * n_along);
-    for j in 0..n_along {
-        for i in 0..n_around {
-            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
-            if (i + j) % 2 == 0 {
-                faces.push([a, b, c]);
-                faces.push([a, c, d]);
-            } else {
-                faces.push([a, b, d]);
-                faces.push([b, c, d]);
-            }
-        }
-    }
+    let faces = grid_faces(n_around, n_along, |i, j| j * n_theta + i % n_theta);
     Mesh::new(positions, faces)
 }
 
@@ -537,4 +511,23 @@ pub fn annulus(r_in: f64, r_out: f64, n_rings: usize, n_around: usize) -> Result
         prev = ring;
     }
     Mesh::new(positions, faces)
+}
+
+/// Triangles of an `nx × ny` grid of quads whose corner (i, j) is vertex `id(i, j)`, split along
+/// alternating diagonals (no preferred direction), counter-clockwise in (i, j).
+fn grid_faces(nx: usize, ny: usize, id: impl Fn(usize, usize) -> usize) -> Vec<[usize; 3]> {
+    let mut faces = Vec::with_capacity(2 * nx * ny);
+    for j in 0..ny {
+        for i in 0..nx {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            if (i + j) % 2 == 0 {
+                faces.push([a, b, c]);
+                faces.push([a, c, d]);
+            } else {
+                faces.push([a, b, d]);
+                faces.push([b, c, d]);
+            }
+        }
+    }
+    faces
 }
