@@ -27,9 +27,14 @@ fn shell_matrix(mesh: &Mesh) -> (SparseColMat<usize, f64>, Vec<[f64; 3]>) {
         bend: true,
         damping: false,
     };
-    let mut h = Assembler::new(mesh, &dofs, terms).unwrap().hessian_template();
+    let mut h = Assembler::new(mesh, &dofs, terms)
+        .unwrap()
+        .hessian_template();
     let n = h.ncols();
-    let (col_ptr, rows) = (h.symbolic().col_ptr().to_vec(), h.symbolic().row_idx().to_vec());
+    let (col_ptr, rows) = (
+        h.symbolic().col_ptr().to_vec(),
+        h.symbolic().row_idx().to_vec(),
+    );
     let mut offdiag = vec![0.0f64; n];
     for j in 0..n {
         for &i in &rows[col_ptr[j]..col_ptr[j + 1]] {
@@ -46,7 +51,9 @@ fn shell_matrix(mesh: &Mesh) -> (SparseColMat<usize, f64>, Vec<[f64; 3]>) {
         }
     }
     let x = mesh.positions();
-    let coords = (0..n).map(|d| [x[d / 3].x, x[d / 3].y, x[d / 3].z]).collect();
+    let coords = (0..n)
+        .map(|d| [x[d / 3].x, x[d / 3].y, x[d / 3].z])
+        .collect();
     (h, coords)
 }
 
