@@ -258,6 +258,12 @@ pub fn eval_face(
         if !need_grad {
             let b = sym_entries(&sff.b(stencil));
             energies(&b, &mut out.energy);
+        } else if mode.is_none() {
+            // Gradient only: reverse mode through b, no Jacobian.
+            let weights = |b: &Matrix2<f64>| (k_sum * sym_entries(b) - center) * 2.0;
+            let (b, _, g) = sff.b_and_weighted_gradient(stencil, &weights);
+            energies(&sym_entries(&b), &mut out.energy);
+            out.gradient += g;
         } else {
             // Gradient in b first needs b; the contracted Hessian needs that gradient as weights,
             // so for the exact Hessian b is evaluated once cheaply, then derivatives with weights.

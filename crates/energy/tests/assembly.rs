@@ -158,10 +158,12 @@ fn pins(mesh: &Mesh) -> DofMap {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(4))]
+    #![proptest_config(ProptestConfig::with_cases(cases_or(4)))]
 
     /// Assembled gradient (all coordinates, pinned included) vs central differences of the
-    /// total energy, step 1e-6 m on edges of ≈ 0.2 m; tolerance 1e-6 of the largest entry.
+    /// total energy, step 1e-7 m on edges of ≈ 0.2 m; tolerance 1e-6 of the largest entry.
+    /// (With step 1e-6 seed 815 misses by 5e-6 and the miss scales exactly as step², i.e. it is
+    /// the O(step²) truncation error of a strongly curved random configuration.)
     #[test]
     fn gradient_matches_finite_differences(seed in 0u64..1000) {
         let c = case(seed, 12);
@@ -170,7 +172,7 @@ proptest! {
         let g = gradient(&mut asm, &m, &c, &c.x);
         let q = flat(&c.x);
         let cell = std::cell::RefCell::new(asm);
-        let fd = thinshell_energy::fd::fd_gradient(|y| energy(&mut cell.borrow_mut(), &m, &c, &unflat(y)), &q, 1e-6);
+        let fd = thinshell_energy::fd::fd_gradient(|y| energy(&mut cell.borrow_mut(), &m, &c, &unflat(y)), &q, 1e-7);
         let scale = max_abs(g.iter().copied());
         prop_assert!(scale > 0.0);
         let err = max_abs(g.iter().zip(&fd).map(|(a, b)| a - b));
@@ -178,7 +180,7 @@ proptest! {
     }
 
     /// Assembled exact Hessian (free dofs, lower triangle) vs central differences of the
-    /// assembled gradient, step 1e-6 m; tolerance 1e-6 of the largest entry. Entries outside
+    /// assembled gradient, step 1e-7 m (see above); tolerance 1e-6 of the largest entry. Entries outside
     /// the pattern must vanish in the finite-difference Hessian too.
     #[test]
     fn hessian_matches_finite_differences(seed in 0u64..1000) {
@@ -191,7 +193,7 @@ proptest! {
         asm.evaluate(&m, &c.x, &c.rest, Some(&c.damping), EvalOutput { gradient: Some(&mut g), hessian: Some((&mut h, HessianMode::Exact)) }).unwrap();
         let hd = dense(&h);
         let q = flat(&c.x);
-        let step = 1e-6;
+        let step = 1e-7;
         let mut fd = DMatrix::zeros(dofs.n_free(), dofs.n_free());
         let mut gf = vec![0.0; dofs.n_free()];
         for (d, &coord) in dofs.free_coordinates().iter().enumerate() {
@@ -659,4 +661,12 @@ fn gather_alone_reproduces_hessian() {
     asm.gather_hessian(&mut h2).unwrap();
     assert_eq!(h.val(), h2.val());
     assert!(h.val().iter().any(|&v| v != 0.0));
+}
+
+/// `PROPTEST_CASES` when set (to hunt bugs locally), else the modest default for CI.
+fn cases_or(default: u32) -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
 }

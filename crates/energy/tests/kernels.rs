@@ -131,7 +131,7 @@ fn damping_of(s: &FaceStencil) -> FaceDamping {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
+    #![proptest_config(ProptestConfig::with_cases(cases_or(48)))]
 
     /// Jacobian of b and contracted Hessian Σ w_k ∇²b_k vs central differences, all boundary masks.
     #[test]
@@ -177,6 +177,10 @@ proptest! {
         // e.g. bending with all edges on the boundary, leaving only FD round-off to compare.
         let floor = 1e-2 * out.energy.total().abs();
         prop_assert!(rel_err_scaled(out.gradient.as_slice(), &g, floor) < TOL);
+        // The gradient-only path (reverse mode through b) equals the forward one to round-off.
+        let g_only = eval(&s, &r, Some(&damp), t, None);
+        prop_assert!(rel_err_scaled(g_only.gradient.as_slice(), out.gradient.as_slice(), floor) < 1e-10);
+        prop_assert!((g_only.energy.total() - out.energy.total()).abs() <= 1e-14 * out.energy.total().abs());
         let hfd = fd_jacobian(|v| eval(&unflat(&s, v), &r, Some(&damp), t, None).gradient.iter().copied().collect(), &x0, FD_H);
         let hfd: Vec<f64> = hfd.into_iter().flatten().collect();
         let han: Vec<f64> = (0..18).flat_map(|r| (0..18).map(move |c| (r, c))).map(|(i, j)| out.hessian[(i, j)]).collect();
@@ -358,4 +362,12 @@ fn cylinder_bending_energy_close_to_exact() {
     let exact = m.thickness.powi(3) / 24.0 * (0.5 * m.alpha() + m.beta()) * a.determinant().sqrt();
     let rel = (out.energy.bend - exact).abs() / exact;
     assert!(rel < 0.5, "relative discretisation error {rel}");
+}
+
+/// `PROPTEST_CASES` when set (to hunt bugs locally), else the modest default for CI.
+fn cases_or(default: u32) -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
 }

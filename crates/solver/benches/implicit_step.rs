@@ -59,7 +59,12 @@ fn bench(c: &mut Criterion) {
         group.bench_function(format!("{faces}_faces"), |b| {
             b.iter(|| {
                 let mut s = state0.clone();
-                black_box(ie.step(&mut sys, &mut s).unwrap().newton.map(|n| n.iterations))
+                black_box(
+                    ie.step(&mut sys, &mut s)
+                        .unwrap()
+                        .newton
+                        .map(|n| n.iterations),
+                )
             })
         });
     }

@@ -49,7 +49,8 @@ fn decay(a_xy: Matrix2<f64>, start: Matrix2<f64>) -> (f64, f64, f64) {
             Vector3::new(r.x, r.y, 0.0)
         })
         .collect();
-    let mut sys = ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default()).unwrap();
+    let mut sys =
+        ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default()).unwrap();
     let mut state = State::at_rest(x0);
     let mut ie = ImplicitEuler::new(1e-4);
     let e0 = metric_rms(&p, &state.x, a_xy);
@@ -59,7 +60,10 @@ fn decay(a_xy: Matrix2<f64>, start: Matrix2<f64>) -> (f64, f64, f64) {
         // Line search on: Φ never increases within a solve.
         let newton = r.newton.unwrap();
         for w in newton.values.windows(2) {
-            assert!(w[1] <= w[0] + 1e-12 * w[0].abs().max(1.0), "Φ increased: {w:?}");
+            assert!(
+                w[1] <= w[0] + 1e-12 * w[0].abs().max(1.0),
+                "Φ increased: {w:?}"
+            );
         }
         if step == 49 {
             mid = metric_rms(&p, &state.x, a_xy);
@@ -71,7 +75,9 @@ fn decay(a_xy: Matrix2<f64>, start: Matrix2<f64>) -> (f64, f64, f64) {
 #[test]
 fn damped_implicit_euler_decays_to_the_enlarged_square() {
     let (e0, mid, end) = decay(Matrix2::identity() * 4.0, Matrix2::identity() * 1.95);
-    println!("enlarged square: metric error {e0:.3e} → {mid:.3e} (t = 5 ms) → {end:.3e} (t = 20 ms)");
+    println!(
+        "enlarged square: metric error {e0:.3e} → {mid:.3e} (t = 5 ms) → {end:.3e} (t = 20 ms)"
+    );
     // Start: side 1.95 instead of 2 → squared lengths off by 1 − 0.95² ≈ 4.9 %.
     assert!((e0 - (1.0 - 0.975f64.powi(2))).abs() < 1e-9, "{e0}");
     assert!(mid < e0, "{mid} !< {e0}");

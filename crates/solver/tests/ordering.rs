@@ -98,7 +98,7 @@ fn grid_top_separator_splits_the_grid() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(32))]
+    #![proptest_config(ProptestConfig::with_cases(cases_or(32)))]
     #[test]
     fn random_graphs_give_permutations(
         n in 1usize..200,
@@ -122,4 +122,12 @@ proptest! {
             prop_assert_eq!(inv[old], new);
         }
     }
+}
+
+/// `PROPTEST_CASES` when set (to hunt bugs locally), else the modest default for CI.
+fn cases_or(default: u32) -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
 }

@@ -5,7 +5,7 @@ mod mid_edge_average;
 pub use mid_edge_average::MidEdgeAverage;
 
 use crate::kernel::FaceStencil;
-use nalgebra::{Matrix2, SMatrix};
+use nalgebra::{Matrix2, SMatrix, SVector, Vector3};
 
 /// Output of [`SecondFundamentalForm::b_derivatives`].
 #[derive(Clone, Debug)]
@@ -31,6 +31,19 @@ pub trait SecondFundamentalForm: Sync {
         stencil: &FaceStencil,
         hessian: Option<(&nalgebra::Vector3<f64>, &mut SMatrix<f64, 18, 18>)>,
     ) -> SffDerivatives;
+
+    /// b and the gradient of w·b = Σ_k w_k b_k (18 entries) for weights w = (w11, w12, w22)
+    /// computed from b by `weights`. Implementations should avoid forming the Jacobian (reverse
+    /// mode); the default goes through [`b_derivatives`](Self::b_derivatives).
+    fn b_and_weighted_gradient(
+        &self,
+        stencil: &FaceStencil,
+        weights: &dyn Fn(&Matrix2<f64>) -> Vector3<f64>,
+    ) -> (Matrix2<f64>, Vector3<f64>, SVector<f64, 18>) {
+        let d = self.b_derivatives(stencil, None);
+        let w = weights(&d.b);
+        (d.b, w, d.jacobian.transpose() * w)
+    }
 }
 
 /// Choice of second fundamental form discretisation.
