@@ -26,6 +26,9 @@ const COEF: [[(f64, f64); 3]; 3] = [
     [(0.0, -2.0), (0.0, 0.0), (0.0, 2.0)],
 ];
 
+/// Per interior edge: (unit n_e, |n_f + n_g|, unit n_g, |c_g|).
+type InteriorEdge = (Vector3<f64>, f64, Vector3<f64>, f64);
+
 /// 3×18 matrix stored as six 3×3 blocks (one per stencil vertex).
 type Blocks = [Matrix3<f64>; 6];
 
@@ -137,7 +140,7 @@ impl SecondFundamentalForm for MidEdgeAverage {
         let lf = cf.norm();
         let nf = cf / lf;
         // Interior edges: (s = n_f + n_g, |s|, n_g, |c_g|).
-        let mut inner: [Option<(Vector3<f64>, f64, Vector3<f64>, f64)>; 3] = [None; 3];
+        let mut inner: [Option<InteriorEdge>; 3] = [None; 3];
         let mut n = [nf; 3];
         for e in 0..3 {
             if s.flap[e] {
