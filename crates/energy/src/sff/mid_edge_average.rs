@@ -26,6 +26,14 @@ const COEF: [[(f64, f64); 3]; 3] = [
     [(0.0, -2.0), (0.0, 0.0), (0.0, 2.0)],
 ];
 
+/// (A_e, B_e) = Σ_k w_k (α_ke, β_ke): Σ_k w_k b_k = Σ_e n_e·(A_e e1 + B_e e2).
+#[inline]
+fn edge_weights(w: &Vector3<f64>, e: usize) -> (f64, f64) {
+    (0..3).fold((0.0, 0.0), |(a, b), k| {
+        (a + w[k] * COEF[k][e].0, b + w[k] * COEF[k][e].1)
+    })
+}
+
 /// Per interior edge: (unit n_e, |n_f + n_g|, unit n_g, |c_g|).
 type InteriorEdge = (Vector3<f64>, f64, Vector3<f64>, f64);
 
@@ -171,11 +179,7 @@ impl SecondFundamentalForm for MidEdgeAverage {
         let pull = |m: &Vector3<f64>, len: f64, v: &Vector3<f64>| (v - m * m.dot(v)) / len;
         let mut mu_f = Vector3::zeros();
         for e in 0..3 {
-            let (mut ca, mut cb) = (0.0, 0.0);
-            for k in 0..3 {
-                ca += w[k] * COEF[k][e].0;
-                cb += w[k] * COEF[k][e].1;
-            }
+            let (ca, cb) = edge_weights(&w, e);
             if ca == 0.0 && cb == 0.0 {
                 continue;
             }
@@ -290,11 +294,7 @@ impl SecondFundamentalForm for MidEdgeAverage {
             // Σ_k w_k b_k = Σ_e n_e·p_e, p_e = A_e e1 + B_e e2 (linear in positions).
             let mut mu_f = Vector3::zeros();
             for e in 0..3 {
-                let (mut ca, mut cb) = (0.0, 0.0);
-                for k in 0..3 {
-                    ca += w[k] * COEF[k][e].0;
-                    cb += w[k] * COEF[k][e].1;
-                }
+                let (ca, cb) = edge_weights(w, e);
                 let p = e1 * ca + e2 * cb;
                 // Mixed term J_neᵀ J_pe + J_peᵀ J_ne; J_pe blocks: x0 −(A+B) I, x1 A I, x2 B I.
                 let cp = [-(ca + cb), ca, cb];
