@@ -104,6 +104,29 @@ impl ShellSystem {
         &self.mass
     }
 
+    /// Replaces the lumped vertex masses (kg), e.g. when a stimulus adds mass, and recomputes
+    /// the external forces that depend on them (gravity). Errors on a length mismatch or a mass
+    /// that is not positive and finite.
+    pub fn set_mass(&mut self, mass: Vec<f64>) -> Result<(), SolverError> {
+        if mass.len() != self.mesh.n_vertices() {
+            return Err(SolverError::InvalidSetting {
+                name: "mass.len",
+                value: mass.len() as f64,
+                requirement: "one mass per vertex",
+            });
+        }
+        if let Some(&m) = mass.iter().find(|m| !(m.is_finite() && **m > 0.0)) {
+            return Err(SolverError::InvalidSetting {
+                name: "mass",
+                value: m,
+                requirement: "must be positive and finite",
+            });
+        }
+        self.f_ext = self.loads.forces(&mass)?;
+        self.mass = mass;
+        Ok(())
+    }
+
     /// External force per coordinate (N).
     pub fn external_forces(&self) -> &[f64] {
         &self.f_ext

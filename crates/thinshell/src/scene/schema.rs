@@ -272,9 +272,19 @@ pub struct GrowthSpec {
     /// b̄ exponent p of isotropic growth (default 0, the seed's).
     #[serde(default)]
     pub p: Option<f64>,
-    /// Swelling coefficient c per unit stimulus (linear, bilayer).
+    /// Swelling coefficient c per unit stimulus (linear, bilayer; along `direction` if given).
     #[serde(default)]
     pub coefficient: Option<f64>,
+    /// Material direction (swelling models): the stretch is `1 + c·m` along it (projected onto
+    /// each face) and `1 + cross_coefficient·m` across it.
+    #[serde(default)]
+    pub direction: Option<[f64; 3]>,
+    /// Swelling coefficient across `direction` (required with it).
+    #[serde(default)]
+    pub cross_coefficient: Option<f64>,
+    /// Mass added per unit volume and unit stimulus, kg/m³ (moisture soaking in); default none.
+    #[serde(default)]
+    pub mass_uptake: Option<f64>,
     /// Where the stimulus comes from.
     pub stimulus: StimulusSpec,
 }

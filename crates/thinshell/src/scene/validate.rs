@@ -400,7 +400,42 @@ fn growth(s: &SceneFile, growth_on: bool, diffusion_on: bool) -> Check {
                 problem("growth.coefficient", "is required by the swelling models")
             })?;
             finite("growth.coefficient", c)?;
+            match (&g.direction, g.cross_coefficient) {
+                (None, None) => {}
+                (Some(d), Some(cc)) => {
+                    finite("growth.cross_coefficient", cc)?;
+                    for (i, v) in d.iter().enumerate() {
+                        finite(&format!("growth.direction[{i}]"), *v)?;
+                    }
+                    if d.iter().all(|v| *v == 0.0) {
+                        return Err(problem("growth.direction", "must not be zero"));
+                    }
+                }
+                (Some(_), None) => {
+                    return Err(problem(
+                        "growth.cross_coefficient",
+                        "is required with `direction` (anisotropic swelling)",
+                    ));
+                }
+                (None, Some(_)) => {
+                    return Err(problem(
+                        "growth.direction",
+                        "is required with `cross_coefficient` (anisotropic swelling)",
+                    ));
+                }
+            }
         }
+    }
+    if g.model == GrowthModelKind::Isotropic {
+        absent("growth.direction", &g.direction, "to isotropic growth")?;
+        absent(
+            "growth.cross_coefficient",
+            &g.cross_coefficient,
+            "to isotropic growth",
+        )?;
+    }
+    if let Some(rho) = g.mass_uptake {
+        finite("growth.mass_uptake", rho)?;
     }
     let st = &g.stimulus;
     let k = "growth.stimulus";

@@ -8,10 +8,19 @@ use thinshell_solver::{
     ShellSystem, SolverError, State, Static,
 };
 
+use thinshell_growth::{
+    Anisotropy, Diffusion, DiffusionSettings, DiffusionSource, DirectedHeat, FaceStimulus, Growth,
+    GrowthError, GrowthModel, Isotropic, Prescribed as PrescribedStimulus, Region, SourceKind,
+    StimulusField, Surface, Swelling,
+};
+
 use super::Simulation;
 use crate::reference::{map_xy, wrap_cylinder};
 use crate::scene::Scene;
-use crate::scene::schema::{Effect, HessianSpec, IntegratorKind, MeshSpec, RegionSpec, RestSource};
+use crate::scene::schema::{
+    Effect, GrowthModelKind, GrowthSpec, HessianSpec, IntegratorKind, MeshSpec, RegionSpec,
+    RestSource, StimulusKind, Surface as SceneSurface,
+};
 
 /// Why a scene could not be turned into a simulation.
 #[derive(Debug, thiserror::Error)]
@@ -32,6 +41,14 @@ pub enum BuildError {
         origin: String,
         /// Why.
         source: EnergyError,
+    },
+    /// Growth model or stimulus set-up failed.
+    #[error("{origin}: growth: {source}")]
+    Growth {
+        /// The scene.
+        origin: String,
+        /// Why.
+        source: GrowthError,
     },
     /// Solver settings rejected.
     #[error("{origin}: solver: {source}")]
@@ -158,20 +175,6 @@ impl Simulation {
             origin: origin.clone(),
             source,
         };
-        for (effect, key) in [
-            (Effect::Growth, "growth"),
-            (Effect::Diffusion, "growth.stimulus"),
-        ] {
-            if on(effect) {
-                return Err(invalid(
-                    key,
-                    format!(
-                        "effect `{}` is not supported by the scene runner yet",
-                        effect.key()
-                    ),
-                ));
-            }
-        }
         let mesh = make_mesh(scene, &s.mesh).map_err(|source| BuildError::Mesh {
             origin: origin.clone(),
             source,
@@ -360,6 +363,17 @@ impl Simulation {
         }
         let diameter = (hi - lo).norm().max(f64::MIN_POSITIVE);
         let edge = diameter / (mesh.n_faces() as f64).sqrt().max(1.0);
+        let growth = match s.growth.as_ref().filter(|_| on(Effect::Growth)) {
+            Some(g) => Some(
+                build_growth(g, &mesh, &x_ref, &rest, material.thickness).map_err(|source| {
+                    BuildError::Growth {
+                        origin: origin.clone(),
+                        source,
+                    }
+                })?,
+            ),
+            None => None,
+        };
         let energy = elastic_energy(&mesh, &model, &rest, &x).map_err(energy_err)?;
         let mut system =
             ShellSystem::new(mesh, model, rest, boundary, loads).map_err(solver_err)?;
@@ -399,7 +413,130 @@ impl Simulation {
             steps_done: 0,
             steps_total: steps,
             energy,
+            growth,
         })
+    }
+}
+
+fn v3(a: &[f64; 3]) -> Vector3<f64> {
+    Vector3::new(a[0], a[1], a[2])
+}
+
+/// The scene's region as a growth-crate region (validation guarantees exactly one key).
+fn region_of(spec: &RegionSpec) -> Region {
+    if let Some(h) = &spec.half_space {
+        Region::HalfSpace {
+            point: v3(&h.point),
+            normal: v3(&h.normal),
+        }
+    } else if let Some(b) = &spec.sphere {
+        Region::Ball {
+            center: v3(&b.center),
+            radius: b.radius,
+        }
+    } else if let Some(b) = &spec.aabb {
+        Region::Box {
+            min: v3(&b.min),
+            max: v3(&b.max),
+        }
+    } else if let Some(v) = &spec.vertices {
+        Region::Vertices(v.clone())
+    } else {
+        Region::All
+    }
+}
+
+/// Growth model and stimulus field of a validated `[growth]` section.
+fn build_growth(
+    g: &GrowthSpec,
+    mesh: &Mesh,
+    x_ref: &[Vector3<f64>],
+    rest: &RestState,
+    thickness: f64,
+) -> Result<Growth, GrowthError> {
+    let model: Box<dyn GrowthModel> = match g.model {
+        GrowthModelKind::Isotropic => Box::new(Isotropic {
+            p: g.p.unwrap_or(0.0),
+            coefficient: 1.0,
+        }),
+        GrowthModelKind::Linear | GrowthModelKind::Bilayer => {
+            let c = g.coefficient.unwrap_or(0.0);
+            let mut sw = if g.model == GrowthModelKind::Linear {
+                Swelling::linear(c)
+            } else {
+                Swelling::bilayer(c)
+            };
+            if let Some(d) = &g.direction {
+                let cross = g.cross_coefficient.unwrap_or(c);
+                sw.anisotropy = Some(Anisotropy::along(mesh, x_ref, v3(d), cross)?);
+            }
+            Box::new(sw)
+        }
+    };
+    let st = &g.stimulus;
+    let field: Box<dyn StimulusField> = match st.kind {
+        StimulusKind::Uniform => {
+            let m = match (st.value, st.top, st.bottom) {
+                (Some(v), _, _) => FaceStimulus::uniform(v),
+                (None, t, b) => FaceStimulus {
+                    top: t.unwrap_or(0.0),
+                    bottom: b.unwrap_or(0.0),
+                },
+            };
+            Box::new(PrescribedStimulus::uniform(mesh.n_faces(), m)?)
+        }
+        StimulusKind::DirectedHeat => {
+            let hot = st.hot.as_ref().map_or(Region::Faces(Vec::new()), region_of);
+            let held = st
+                .held
+                .as_ref()
+                .map_or(Region::Faces(Vec::new()), region_of);
+            Box::new(DirectedHeat::new(
+                mesh,
+                x_ref,
+                &hot,
+                &held,
+                st.value.unwrap_or(0.0),
+            )?)
+        }
+        StimulusKind::Diffusion => {
+            let mut sources = Vec::with_capacity(st.sources.len());
+            for (i, src) in st.sources.iter().enumerate() {
+                let faces = src
+                    .region
+                    .as_ref()
+                    .map_or(Region::All, region_of)
+                    .faces(mesh, x_ref)?;
+                if !faces.iter().any(|&f| f) {
+                    return Err(GrowthError::EmptyRegion {
+                        name: format!("growth.stimulus.sources[{i}].region"),
+                    });
+                }
+                sources.push(DiffusionSource {
+                    surface: match src.surface {
+                        SceneSurface::Top => Surface::Top,
+                        SceneSurface::Bottom => Surface::Bottom,
+                    },
+                    faces,
+                    kind: match (src.value, src.flux) {
+                        (Some(v), _) => SourceKind::Value(v),
+                        (None, f) => SourceKind::Flux(f.unwrap_or(0.0)),
+                    },
+                });
+            }
+            let settings = DiffusionSettings {
+                diffusivity: st.diffusivity.unwrap_or(0.0),
+                thickness,
+                layers: st.layers.unwrap_or(2),
+                initial: 0.0,
+            };
+            Box::new(Diffusion::new(mesh, rest, settings, &sources)?)
+        }
+    };
+    let growth = Growth::new(model, field, rest.clone(), thickness)?;
+    match g.mass_uptake {
+        Some(rho) => growth.with_mass_uptake(rho),
+        None => Ok(growth),
     }
 }
 

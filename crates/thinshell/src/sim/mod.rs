@@ -21,6 +21,7 @@ use std::time::{Duration, Instant};
 use nalgebra::Vector3;
 use serde::Serialize;
 use thinshell_energy::{EnergyTerms, ShellModel};
+use thinshell_growth::{Growth, GrowthError, blend_rest};
 use thinshell_mesh::Mesh;
 use thinshell_solver::{Integrator, ShellSystem, SolverError, State};
 
@@ -124,10 +125,25 @@ pub struct StepError {
     pub step: usize,
     /// Time at the start of the failed step, s.
     pub time: f64,
-    /// Why (a Newton failure carries its residual history).
+    /// Why.
     #[source]
-    pub source: SolverError,
+    pub source: StepFailure,
 }
+
+/// What failed in a step.
+#[derive(Debug, thiserror::Error)]
+pub enum StepFailure {
+    /// The elastic solve (a Newton failure carries its residual history and last iterate).
+    #[error(transparent)]
+    Solver(#[from] SolverError),
+    /// The growth update or the stimulus step.
+    #[error("growth: {0}")]
+    Growth(#[from] GrowthError),
+}
+
+/// Halvings of the rest-form change a quasi-static step may take before it gives up
+/// (the last sub-step moves 1/64 of the change).
+const MAX_CONTINUATION_HALVINGS: u32 = 6;
 
 /// A built simulation: the shell system (mesh, energy terms, rest state, boundary conditions,
 /// loads), its state and the integrator the scene chose.
@@ -143,6 +159,7 @@ pub struct Simulation {
     pub(crate) steps_done: usize,
     pub(crate) steps_total: usize,
     pub(crate) energy: EnergyTerms,
+    pub(crate) growth: Option<Growth>,
 }
 
 impl Simulation {
@@ -199,6 +216,12 @@ impl Simulation {
     pub fn system(&self) -> &ShellSystem {
         &self.system
     }
+    /// Mutable access to the shell system, for callers that change rest forms, loads or
+    /// boundary conditions between steps themselves (growth, when on, rewrites the rest forms
+    /// whenever its stimulus changes).
+    pub fn system_mut(&mut self) -> &mut ShellSystem {
+        &mut self.system
+    }
     /// The integrator.
     pub fn integrator(&self) -> IntegratorKind {
         self.kind
@@ -206,6 +229,10 @@ impl Simulation {
     /// Time step, s.
     pub fn dt(&self) -> f64 {
         self.dt
+    }
+    /// The growth coupling, when the scene has the `growth` effect.
+    pub fn growth(&self) -> Option<&Growth> {
+        self.growth.as_ref()
     }
 
     /// Kinetic energy ½ Σ λ_i |v_i|², J.
@@ -250,14 +277,43 @@ impl Simulation {
     }
 
     /// Takes one step with the scene's integrator; on failure the state is unchanged.
+    ///
+    /// With growth, the step is: rest forms (and masses, if the stimulus adds mass) from the
+    /// current stimulus → elastic step → stimulus step. A quasi-static step whose Newton solve
+    /// fails after the rest forms changed is retried by continuation: the rest forms move from
+    /// their previous to their new values in up to 2⁶ sub-steps.
     pub fn step(&mut self) -> Result<StepRecord, StepError> {
         let start = Instant::now();
         let step = self.steps_done + 1;
         let time = self.state.t;
-        let report = self
-            .integrator
-            .step(&mut self.system, &mut self.state)
-            .map_err(|source| StepError { step, time, source })?;
+        let fail = |source: StepFailure| StepError { step, time, source };
+        let mut previous_rest = None;
+        if let Some(g) = &mut self.growth {
+            let before = self.system.rest.clone();
+            if g.update_rest(&mut self.system.rest)
+                .map_err(|e| fail(e.into()))?
+            {
+                previous_rest = Some(before);
+            }
+            if let Some(mass) = g
+                .update_mass(&self.system.mesh, &self.system.model.material)
+                .map_err(|e| fail(e.into()))?
+            {
+                self.system.set_mass(mass).map_err(|e| fail(e.into()))?;
+            }
+        }
+        let report = match self.integrator.step(&mut self.system, &mut self.state) {
+            Ok(r) => r,
+            Err(first) => match previous_rest.filter(|_| self.kind == IntegratorKind::Static) {
+                Some(previous) => self
+                    .continuation(&previous)
+                    .map_err(|_| fail(first.into()))?,
+                None => return Err(fail(first.into())),
+            },
+        };
+        if let Some(g) = &mut self.growth {
+            g.advance(time, self.dt).map_err(|e| fail(e.into()))?;
+        }
         if self.kind == IntegratorKind::Static {
             // Quasi-static: the pseudo-time advances by one step per solve.
             self.state.t = time + self.dt;
@@ -282,6 +338,47 @@ impl Simulation {
         }
         record.wall_s = secs(start.elapsed());
         Ok(record)
+    }
+}
+
+impl Simulation {
+    /// Quasi-static continuation from rest forms `previous` to the current ones; returns the
+    /// report of the last sub-step with the Newton iterations of all sub-steps.
+    fn continuation(
+        &mut self,
+        previous: &thinshell_energy::RestState,
+    ) -> Result<thinshell_solver::StepReport, SolverError> {
+        let target = self.system.rest.clone();
+        let (mut done, mut step) = (0.0f64, 0.5f64);
+        let mut iterations = 0;
+        loop {
+            let s = (done + step).min(1.0);
+            blend_rest(previous, &target, s, &mut self.system.rest)
+                .map_err(|e| SolverError::Objective(e.to_string()))?;
+            let mut trial = self.state.clone();
+            match self.integrator.step(&mut self.system, &mut trial) {
+                Ok(mut report) => {
+                    self.state = trial;
+                    done = s;
+                    if let Some(n) = report.newton.as_mut() {
+                        iterations += n.iterations;
+                        if done >= 1.0 {
+                            n.iterations = iterations;
+                            return Ok(report);
+                        }
+                    } else if done >= 1.0 {
+                        return Ok(report);
+                    }
+                }
+                Err(e) => {
+                    if step <= 0.5f64.powi(MAX_CONTINUATION_HALVINGS as i32) {
+                        self.system.rest = target;
+                        return Err(e);
+                    }
+                    step /= 2.0;
+                }
+            }
+        }
     }
 }
 
