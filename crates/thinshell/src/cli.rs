@@ -83,6 +83,7 @@ struct Writer {
     dir: PathBuf,
     every: usize,
     obj: bool,
+    vtk: Option<crate::vtk::Series>,
     csv: std::io::BufWriter<std::fs::File>,
     bar: Option<ProgressBar>,
     error: Option<String>,
@@ -91,13 +92,47 @@ struct Writer {
 
 impl Writer {
     fn frame(&mut self, sim: &Simulation) {
-        if !self.obj || self.error.is_some() {
+        if self.error.is_some() {
             return;
         }
-        let path = self.dir.join(format!("frame_{:06}.obj", sim.steps_done()));
-        if let Err(e) = thinshell_mesh::io::save_obj(&path, sim.mesh(), sim.positions()) {
-            self.error = Some(format!("{}: {e}", path.display()));
-        } else {
+        let step = sim.steps_done();
+        if self.obj {
+            let path = self.dir.join(format!("frame_{step:06}.obj"));
+            if let Err(e) = thinshell_mesh::io::save_obj(&path, sim.mesh(), sim.positions()) {
+                self.error = Some(format!("{}: {e}", path.display()));
+                return;
+            }
+        }
+        if let Some(series) = &mut self.vtk {
+            let displacement: Vec<_> = sim
+                .positions()
+                .iter()
+                .zip(sim.reference_positions())
+                .map(|(x, x0)| x - x0)
+                .collect();
+            let mut cell_scalars = Vec::new();
+            if let Some(g) = sim.growth() {
+                cell_scalars.push(("stimulus_top", g.stimulus().iter().map(|m| m.top).collect()));
+                cell_scalars.push((
+                    "stimulus_bottom",
+                    g.stimulus().iter().map(|m| m.bottom).collect(),
+                ));
+            }
+            let frame = crate::vtk::Frame {
+                mesh: sim.mesh(),
+                points: sim.positions(),
+                point_vectors: vec![
+                    ("displacement", &displacement),
+                    ("velocity", sim.velocities()),
+                ],
+                cell_scalars,
+            };
+            if let Err(e) = series.write(&format!("frame_{step:06}.vtu"), sim.time(), &frame) {
+                self.error = Some(e.to_string());
+                return;
+            }
+        }
+        if self.obj || self.vtk.is_some() {
             self.frames += 1;
         }
     }
@@ -143,7 +178,7 @@ impl Observer for Writer {
     }
 }
 
-/// `thinshell run SCENE`: runs a scene, writing frames (OBJ), `steps.csv` and `summary.json`
+/// `thinshell run SCENE`: runs a scene, writing frames (OBJ and/or VTK), `steps.csv` and `summary.json`
 /// into `out` (default `out/<scene name>`). Ctrl-C (the `stop` flag) ends the run cleanly after
 /// the current step.
 pub fn run(
@@ -176,6 +211,12 @@ pub fn run(
         dir: dir.clone(),
         every: scene.file.output.every,
         obj: scene.file.output.formats.contains(&Format::Obj),
+        vtk: scene
+            .file
+            .output
+            .formats
+            .contains(&Format::Vtk)
+            .then(|| crate::vtk::Series::new(&dir, "frames")),
         csv,
         bar,
         error: None,

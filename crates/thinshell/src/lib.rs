@@ -10,3 +10,4 @@ pub mod mesh_info;
 pub mod reference;
 pub mod scene;
 pub mod sim;
+pub mod vtk;

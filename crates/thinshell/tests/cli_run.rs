@@ -109,23 +109,14 @@ fn check_prints_what_would_be_simulated() {
 }
 
 #[test]
-fn every_shipped_scene_passes_check_or_says_why_not() {
+fn every_shipped_scene_passes_check() {
     let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes");
     for entry in std::fs::read_dir(scenes).unwrap() {
         let p = entry.unwrap().path();
         let out = bin().arg("check").arg(&p).output().unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         let name = p.file_name().unwrap().to_string_lossy().to_string();
-        if name.starts_with("square_") {
-            assert!(out.status.success(), "{name}: {err}");
-        } else {
-            // Growth scenes need the growth crate in the runner (not yet wired): a clear
-            // bad-input error, never a crash.
-            assert!(
-                out.status.success() || out.status.code() == Some(2),
-                "{name}: {err}"
-            );
-        }
+        assert!(out.status.success(), "{name}: {err}");
     }
 }
 

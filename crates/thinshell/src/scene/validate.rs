@@ -720,12 +720,6 @@ fn output(o: &OutputSpec) -> Check {
         if !seen.insert(*f) {
             return Err(problem(format!("output.formats[{i}]"), "is listed twice"));
         }
-        if *f == Format::Vtk {
-            return Err(problem(
-                format!("output.formats[{i}]"),
-                "`vtk` output is not available yet (use \"obj\")",
-            ));
-        }
     }
     Ok(())
 }
