@@ -4,8 +4,10 @@
 //! - `bench-square`: the seed's three square experiments, the seed's way and the fast way.
 //! - `bench-sphere`: the seed's two sphere experiments with energy plots and rendered shapes.
 
+mod bench_sphere;
 mod bench_square;
 mod plot;
+mod render;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -26,6 +28,13 @@ enum Task {
     /// analytic equilibrium. Writes target/xtask/bench-square.json and energy plots.
     BenchSquare {
         /// Only the fast methods (skips the 1000-step seed runs).
+        #[arg(long)]
+        quick: bool,
+    },
+    /// The seed's sphere experiments (uniform and directed heat, 2000 implicit steps of 5e-6 s):
+    /// energy plot and rendered shapes at five times under target/xtask/.
+    BenchSphere {
+        /// 200 steps instead of 2000.
         #[arg(long)]
         quick: bool,
     },
@@ -52,6 +61,7 @@ fn main() -> ExitCode {
     let args = Args::parse();
     let result = match args.task {
         Task::BenchSquare { quick } => bench_square::run(quick),
+        Task::BenchSphere { quick } => bench_sphere::run(quick),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

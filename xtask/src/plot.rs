@@ -53,13 +53,18 @@ pub struct Chart {
 
 const SIZE: (u32, u32) = (900, 560);
 
-/// Writes `stem.svg` and `stem.png`; returns both paths.
-pub fn save(chart: &Chart, stem: &Path) -> Result<Vec<PathBuf>> {
+/// Registers the bundled font for PNG text (once per process).
+pub fn register_font() {
     REGISTER.call_once(|| {
         // The only failure is an invalid font file, which `include_bytes!` rules out in practice;
         // if it happens anyway, PNG text falls back to nothing rather than aborting the task.
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
     });
+}
+
+/// Writes `stem.svg` and `stem.png`; returns both paths.
+pub fn save(chart: &Chart, stem: &Path) -> Result<Vec<PathBuf>> {
+    register_font();
     if let Some(dir) = stem.parent() {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
