@@ -120,7 +120,6 @@ fn region_vertices(
     region: &RegionSpec,
     x: &[Vector3<f64>],
 ) -> Result<Vec<usize>, BuildError> {
-    let v3 = |a: &[f64; 3]| Vector3::new(a[0], a[1], a[2]);
     let inside: Vec<usize> = if let Some(list) = &region.vertices {
         if let Some(&bad) = list.iter().find(|&&i| i >= x.len()) {
             return Err(BuildError::Invalid {
@@ -130,20 +129,10 @@ fn region_vertices(
             });
         }
         list.clone()
-    } else if let Some(h) = &region.half_space {
-        let (p, n) = (v3(&h.point), v3(&h.normal));
-        (0..x.len()).filter(|&i| (x[i] - p).dot(&n) > 0.0).collect()
-    } else if let Some(s) = &region.sphere {
-        let c = v3(&s.center);
-        (0..x.len())
-            .filter(|&i| (x[i] - c).norm() < s.radius)
-            .collect()
-    } else if let Some(b) = &region.aabb {
-        (0..x.len())
-            .filter(|&i| (0..3).all(|k| b.min[k] <= x[i][k] && x[i][k] <= b.max[k]))
-            .collect()
     } else {
-        Vec::new()
+        // The same geometric predicates as the growth crate's regions (half-space, ball, box).
+        let r = region_of(region);
+        (0..x.len()).filter(|&i| r.contains(&x[i])).collect()
     };
     if inside.is_empty() {
         return Err(BuildError::Invalid {
