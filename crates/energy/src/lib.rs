@@ -60,6 +60,7 @@
 
 pub mod assembly;
 pub mod density;
+pub mod director;
 pub mod dofs;
 pub mod error;
 pub mod fd;
@@ -73,6 +74,7 @@ pub mod shell;
 pub mod stencils;
 
 pub use assembly::{Assembler, EvalOutput};
+pub use director::{DirectorFaceEval, edge_signs, eval_director_bend};
 pub use dofs::DofMap;
 pub use error::EnergyError;
 pub use forms::first_fundamental_form;
@@ -82,7 +84,9 @@ pub use kernel::{
 pub use mass::lumped_mass;
 pub use material::Material;
 pub use rest::{DampingState, RestState};
-pub use sff::{MidEdgeAverage, SecondFundamentalForm, SffKind};
+pub use sff::{
+    DirectorVariant, EdgeAngles, EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind,
+};
 pub use shell::ShellModel;
 pub use stencils::Stencils;
 
