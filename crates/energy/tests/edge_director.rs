@@ -622,6 +622,9 @@ fn perturbed_rectangle(n: usize, seed: u64) -> Mesh {
     mesh.with_positions(x).unwrap()
 }
 
+/// A mesh of [0, 1]² at resolution n.
+type MeshFamily = fn(usize) -> Mesh;
+
 /// Consistency on the unit cylinder (issue #9, model.md §1.1): patch [0, 1]² mapped onto the
 /// cylinder, exact rest forms, positions fixed, edge angles minimising the bending energy.
 /// Relative mismatch Σ A‖ā^{-1/2}(b − b̄)ā^{-1/2}‖² / Σ A‖ā^{-1/2}b̄ā^{-1/2}‖² measured for
@@ -641,7 +644,7 @@ fn perturbed_rectangle(n: usize, seed: u64) -> Mesh {
 /// interior faces at every level there. About 1.5 s in release.
 #[test]
 fn cylinder_mismatch_director_converges_average_does_not() {
-    let families: [(&str, fn(usize) -> Mesh); 3] = [
+    let families: [(&str, MeshFamily); 3] = [
         ("regular", |n| {
             generators::rectangle(1.0, 1.0, n, n).unwrap()
         }),

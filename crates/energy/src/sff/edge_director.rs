@@ -198,9 +198,11 @@ fn dihedral(p: [&Vector3<f64>; 4]) -> f64 {
 ///
 /// θ = atan2(S, C) of y = (n_f, n_g, ê) ∈ R⁹ with S = (n_f × n_g)·ê, C = n_f·n_g. Chain rule:
 /// ∇θ = Jyᵀ θ_y, ∇²θ = Jyᵀ θ_yy Jy + Σ (θ_y-contracted second derivatives of the three
-/// normalisations and two cross products), where θ_yy = θ_SS ∇S∇Sᵀ + θ_SC (∇S∇Cᵀ + ∇C∇Sᵀ)
-/// + θ_CC ∇C∇Cᵀ + θ_S ∇²S + θ_C ∇²C, with θ_S = C/r², θ_C = −S/r², θ_SS = −θ_CC = −2SC/r⁴,
-/// θ_SC = (S² − C²)/r⁴, r² = S² + C².
+/// normalisations and two cross products), where
+///
+/// θ_yy = θ_SS ∇S∇Sᵀ + θ_SC (∇S∇Cᵀ + ∇C∇Sᵀ) + θ_CC ∇C∇Cᵀ + θ_S ∇²S + θ_C ∇²C,
+///
+/// θ_S = C/r², θ_C = −S/r², θ_SS = −θ_CC = −2SC/r⁴, θ_SC = (S² − C²)/r⁴, r² = S² + C².
 fn dihedral_derivatives(p: [&Vector3<f64>; 4], hess: bool) -> (f64, LVec, LMat) {
     let (cf, jcf) = cross_normal([p[0], p[1], p[2]]);
     let (nf, pf, lf) = normalize_jac(&cf);
