@@ -5,7 +5,9 @@
 //! - **per-face kernels** — pure functions on fixed-size arrays: [`first_fundamental_form`],
 //!   the [`SecondFundamentalForm`] trait ([`MidEdgeAverage`]), the quadratic energy densities
 //!   ([`density`]) and [`eval_face`], which returns a face's energy, 18-gradient and 18×18
-//!   Hessian (exact, Gauss–Newton or projected to PSD, [`HessianMode`]);
+//!   Hessian (exact, Gauss–Newton or projected to PSD, [`HessianMode`]); the edge-director
+//!   form [`EdgeDirector`] (model.md §1.1, one angle per edge) with its bending kernel
+//!   [`eval_director_bend`] over 21 face dofs and the edge signs [`edge_signs`];
 //! - **whole mesh** — [`RestState`] (ā, b̄ per face), [`DampingState`], [`lumped_mass`],
 //!   [`DofMap`] (pinned coordinates) and [`Assembler`], which builds the lower-triangular
 //!   Hessian pattern over the free dofs once and refills it in place at every evaluation,
