@@ -6,8 +6,9 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Matrix2, Vector3};
 use thinshell_energy::{
-    FaceDamping, FaceEval, FaceRest, FaceStencil, HessianMode, Material, SffKind, Terms, Want,
-    eval_face, forms::first_fundamental_form,
+    DirectorFaceEval, DirectorVariant, EdgeAngles, EdgeDirector, FaceDamping, FaceEval, FaceRest,
+    FaceStencil, HessianMode, Material, SffKind, Terms, Want, eval_director_bend, eval_face,
+    forms::first_fundamental_form,
 };
 
 /// An interior face of a gently curved sheet with its three flaps.
@@ -113,6 +114,60 @@ fn bench(c: &mut Criterion) {
                     &mut out,
                 );
                 black_box(out.energy.total())
+            })
+        });
+    }
+    g.finish();
+
+    // Bending alone, mid-edge average (18 dofs) vs edge directors (21 dofs), exact Hessian.
+    let mut g = c.benchmark_group("bend_face");
+    g.sample_size(30);
+    let want = Want {
+        gradient: true,
+        hessian: Some(HessianMode::Exact),
+    };
+    let bend_only = Terms {
+        stretch: false,
+        bend: true,
+        damping: false,
+    };
+    g.bench_function("mid-edge-average", |b| {
+        b.iter(|| {
+            eval_face(
+                sff,
+                &material,
+                black_box(&s),
+                &rest,
+                None,
+                bend_only,
+                want,
+                &mut out,
+            );
+            black_box(out.energy.bend)
+        })
+    });
+    let angles = EdgeAngles {
+        phi: [0.05, -0.1, 0.02],
+        sigma: [1.0, -1.0, 1.0],
+    };
+    let mut dout = DirectorFaceEval::default();
+    for (name, variant) in [
+        ("edge-director-sin", DirectorVariant::Sin),
+        ("edge-director-tan", DirectorVariant::Tan),
+    ] {
+        let form = EdgeDirector { variant };
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                eval_director_bend(
+                    &form,
+                    &material,
+                    black_box(&s),
+                    &angles,
+                    &rest,
+                    want,
+                    &mut dout,
+                );
+                black_box(dout.energy)
             })
         });
     }

@@ -5,7 +5,9 @@
 //! - **per-face kernels** — pure functions on fixed-size arrays: [`first_fundamental_form`],
 //!   the [`SecondFundamentalForm`] trait ([`MidEdgeAverage`]), the quadratic energy densities
 //!   ([`density`]) and [`eval_face`], which returns a face's energy, 18-gradient and 18×18
-//!   Hessian (exact, Gauss–Newton or projected to PSD, [`HessianMode`]);
+//!   Hessian (exact, Gauss–Newton or projected to PSD, [`HessianMode`]); the edge-director
+//!   form [`EdgeDirector`] (model.md §1.1, one angle per edge) with its bending kernel
+//!   [`eval_director_bend`] over 21 face dofs and the edge signs [`edge_signs`];
 //! - **whole mesh** — [`RestState`] (ā, b̄ per face), [`DampingState`], [`lumped_mass`],
 //!   [`DofMap`] (pinned coordinates) and [`Assembler`], which builds the lower-triangular
 //!   Hessian pattern over the free dofs once and refills it in place at every evaluation,
@@ -60,6 +62,7 @@
 
 pub mod assembly;
 pub mod density;
+pub mod director;
 pub mod dofs;
 pub mod error;
 pub mod fd;
@@ -73,6 +76,7 @@ pub mod shell;
 pub mod stencils;
 
 pub use assembly::{Assembler, EvalOutput};
+pub use director::{DirectorFaceEval, edge_signs, eval_director_bend};
 pub use dofs::DofMap;
 pub use error::EnergyError;
 pub use forms::first_fundamental_form;
@@ -82,7 +86,9 @@ pub use kernel::{
 pub use mass::lumped_mass;
 pub use material::Material;
 pub use rest::{DampingState, RestState};
-pub use sff::{MidEdgeAverage, SecondFundamentalForm, SffKind};
+pub use sff::{
+    DirectorVariant, EdgeAngles, EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind,
+};
 pub use shell::ShellModel;
 pub use stencils::Stencils;
 

@@ -41,7 +41,7 @@ type InteriorEdge = (Vector3<f64>, f64, Vector3<f64>, f64);
 type Blocks = [Matrix3<f64>; 6];
 
 #[inline]
-fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
+pub(super) fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }
 
@@ -54,7 +54,7 @@ fn neighbour_blocks(e: usize) -> [usize; 3] {
 /// Unnormalised normal c = (p1 − p0) × (p2 − p0) and its Jacobian blocks w.r.t. p0, p1, p2:
 /// dc = [p2 − p1]× dp0 − [p2 − p0]× dp1 + [p1 − p0]× dp2.
 #[inline]
-fn cross_normal(p: [&Vector3<f64>; 3]) -> (Vector3<f64>, [Matrix3<f64>; 3]) {
+pub(super) fn cross_normal(p: [&Vector3<f64>; 3]) -> (Vector3<f64>, [Matrix3<f64>; 3]) {
     let e1 = p[1] - p[0];
     let e2 = p[2] - p[0];
     (e1.cross(&e2), [skew(&(p[2] - p[1])), -skew(&e2), skew(&e1)])
@@ -62,7 +62,7 @@ fn cross_normal(p: [&Vector3<f64>; 3]) -> (Vector3<f64>, [Matrix3<f64>; 3]) {
 
 /// Unit vector m = u/|u|, and P/|u| with P = I − m mᵀ (Jacobian of u ↦ u/|u|).
 #[inline]
-fn normalize_jac(u: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>, f64) {
+pub(super) fn normalize_jac(u: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>, f64) {
     let len = u.norm();
     let m = u / len;
     let p = (Matrix3::identity() - m * m.transpose()) / len;
@@ -71,7 +71,7 @@ fn normalize_jac(u: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>, f64) {
 
 /// Contracted Hessian ∇²_u (w·u/|u|) = −(m (Pw)ᵀ + (Pw) mᵀ + (m·w) P)/|u|², P = I − m mᵀ.
 #[inline]
-fn normalize_hess(m: &Vector3<f64>, len: f64, w: &Vector3<f64>) -> Matrix3<f64> {
+pub(super) fn normalize_hess(m: &Vector3<f64>, len: f64, w: &Vector3<f64>) -> Matrix3<f64> {
     let p = Matrix3::identity() - m * m.transpose();
     let pw = p * w;
     let mpw = m * pw.transpose();

@@ -1,7 +1,11 @@
 //! Second fundamental form discretisations.
 
+mod edge_director;
 mod mid_edge_average;
 
+pub use edge_director::{
+    DIRECTOR_DOFS, DirectorDerivatives, DirectorVariant, EdgeAngles, EdgeDirector,
+};
 pub use mid_edge_average::MidEdgeAverage;
 
 use crate::kernel::FaceStencil;
