@@ -4,8 +4,10 @@
 ///
 /// Dof indices refer to the objective's unknowns (`0..n_dofs`), iterations count from 0.
 /// Errors of a Newton solve that made progress carry the residual history and the last accepted
-/// iterate, so a caller can inspect or restart from it — never silent garbage.
-#[derive(thiserror::Error, Debug, Clone, PartialEq)]
+/// iterate, so a caller can inspect or restart from it — never silent garbage. Their `Debug`
+/// output summarises those vectors (length, first / last / largest entry) instead of printing
+/// thousands of numbers.
+#[derive(thiserror::Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum SolverError {
     /// A setting is out of its admissible range.
@@ -117,4 +119,112 @@ pub enum SolverError {
     /// An error reported by the objective (e.g. the energy assembly).
     #[error("objective evaluation failed: {0}")]
     Objective(String),
+}
+
+/// `Debug` of a long vector: its length and a few telling entries.
+struct Summary<'a>(&'a [f64]);
+
+impl std::fmt::Debug for Summary<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let v = self.0;
+        let max_abs = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        match (v.first(), v.last()) {
+            (Some(first), Some(last)) => write!(
+                f,
+                "[{} values: first {first:e}, last {last:e}, max |.| {max_abs:e}]",
+                v.len()
+            ),
+            _ => f.write_str("[]"),
+        }
+    }
+}
+
+impl std::fmt::Debug for SolverError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        use SolverError::*;
+        match self {
+            InvalidSetting {
+                name,
+                value,
+                requirement,
+            } => f
+                .debug_struct("InvalidSetting")
+                .field("name", name)
+                .field("value", value)
+                .field("requirement", requirement)
+                .finish(),
+            DimensionMismatch {
+                what,
+                expected,
+                found,
+            } => f
+                .debug_struct("DimensionMismatch")
+                .field("what", what)
+                .field("expected", expected)
+                .field("found", found)
+                .finish(),
+            InvalidPattern { dof, reason } => f
+                .debug_struct("InvalidPattern")
+                .field("dof", dof)
+                .field("reason", reason)
+                .finish(),
+            InvalidForceScale(v) => f.debug_tuple("InvalidForceScale").field(v).finish(),
+            InvalidLengthScale(v) => f.debug_tuple("InvalidLengthScale").field(v).finish(),
+            NonFiniteCoordinate { dof } => f
+                .debug_struct("NonFiniteCoordinate")
+                .field("dof", dof)
+                .finish(),
+            NonFinite {
+                what,
+                iteration,
+                dof,
+            } => f
+                .debug_struct("NonFinite")
+                .field("what", what)
+                .field("iteration", iteration)
+                .field("dof", dof)
+                .finish(),
+            NotPositiveDefinite { iteration, pivot } => f
+                .debug_struct("NotPositiveDefinite")
+                .field("iteration", iteration)
+                .field("pivot", pivot)
+                .finish(),
+            RegularizationFailed {
+                iteration,
+                mu,
+                attempts,
+            } => f
+                .debug_struct("RegularizationFailed")
+                .field("iteration", iteration)
+                .field("mu", mu)
+                .field("attempts", attempts)
+                .finish(),
+            LineSearchFailed {
+                iteration,
+                backtracks,
+                residuals,
+                last_good,
+            } => f
+                .debug_struct("LineSearchFailed")
+                .field("iteration", iteration)
+                .field("backtracks", backtracks)
+                .field("residuals", &Summary(residuals))
+                .field("last_good", &Summary(last_good))
+                .finish(),
+            NewtonDidNotConverge {
+                residuals,
+                iterations,
+                tolerance,
+                last_good,
+            } => f
+                .debug_struct("NewtonDidNotConverge")
+                .field("iterations", iterations)
+                .field("tolerance", tolerance)
+                .field("residuals", &Summary(residuals))
+                .field("last_good", &Summary(last_good))
+                .finish(),
+            Linear(msg) => f.debug_tuple("Linear").field(msg).finish(),
+            Objective(msg) => f.debug_tuple("Objective").field(msg).finish(),
+        }
+    }
 }

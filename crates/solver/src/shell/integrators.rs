@@ -2,16 +2,23 @@
 //!
 //! - [`ImplicitEuler`]: minimises the incremental potential
 //!   `Φ(x) = 1/(2Δt²)(x − x̃)ᵀΛ(x − x̃) + E(x) + E_damp(x; xⁿ) − F_extᵀx`, `x̃ = xⁿ + Δt vⁿ`
-//!   (model.md §3), with Newton; optional halving of Δt on failure.
+//!   (model.md §3), with Newton; on failure optionally a retry with a fallback Hessian
+//!   (e.g. Gauss–Newton), then halving of Δt.
 //! - [`ExplicitEuler`]: symplectic Euler `vⁿ⁺¹ = vⁿ + Δt Λ⁻¹(F_ext − ∇E(xⁿ))`,
 //!   `xⁿ⁺¹ = xⁿ + Δt vⁿ⁺¹`; conditionally stable.
 //! - [`Static`]: minimises `E(x) − F_extᵀx`. Rigid motions (a null space when too few
 //!   coordinates are held) are handled by a small shift `κ·mean|H_dd|` of the Hessian diagonal
 //!   only (the gradient is exact, so the equilibrium is unchanged; the iterates simply do not
-//!   drift along rigid modes), plus Newton's regularisation when needed.
+//!   drift along rigid modes), plus Newton's regularisation when needed; optionally a retry
+//!   with a fallback Hessian from the last good iterate.
+//!
+//! The fallback Hessian exists because the exact Hessian of a badly crumpled or strongly
+//! compressed shell is far from positive definite: the diagonal shift that regularisation needs
+//! then turns Newton into a slow gradient method. The Gauss–Newton Hessian is positive
+//! semi-definite by construction and keeps the curvature information of the forms.
 
 use nalgebra::Vector3;
-use thinshell_energy::{DampingState, EnergyTerms, EvalOutput};
+use thinshell_energy::{DampingState, EnergyTerms, EvalOutput, HessianMode};
 
 use super::loads::face_volume_gradient;
 use super::system::{Inertia, ShellObjective, ShellSystem, State, energy_error};
@@ -29,6 +36,9 @@ pub struct StepReport {
     pub newton: Option<NewtonReport>,
     /// Halvings of Δt before the step succeeded.
     pub halvings: usize,
+    /// Hessian of the solve that succeeded: the system's own mode, or the integrator's fallback
+    /// mode when the first solve failed (`ShellSystem::hessian_mode` for explicit steps).
+    pub hessian: HessianMode,
     /// Energy terms (J) at the end of the step (implicit, static) or its start (explicit).
     pub energies: EnergyTerms,
 }
@@ -95,6 +105,9 @@ pub struct Static {
     pub hessian_shift: f64,
     /// Force scale (N) for the gradient tolerance; `None`: [`ShellSystem::force_scale`].
     pub force_scale: Option<f64>,
+    /// Hessian mode [`Integrator::step`] retries with, from the last good iterate, when the
+    /// solve with the system's mode fails (`None`: no retry).
+    pub fallback_hessian: Option<HessianMode>,
     workspace: Option<NewtonWorkspace>,
 }
 
@@ -104,9 +117,36 @@ impl Default for Static {
             newton: NewtonSettings::default(),
             hessian_shift: 1e-10,
             force_scale: None,
+            fallback_hessian: None,
             workspace: None,
         }
     }
+}
+
+/// The last accepted iterate a failed Newton solve carries, if any.
+fn last_good(e: &SolverError) -> Option<&[f64]> {
+    match e {
+        SolverError::LineSearchFailed { last_good, .. }
+        | SolverError::NewtonDidNotConverge { last_good, .. } => Some(last_good),
+        _ => None,
+    }
+}
+
+/// Whether a failure may be cured by another Hessian or a shorter step (not a bad setting or
+/// a wrong dimension, which would fail the same way again).
+fn retryable(e: &SolverError) -> bool {
+    !matches!(
+        e,
+        SolverError::InvalidSetting { .. }
+            | SolverError::DimensionMismatch { .. }
+            | SolverError::InvalidForceScale(_)
+            | SolverError::InvalidLengthScale(_)
+    )
+}
+
+/// The fallback mode when it differs from the system's own.
+fn fallback_mode(system: &ShellSystem, fallback: Option<HessianMode>) -> Option<HessianMode> {
+    fallback.filter(|&m| m != system.hessian_mode)
 }
 
 impl Static {
@@ -163,7 +203,24 @@ impl Integrator for Static {
         check_state(system, state)?;
         let mut x = state.x.clone();
         system.boundary.apply_prescribed(&mut x, state.t)?;
-        let report = self.solve(system, &mut x)?;
+        let mut hessian = system.hessian_mode;
+        let report = match self.solve(system, &mut x) {
+            Ok(r) => r,
+            Err(e) => match fallback_mode(system, self.fallback_hessian) {
+                Some(mode) if retryable(&e) => {
+                    // Restart from the best point found (line search never increased E).
+                    if let Some(u) = last_good(&e) {
+                        system.scatter(u, &mut x);
+                    }
+                    let own = std::mem::replace(&mut system.hessian_mode, mode);
+                    let retry = self.solve(system, &mut x);
+                    system.hessian_mode = own;
+                    hessian = mode;
+                    retry?
+                }
+                _ => return Err(e),
+            },
+        };
         let energies = system.energy(&x)?;
         state.x = x;
         state.v.iter_mut().for_each(|v| *v = Vector3::zeros());
@@ -172,6 +229,7 @@ impl Integrator for Static {
             dt: 0.0,
             newton: Some(report),
             halvings: 0,
+            hessian,
             energies,
         })
     }
@@ -188,6 +246,9 @@ pub struct ImplicitEuler {
     pub force_scale: Option<f64>,
     /// Times Δt may be halved when Newton fails (0: no adaptivity).
     pub max_halvings: usize,
+    /// Hessian mode tried at the same Δt, from the last good iterate, when the solve with the
+    /// system's mode fails, before Δt is halved (`None`: no retry).
+    pub fallback_hessian: Option<HessianMode>,
     workspace: Option<NewtonWorkspace>,
 }
 
@@ -199,6 +260,7 @@ impl ImplicitEuler {
             newton: NewtonSettings::default(),
             force_scale: None,
             max_halvings: 0,
+            fallback_hessian: None,
             workspace: None,
         }
     }
@@ -208,6 +270,7 @@ impl ImplicitEuler {
         system: &mut ShellSystem,
         state: &State,
         dt: f64,
+        start: Option<&[f64]>,
     ) -> Result<(State, NewtonReport, EnergyTerms), SolverError> {
         let t1 = state.t + dt;
         let mut x1 = state.x.clone();
@@ -245,9 +308,11 @@ impl ImplicitEuler {
             force_scale,
             last_terms: EnergyTerms::default(),
         };
-        // Start from the inertial prediction x̃ unless it is an invalid (e.g. inverted)
-        // configuration; then from xⁿ.
-        if !obj.value(&u)?.is_finite() {
+        // Start from the given point (a retry), else the inertial prediction x̃ unless it is an
+        // invalid (e.g. inverted) configuration; then from xⁿ.
+        if let Some(s) = start.filter(|s| s.len() == u.len()) {
+            u.copy_from_slice(s);
+        } else if !obj.value(&u)?.is_finite() {
             u = obj.sys.gather(&state.x);
         }
         let ws = match &mut self.workspace {
@@ -280,8 +345,20 @@ impl Integrator for ImplicitEuler {
         check_state(system, state)?;
         let mut dt = self.dt;
         let mut halvings = 0;
+        let own = system.hessian_mode;
         loop {
-            match self.try_step(system, state, dt) {
+            let mut hessian = own;
+            let mut result = self.try_step(system, state, dt, None);
+            if let (Err(e), Some(mode)) = (&result, fallback_mode(system, self.fallback_hessian)) {
+                if retryable(e) {
+                    let start = last_good(e).map(<[f64]>::to_vec);
+                    system.hessian_mode = mode;
+                    result = self.try_step(system, state, dt, start.as_deref());
+                    system.hessian_mode = own;
+                    hessian = mode;
+                }
+            }
+            match result {
                 Ok((next, report, energies)) => {
                     *state = next;
                     return Ok(StepReport {
@@ -289,13 +366,11 @@ impl Integrator for ImplicitEuler {
                         dt,
                         newton: Some(report),
                         halvings,
+                        hessian,
                         energies,
                     });
                 }
-                Err(e)
-                    if halvings < self.max_halvings
-                        && !matches!(e, SolverError::InvalidSetting { .. }) =>
-                {
+                Err(e) if halvings < self.max_halvings && retryable(&e) => {
                     halvings += 1;
                     dt *= 0.5;
                 }
@@ -391,6 +466,7 @@ impl Integrator for ExplicitEuler {
             dt,
             newton: None,
             halvings: 0,
+            hessian: system.hessian_mode,
             energies,
         })
     }
