@@ -132,6 +132,11 @@ fn last_good(e: &SolverError) -> Option<&[f64]> {
     }
 }
 
+/// The last good iterate of a failed solve, as an owned start for a retry.
+fn retry_start<T>(r: &Result<T, SolverError>) -> Option<Vec<f64>> {
+    r.as_ref().err().and_then(last_good).map(<[f64]>::to_vec)
+}
+
 /// Whether a failure may be cured by another Hessian or a shorter step (not a bad setting or
 /// a wrong dimension, which would fail the same way again).
 fn retryable(e: &SolverError) -> bool {
@@ -204,18 +209,29 @@ impl Integrator for Static {
         let mut x = state.x.clone();
         system.boundary.apply_prescribed(&mut x, state.t)?;
         let mut hessian = system.hessian_mode;
+        // `solve` leaves its last iterate in `x`, failed or not.
+        let start = x.clone();
         let report = match self.solve(system, &mut x) {
             Ok(r) => r,
             Err(e) => match fallback_mode(system, self.fallback_hessian) {
                 Some(mode) if retryable(&e) => {
-                    // Restart from the best point found (line search never increased E).
-                    if let Some(u) = last_good(&e) {
-                        system.scatter(u, &mut x);
-                    }
                     let own = std::mem::replace(&mut system.hessian_mode, mode);
-                    let retry = self.solve(system, &mut x);
-                    system.hessian_mode = own;
                     hessian = mode;
+                    // First from the best point found (line search never increased E), then,
+                    // if that fails too, from the start: the failed path may have led into a
+                    // region that is hard for any Hessian.
+                    let mut retry = Err(e);
+                    for from in [retry_start(&retry), None] {
+                        if retry.is_ok() {
+                            break;
+                        }
+                        x.copy_from_slice(&start);
+                        if let Some(u) = from {
+                            system.scatter(&u, &mut x);
+                        }
+                        retry = self.solve(system, &mut x);
+                    }
+                    system.hessian_mode = own;
                     retry?
                 }
                 _ => return Err(e),
@@ -351,11 +367,15 @@ impl Integrator for ImplicitEuler {
             let mut result = self.try_step(system, state, dt, None);
             if let (Err(e), Some(mode)) = (&result, fallback_mode(system, self.fallback_hessian)) {
                 if retryable(e) {
-                    let start = last_good(e).map(<[f64]>::to_vec);
+                    // As in `Static`: from the last good iterate, then from the usual start.
+                    let from_last = retry_start(&result);
                     system.hessian_mode = mode;
-                    result = self.try_step(system, state, dt, start.as_deref());
-                    system.hessian_mode = own;
                     hessian = mode;
+                    result = self.try_step(system, state, dt, from_last.as_deref());
+                    if result.is_err() && from_last.is_some() {
+                        result = self.try_step(system, state, dt, None);
+                    }
+                    system.hessian_mode = own;
                 }
             }
             match result {
