@@ -3,9 +3,11 @@
 //!
 //! - `bench-square`: the seed's three square experiments, the seed's way and the fast way.
 //! - `bench-sphere`: the seed's two sphere experiments with energy plots and rendered shapes.
+//! - `hard-cases`: heavy variants of the numerical hard cases (issue #8, docs/robustness.md).
 
 mod bench_sphere;
 mod bench_square;
+mod hard_cases;
 mod plot;
 mod render;
 
@@ -38,6 +40,14 @@ enum Task {
         #[arg(long)]
         quick: bool,
     },
+    /// Heavy hard cases (issue #8): the seed scenes at dt = 1e-3 and 1e-2 s, a 10^4-step damped
+    /// run, strong growth on a finer sphere, the crawling swelling strip. Writes
+    /// target/xtask/hard-cases.json; fails if a run breaks the stability contract.
+    HardCases {
+        /// Skip the 10^4-step run.
+        #[arg(long)]
+        quick: bool,
+    },
 }
 
 /// Where tasks write their results: `<workspace>/target/xtask`.
@@ -62,6 +72,7 @@ fn main() -> ExitCode {
     let result = match args.task {
         Task::BenchSquare { quick } => bench_square::run(quick),
         Task::BenchSphere { quick } => bench_sphere::run(quick),
+        Task::HardCases { quick } => hard_cases::run(quick),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -372,11 +372,15 @@ impl Simulation {
             .iter()
             .fold(0.0f64, |m, f| m.max(f.abs()));
         let force_scale = Some((material.young * material.thickness * edge).max(load));
+        // A failed exact-Hessian solve is retried with the Gauss–Newton Hessian (docs/robustness.md:
+        // the regularised exact Hessian crawls on compressed or crumpled shells).
+        let fallback = (hessian_mode == HessianMode::Exact).then_some(HessianMode::GaussNewton);
         let integrator: Box<dyn Integrator + Send> = match it.kind {
             IntegratorKind::Static => {
                 let mut st = Static::default();
                 st.newton = settings;
                 st.force_scale = force_scale;
+                st.fallback_hessian = fallback;
                 Box::new(st)
             }
             IntegratorKind::Implicit => {
@@ -384,6 +388,8 @@ impl Simulation {
                 ie.newton = settings;
                 ie.force_scale = force_scale;
                 ie.max_halvings = if it.adaptive_dt { 8 } else { 0 };
+                // With `adaptive_dt`, before halving Δt.
+                ie.fallback_hessian = fallback.filter(|_| it.adaptive_dt);
                 Box::new(ie)
             }
             IntegratorKind::Explicit => Box::new(ExplicitEuler { dt }),

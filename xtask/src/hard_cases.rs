@@ -1,0 +1,428 @@
+//! `cargo xtask hard-cases`: the heavy variants of the hard-case tests of issue #8
+//! (crates/solver/tests/hard_cases.rs; outcomes in docs/robustness.md).
+//!
+//! 1. The seed's square and sphere scenes (data/scenes) through the scene pipeline at Δt = 1e-3
+//!    and 1e-2 s for 0.1 s of simulated time, as the scene files say (no line search) and with
+//!    line search plus `adaptive_dt` (Gauss–Newton retry, then Δt halving).
+//! 2. A 10⁴-step damped run of a hanging 8 × 8 flag: the total energy must never rise.
+//! 3. Strong uniform growth (ā = 0.25 a⁰ and 4 a⁰) on a level-3 icosphere at Δt = 1e-2 s.
+//! 4. The swelling strip whose static Newton crawls, at 4 to 32 cells across, with the exact
+//!    Hessian, a smaller first regularisation shift, and the Gauss–Newton fallback.
+//!
+//! Every run checks that positions stay finite, and the solver-level runs that the potential
+//! never rises within a Newton solve. Failures of a run are outcomes (reported, with the error);
+//! a broken contract makes the task fail. Writes `target/xtask/hard-cases.json`.
+
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use nalgebra::Vector3;
+use serde_json::{Value, json};
+use thinshell::scene::Scene;
+use thinshell::sim::Simulation;
+use thinshell_energy::{HessianMode, Material, RestState, SffKind, ShellModel, Terms};
+use thinshell_growth::{FaceStimulus, Growth, Prescribed, Swelling};
+use thinshell_mesh::{VertexId, generators};
+use thinshell_solver::{
+    Boundary, ImplicitEuler, Integrator, Loads, NewtonReport, ShellSystem, SolverError, State,
+    Static,
+};
+
+const SFF: SffKind = SffKind::MidEdgeAverage;
+
+const SCENES: [&str; 5] = [
+    "square_enlarged.toml",
+    "square_rhombus.toml",
+    "square_cylinder.toml",
+    "sphere_uniform_heat.toml",
+    "sphere_directed_heat.toml",
+];
+
+/// Errors unless the potential never rose within the solve (up to the round-off the line
+/// search tolerates) and every recorded number is finite.
+fn check_newton(r: &NewtonReport, what: &str) -> Result<()> {
+    if !r.values.iter().chain(&r.residuals).all(|v| v.is_finite()) {
+        bail!("{what}: non-finite value or residual in a Newton report");
+    }
+    for w in r.values.windows(2) {
+        let noise = 64.0 * f64::EPSILON * w[0].abs().max(w[1].abs());
+        if w[1] > w[0] + noise {
+            bail!("{what}: potential rose within a Newton solve: {w:?}");
+        }
+    }
+    Ok(())
+}
+
+fn finite(x: &[Vector3<f64>]) -> bool {
+    x.iter().all(|p| p.iter().all(|c| c.is_finite()))
+}
+
+/// The last residuals of a failed Newton solve (to tell a crawl from a round-off plateau).
+fn residual_tail(e: &SolverError) -> String {
+    match e {
+        SolverError::NewtonDidNotConverge { residuals, .. }
+        | SolverError::LineSearchFailed { residuals, .. } => {
+            let tail = &residuals[residuals.len().saturating_sub(5)..];
+            let t: Vec<String> = tail.iter().map(|r| format!("{r:.2e}")).collect();
+            format!(" (last residuals {})", t.join(" "))
+        }
+        _ => String::new(),
+    }
+}
+
+/// One row of the report, printed and kept for the JSON file.
+fn row(rows: &mut Vec<Value>, case: String, outcome: &str, detail: Value) {
+    println!("{case:<62} {outcome}");
+    rows.push(json!({ "case": case, "outcome": outcome, "detail": detail }));
+}
+
+/// Part 1: the seed scenes at large time steps.
+fn scenes(rows: &mut Vec<Value>) -> Result<()> {
+    let dir = crate::workspace_root().join("data").join("scenes");
+    for file in SCENES {
+        for dt in [1e-3, 1e-2] {
+            let steps = (0.1f64 / dt).round() as usize;
+            for robust in [false, true] {
+                let mut set = vec![
+                    format!("integrator.dt={dt:e}"),
+                    format!("integrator.steps={steps}"),
+                ];
+                if robust {
+                    set.push("integrator.newton.line_search=true".into());
+                    set.push("integrator.adaptive_dt=true".into());
+                }
+                let path = dir.join(file);
+                let scene = Scene::load_with_overrides(&path, &set)
+                    .with_context(|| format!("loading {}", path.display()))?;
+                let mut sim = Simulation::build(&scene)
+                    .with_context(|| format!("setting up {}", path.display()))?;
+                let t0 = Instant::now();
+                let (mut its, mut regs, mut failure) = (0, 0, None);
+                while sim.steps_done() < steps {
+                    match sim.step() {
+                        Ok(r) => {
+                            its += r.newton_iterations;
+                            regs += r.regularizations;
+                        }
+                        Err(e) => {
+                            failure = Some(e.to_string());
+                            break;
+                        }
+                    }
+                    if !finite(sim.positions()) {
+                        bail!(
+                            "{file}: non-finite positions after step {}",
+                            sim.steps_done()
+                        );
+                    }
+                }
+                // A failed step keeps the last good state: it must be finite too.
+                if !finite(sim.positions()) {
+                    bail!("{file}: non-finite last good state");
+                }
+                let variant = if robust {
+                    "line search + adaptive_dt"
+                } else {
+                    "as in the file"
+                };
+                let case = format!("{file}, dt = {dt:e} s, {variant}");
+                let outcome = match &failure {
+                    None => format!(
+                        "{steps} steps, {its} Newton iterations, {regs} regularised factorisations, \
+                         E = {:.3e} J",
+                        sim.energy().stretch + sim.energy().bend
+                    ),
+                    Some(e) => format!("failed after {} steps: {e}", sim.steps_done()),
+                };
+                let detail = json!({
+                    "steps_done": sim.steps_done(), "steps": steps, "newton_iterations": its,
+                    "regularizations": regs, "failure": failure,
+                    "wall_s": t0.elapsed().as_secs_f64(),
+                });
+                row(rows, case, &outcome, detail);
+            }
+        }
+    }
+    Ok(())
+}
+
+fn model(material: Material, damping: bool) -> ShellModel {
+    ShellModel {
+        material,
+        terms: Terms {
+            stretch: true,
+            bend: true,
+            damping,
+        },
+        sff: SFF,
+    }
+}
+
+/// Part 2: a 0.2 m paper flag (8 × 8 cells) pinned along x = 0 under gravity, η/E = 1 ms,
+/// 10⁴ steps of 1 ms; the total energy (elastic + kinetic + gravity) is checked every step.
+fn long_run(rows: &mut Vec<Value>) -> Result<()> {
+    let n = 8;
+    let mesh = generators::rectangle(0.2, 0.2, n, n)?;
+    let x0 = mesh.positions().to_vec();
+    let rest = RestState::from_mesh(&mesh, &x0, SFF)?;
+    let material = Material {
+        viscosity: 2e9 * 1e-3,
+        ..Material::paper()
+    };
+    let boundary = Boundary {
+        pinned_vertices: (0..=n).map(|j| VertexId::new(j * (n + 1))).collect(),
+        ..Default::default()
+    };
+    let loads = Loads {
+        gravity: Vector3::new(0.0, 0.0, -9.81),
+        ..Default::default()
+    };
+    let mut sys = ShellSystem::new(
+        mesh.clone(),
+        model(material, true),
+        rest.clone(),
+        boundary,
+        loads,
+    )?;
+    // Energies without damping (it needs a previous state): a second system for evaluation.
+    let mut probe = ShellSystem::new(
+        mesh,
+        model(material, false),
+        rest,
+        Boundary::default(),
+        Loads::default(),
+    )?;
+    let weight = sys.mass().iter().sum::<f64>() * 9.81;
+    let mut ie = ImplicitEuler::new(1e-3);
+    ie.force_scale = Some(weight);
+    // The gradient's round-off floor (membrane forces of E·h·L) is above 1e-8 × weight: stop on
+    // corrections below 0.3 nm instead.
+    ie.newton.step_tolerance = 1e-9;
+    let mut state = State::at_rest(x0);
+    let mut energy = |sys: &ShellSystem, s: &State| -> Result<f64> {
+        let kinetic: f64 = sys
+            .mass()
+            .iter()
+            .zip(&s.v)
+            .map(|(m, v)| 0.5 * m * v.norm_squared())
+            .sum();
+        let gravity: f64 =
+            s.x.iter()
+                .flat_map(|p| p.iter())
+                .zip(sys.external_forces())
+                .map(|(x, f)| -x * f)
+                .sum();
+        Ok(probe.energy(&s.x)?.total() + kinetic + gravity)
+    };
+    let e0 = energy(&sys, &state)?;
+    let (mut last, mut its, mut max_rise) = (e0, 0, 0.0f64);
+    let t0 = Instant::now();
+    let steps = 10_000;
+    for step in 0..steps {
+        let r = ie
+            .step(&mut sys, &mut state)
+            .with_context(|| format!("flag, step {step}"))?;
+        if let Some(n) = &r.newton {
+            check_newton(n, "flag")?;
+            its += n.iterations;
+        }
+        if !finite(&state.x) {
+            bail!("flag: non-finite positions at step {step}");
+        }
+        let e = energy(&sys, &state)?;
+        max_rise = max_rise.max(e - last);
+        last = e;
+    }
+    // Round-off of the energy sum: ~1e-12 of the weight × size.
+    if max_rise > 1e-9 * weight * 0.2 {
+        bail!("flag: total energy rose by {max_rise:e} J in one step");
+    }
+    let outcome = format!(
+        "{steps} steps, {its} Newton iterations, energy {e0:.3e} -> {last:.3e} J, largest \
+         one-step rise {max_rise:.1e} J"
+    );
+    let detail = json!({
+        "steps": steps, "newton_iterations": its, "energy_start": e0, "energy_end": last,
+        "max_rise": max_rise, "wall_s": t0.elapsed().as_secs_f64(),
+    });
+    row(
+        rows,
+        "damped flag 8 x 8, dt = 1e-3 s".into(),
+        &outcome,
+        detail,
+    );
+    Ok(())
+}
+
+/// Runs `steps` implicit steps; returns (steps done, Newton iterations, fallback steps,
+/// halvings, failure).
+fn run_implicit(
+    ie: &mut ImplicitEuler,
+    sys: &mut ShellSystem,
+    state: &mut State,
+    steps: usize,
+    what: &str,
+) -> Result<(usize, usize, usize, usize, Option<SolverError>)> {
+    let own = sys.hessian_mode;
+    let (mut its, mut fb, mut halvings) = (0, 0, 0);
+    for step in 0..steps {
+        match ie.step(sys, state) {
+            Ok(r) => {
+                if let Some(n) = &r.newton {
+                    check_newton(n, what)?;
+                    its += n.iterations;
+                }
+                fb += usize::from(r.hessian != own);
+                halvings += r.halvings;
+                if !finite(&state.x) {
+                    bail!("{what}: non-finite positions");
+                }
+            }
+            Err(e) => return Ok((step, its, fb, halvings, Some(e))),
+        }
+    }
+    Ok((steps, its, fb, halvings, None))
+}
+
+/// Part 3: uniform growth ā = k a⁰ (b̄ = b⁰) on a level-3 icosphere (642 vertices).
+fn growth(rows: &mut Vec<Value>) -> Result<()> {
+    for k in [0.25, 4.0] {
+        for robust in [false, true] {
+            let mesh = generators::icosphere(1.0, 3)?;
+            let x0 = mesh.positions().to_vec();
+            let mut rest = RestState::from_mesh(&mesh, &x0, SFF)?;
+            rest.a_bar.iter_mut().for_each(|a| *a *= k);
+            let material = Material {
+                viscosity: 2e9 * 1e-3,
+                ..Material::paper()
+            };
+            let mut sys = ShellSystem::new(
+                mesh,
+                model(material, true),
+                rest,
+                Boundary::default(),
+                Loads::default(),
+            )?;
+            let mut ie = ImplicitEuler::new(1e-2);
+            if robust {
+                ie.fallback_hessian = Some(HessianMode::GaussNewton);
+                ie.max_halvings = 8;
+            }
+            let mut state = State::at_rest(x0);
+            let t0 = Instant::now();
+            let what = format!("icosphere level 3, a_bar = {k} a0, dt = 1e-2 s, 20 steps");
+            let (done, its, fb, halvings, failure) =
+                run_implicit(&mut ie, &mut sys, &mut state, 20, &what)?;
+            let variant = if robust { "with fallbacks" } else { "plain" };
+            let outcome = match &failure {
+                None => format!(
+                    "{done} steps, {its} Newton iterations, {fb} Gauss-Newton steps, {halvings} \
+                     halvings"
+                ),
+                Some(e) => format!("failed at step {}: {e}{}", done + 1, residual_tail(e)),
+            };
+            let detail = json!({
+                "steps_done": done, "newton_iterations": its, "fallback_steps": fb,
+                "halvings": halvings, "failure": failure.map(|e| e.to_string()),
+                "wall_s": t0.elapsed().as_secs_f64(),
+            });
+            row(rows, format!("{what}, {variant}"), &outcome, detail);
+        }
+    }
+    Ok(())
+}
+
+/// Part 4: the swelling strip (100 × 2 mm, h = 1 mm, `ny` cells across) of
+/// crates/growth/tests/coupled.rs, four quasi-static ramp steps.
+fn strip(rows: &mut Vec<Value>) -> Result<()> {
+    for ny in [4, 8, 16, 32] {
+        for variant in ["exact", "exact, first shift 1e-9", "Gauss-Newton fallback"] {
+            let mesh = generators::rectangle(0.1, 0.002, 50, ny)?;
+            let x0 = mesh.positions().to_vec();
+            let initial = RestState::from_mesh(&mesh, &x0, SFF)?;
+            let material = Material {
+                thickness: 1e-3,
+                ..Material::paper()
+            };
+            let ramp = Prescribed::function(
+                &mesh,
+                &x0,
+                Box::new(|t, _| FaceStimulus {
+                    top: (t / 4.0).min(1.0),
+                    bottom: 0.0,
+                }),
+            )?;
+            let swelling = Box::new(Swelling::linear(0.01));
+            let mut growth = Growth::new(swelling, Box::new(ramp), initial.clone(), 1e-3)?;
+            let mut sys = ShellSystem::new(
+                mesh,
+                model(material, false),
+                initial,
+                Boundary::default(),
+                Loads::default(),
+            )?;
+            let mut st = Static::default();
+            st.force_scale = Some(4e-3);
+            st.newton.gradient_tolerance = 1e-6;
+            match variant {
+                "exact" => {}
+                "exact, first shift 1e-9" => st.newton.regularization_initial = 1e-9,
+                _ => st.fallback_hessian = Some(HessianMode::GaussNewton),
+            }
+            let mut state = State::at_rest(x0);
+            let mut its = Vec::new();
+            let mut failure = None;
+            let t0 = Instant::now();
+            for step in 1..=4 {
+                // Stimulus at t = step: the ramp's step/4 of the full swelling.
+                growth.advance(step as f64 - 1.0, 1.0)?;
+                state.t = step as f64;
+                growth.update_rest(&mut sys.rest)?;
+                match st.step(&mut sys, &mut state) {
+                    Ok(r) => {
+                        if let Some(n) = &r.newton {
+                            check_newton(n, "strip")?;
+                            its.push(n.iterations);
+                        }
+                    }
+                    Err(e) => {
+                        failure = Some(e);
+                        break;
+                    }
+                }
+            }
+            // Cells of 2 mm × 2/ny mm: triangles of aspect about ny.
+            let case = format!("swelling strip, {ny} cells across, {variant}");
+            let outcome = match &failure {
+                None => format!("4 steps, Newton iterations {its:?}"),
+                Some(e) => format!("iterations {its:?}, then: {e}{}", residual_tail(e)),
+            };
+            let detail = json!({
+                "newton_iterations": its, "failure": failure.map(|e| e.to_string()),
+                "wall_s": t0.elapsed().as_secs_f64(),
+            });
+            row(rows, case, &outcome, detail);
+        }
+    }
+    Ok(())
+}
+
+/// Runs the task; `quick` skips the 10⁴-step run.
+pub fn run(quick: bool) -> Result<()> {
+    let out = crate::out_dir();
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let mut rows = Vec::new();
+    let t0 = Instant::now();
+    scenes(&mut rows)?;
+    if !quick {
+        long_run(&mut rows)?;
+    }
+    growth(&mut rows)?;
+    strip(&mut rows)?;
+    println!("hard cases: {:.1} s", t0.elapsed().as_secs_f64());
+    let path = out.join("hard-cases.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&rows)?)
+        .with_context(|| format!("writing {}", path.display()))?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
