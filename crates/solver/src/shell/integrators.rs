@@ -94,9 +94,7 @@ fn check_state(system: &ShellSystem, state: &mut State) -> Result<(), SolverErro
         }
     }
     if let Some(e) = state.phi.iter().position(|p| !p.is_finite()) {
-        return Err(SolverError::NonFiniteCoordinate {
-            dof: 3 * n + e,
-        });
+        return Err(SolverError::NonFiniteCoordinate { dof: 3 * n + e });
     }
     Ok(())
 }

@@ -312,7 +312,11 @@ fn mean_edge_length(mesh: &Mesh) -> f64 {
         .map(|e| (p[e.vertices[1].idx()] - p[e.vertices[0].idx()]).norm())
         .sum();
     let mean = sum / edges.len().max(1) as f64;
-    if mean.is_finite() && mean > 0.0 { mean } else { 1.0 }
+    if mean.is_finite() && mean > 0.0 {
+        mean
+    } else {
+        1.0
+    }
 }
 
 /// Inertia term of the incremental potential: `1/(2Δt²) (x − x̃)ᵀ Λ (x − x̃)`.

@@ -20,8 +20,8 @@ use super::Simulation;
 use crate::reference::{map_xy, wrap_cylinder};
 use crate::scene::Scene;
 use crate::scene::schema::{
-    Effect, GrowthModelKind, GrowthSpec, HessianSpec, IntegratorKind, MeshSpec, RegionSpec,
-    BendingForm, RestSource, StimulusKind, Surface as SceneSurface,
+    BendingForm, Effect, GrowthModelKind, GrowthSpec, HessianSpec, IntegratorKind, MeshSpec,
+    RegionSpec, RestSource, StimulusKind, Surface as SceneSurface,
 };
 
 /// Why a scene could not be turned into a simulation.
