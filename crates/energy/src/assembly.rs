@@ -14,12 +14,15 @@
 
 mod pattern;
 
+use crate::director::{DirectorFaceEval, eval_director_b_terms, project_psd};
 use crate::dofs::{DofMap, check_len};
 use crate::error::EnergyError;
 use crate::kernel::{
     EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want, eval_face,
+    eval_face_parts,
 };
 use crate::rest::{DampingState, RestState};
+use crate::sff::{EdgeDirector, SffKind};
 use crate::shell::ShellModel;
 use crate::stencils::Stencils;
 use faer::sparse::SparseColMat;
@@ -34,8 +37,9 @@ const GATHER_CHUNK: usize = 2048;
 /// Where [`Assembler::evaluate`] writes derivatives (the energy is always returned).
 #[derive(Debug, Default)]
 pub struct EvalOutput<'a> {
-    /// Full gradient ∂E/∂x (N), length `3·n_vertices`, vertex-major, including pinned
-    /// coordinates; overwritten.
+    /// Full gradient ∂E/∂x (N), length [`DofMap::n_coordinates`]: `3·n_vertices` entries
+    /// vertex-major, then ∂E/∂φ_e (J/rad) per edge when the assembler has edge unknowns;
+    /// including pinned coordinates; overwritten.
     pub gradient: Option<&'a mut [f64]>,
     /// Hessian ∂²E/∂x² (N/m) over the free dofs, lower triangle, in a matrix obtained from
     /// [`Assembler::hessian_template`]; its values are overwritten.
@@ -46,7 +50,10 @@ pub struct EvalOutput<'a> {
 /// maps and the per-face buffers; build once per (mesh connectivity, [`DofMap`], [`Terms`]).
 pub struct Assembler {
     terms: Terms,
+    /// The edge-director form when the bending term uses edge-angle unknowns.
+    director: Option<EdgeDirector>,
     n_vertices: usize,
+    n_edges: usize,
     n_slots: usize,
     stencils: Stencils,
     pattern: Pattern,
@@ -73,17 +80,66 @@ impl std::fmt::Debug for Assembler {
 }
 
 impl Assembler {
-    /// Precomputes stencils, pattern and gather maps for `mesh` with unknowns `dofs` and the
-    /// energy `terms`. The Hessian stencil of a face is its three vertices plus, when bending
-    /// or damping is on, its flap vertices.
+    /// Precomputes stencils, pattern and gather maps for `mesh` with unknowns `dofs` (positions
+    /// only) and the energy `terms`, for a second fundamental form without edge unknowns. The
+    /// Hessian stencil of a face is its three vertices plus, when bending or damping is on, its
+    /// flap vertices. Use [`Assembler::for_model`] for the edge-director forms.
     pub fn new(mesh: &Mesh, dofs: &DofMap, terms: Terms) -> Result<Assembler, EnergyError> {
+        Self::build(mesh, dofs, terms, None)
+    }
+
+    /// Like [`Assembler::new`] for `model`'s terms and second fundamental form: with an
+    /// edge-director form and bending on, every face stencil also holds its three edge angles,
+    /// and `dofs` must carry one angle coordinate per edge ([`DofMap::with_edges`]). Without
+    /// bending the angles do not enter the energy and `dofs` must have none.
+    pub fn for_model(
+        mesh: &Mesh,
+        dofs: &DofMap,
+        model: &ShellModel,
+    ) -> Result<Assembler, EnergyError> {
+        Self::build(mesh, dofs, model.terms, edge_director(model))
+    }
+
+    fn build(
+        mesh: &Mesh,
+        dofs: &DofMap,
+        terms: Terms,
+        director: Option<EdgeDirector>,
+    ) -> Result<Assembler, EnergyError> {
         check_len("dof map vertices", mesh.n_vertices(), dofs.n_vertices())?;
+        match director {
+            Some(d) => {
+                check_len("dof map edges", mesh.n_edges(), dofs.n_edges()).map_err(|_| {
+                    EnergyError::EdgeUnknownsMismatch {
+                        sff: SffKind::EdgeDirector(d.variant),
+                        needs: "needs",
+                        other: "dof map",
+                        has: "has no (or not one per edge) edge angles",
+                    }
+                })?
+            }
+            None if dofs.n_edges() > 0 => {
+                return Err(EnergyError::EdgeUnknownsMismatch {
+                    sff: SffKind::MidEdgeAverage,
+                    needs: "does not use",
+                    other: "dof map",
+                    has: "has edge angles",
+                });
+            }
+            None => {}
+        }
         let n_slots = if terms.bend || terms.damping { 6 } else { 3 };
         let stencils = Stencils::new(mesh);
-        let pattern = Pattern::new(&stencils, dofs, n_slots)?;
+        let pattern = Pattern::new(&stencils, dofs, n_slots, director.is_some())?;
         Ok(Assembler {
             terms,
+            director,
             n_vertices: mesh.n_vertices(),
+            n_edges: if director.is_some() {
+                mesh.n_edges()
+            } else {
+                0
+            },
             n_slots,
             grad_buffer: vec![0.0; mesh.n_faces() * pattern.grad_stride],
             hess_buffer: vec![0.0; mesh.n_faces() * pattern.hess_stride],
@@ -97,6 +153,16 @@ impl Assembler {
     /// The terms this assembler was built for.
     pub fn terms(&self) -> Terms {
         self.terms
+    }
+
+    /// Whether the unknowns include one angle per edge (edge-director bending).
+    pub fn has_edge_unknowns(&self) -> bool {
+        self.director.is_some()
+    }
+
+    /// Length of the full gradient: `3·n_vertices`, plus one per edge with edge unknowns.
+    pub fn n_coordinates(&self) -> usize {
+        3 * self.n_vertices + self.n_edges
     }
 
     /// Number of free dofs (rows and columns of the Hessian).
@@ -137,6 +203,21 @@ impl Assembler {
         damping: Option<&DampingState>,
         out: EvalOutput<'_>,
     ) -> Result<EnergyTerms, EnergyError> {
+        self.evaluate_with_angles(model, x, &[], rest, damping, out)
+    }
+
+    /// [`Assembler::evaluate`] with the edge angles `phi` (rad, one per edge) of an
+    /// edge-director model; `phi` must be empty when the assembler has no edge unknowns. The
+    /// model's second fundamental form must be the one the assembler was built for.
+    pub fn evaluate_with_angles(
+        &mut self,
+        model: &ShellModel,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+        rest: &RestState,
+        damping: Option<&DampingState>,
+        out: EvalOutput<'_>,
+    ) -> Result<EnergyTerms, EnergyError> {
         let terms = model.terms;
         if terms != self.terms {
             return Err(EnergyError::TermsMismatch {
@@ -144,6 +225,23 @@ impl Assembler {
                 model: terms,
             });
         }
+        if edge_director(model) != self.director {
+            return Err(EnergyError::EdgeUnknownsMismatch {
+                sff: model.sff,
+                needs: if edge_director(model).is_some() {
+                    "needs"
+                } else {
+                    "does not use"
+                },
+                other: "assembler",
+                has: if self.director.is_some() {
+                    "was built with edge angles (another form)"
+                } else {
+                    "was built without edge angles"
+                },
+            });
+        }
+        check_len("edge angles", self.n_edges, phi.len())?;
         model.material.validate()?;
         let n_faces = self.energies.len();
         check_len("positions", self.n_vertices, x.len())?;
@@ -166,7 +264,7 @@ impl Assembler {
         };
         let EvalOutput { gradient, hessian } = out;
         if let Some(g) = &gradient {
-            check_len("gradient", 3 * self.n_vertices, g.len())?;
+            check_len("gradient", self.n_coordinates(), g.len())?;
         }
         if let Some((h, _)) = &hessian {
             self.check_pattern(h)?;
@@ -176,7 +274,12 @@ impl Assembler {
             hessian: hessian.as_ref().map(|(_, mode)| *mode),
         };
 
-        self.evaluate_faces(model, x, rest, damping, want)?;
+        match self.director {
+            Some(form) => {
+                self.evaluate_director_faces(&form, model, x, phi, rest, damping, want)?
+            }
+            None => self.evaluate_faces(model, x, rest, damping, want)?,
+        }
         self.has_hessian = want.hessian.is_some();
 
         // Fixed-order sums: face order, independent of the thread count.
@@ -269,11 +372,145 @@ impl Assembler {
         }
     }
 
-    /// Gradient gather: each vertex sums its face slots in the precomputed order.
+    /// Per-face kernels with edge-director bending: the membrane terms from [`eval_face_parts`],
+    /// the b-dependent terms (bending, bending damping) from the director kernel over the 21
+    /// face dofs, combined and projected (if asked) per face, then copied into the 9-slot
+    /// buffers (an edge slot uses axis 0 only).
+    #[allow(clippy::too_many_arguments)] // mirrors `evaluate_with_angles`
+    fn evaluate_director_faces(
+        &mut self,
+        form: &EdgeDirector,
+        model: &ShellModel,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+        rest: &RestState,
+        damping: Option<&DampingState>,
+        want: Want,
+    ) -> Result<(), EnergyError> {
+        let slots = self.pattern.slots;
+        let (grad_stride, hess_stride) = (self.pattern.grad_stride, self.pattern.hess_stride);
+        let stencils = &self.stencils;
+        let copy_gradient = want.gradient || want.hessian.is_some();
+        // Exact Hessians of both parts are summed first; the projection acts on the sum.
+        let part_want = Want {
+            gradient: want.gradient,
+            hessian: want.hessian.map(|m| match m {
+                HessianMode::ProjectedPsd => HessianMode::Exact,
+                other => other,
+            }),
+        };
+        // Local 21-dof index of (slot, axis): positions 3s + a, edge angle 18 + e (axis 0).
+        let local = |s: usize, a: usize| -> Option<usize> {
+            if s < 6 {
+                Some(3 * s + a)
+            } else {
+                (a == 0).then_some(18 + s - 6)
+            }
+        };
+        let bad_face = self
+            .grad_buffer
+            .par_chunks_mut(grad_stride)
+            .zip(self.hess_buffer.par_chunks_mut(hess_stride))
+            .zip(self.energies.par_iter_mut())
+            .enumerate()
+            .map_init(
+                || (FaceEval::default(), DirectorFaceEval::default()),
+                |(fe, de), (f, ((grad, hess), energy))| {
+                    let stencil = stencils.stencil(f, x);
+                    let face_rest = FaceRest {
+                        a_bar: rest.a_bar[f],
+                        b_bar: rest.b_bar[f],
+                    };
+                    let face_damping = damping.map(|d| FaceDamping {
+                        a_prev: d.a_prev[f],
+                        b_prev: d.b_prev[f],
+                        dt: d.dt,
+                    });
+                    eval_face_parts(
+                        None,
+                        &model.material,
+                        &stencil,
+                        &face_rest,
+                        face_damping.as_ref(),
+                        model.terms,
+                        part_want,
+                        fe,
+                    );
+                    eval_director_b_terms(
+                        form,
+                        &model.material,
+                        &stencil,
+                        &stencils.angles(f, phi),
+                        &face_rest,
+                        face_damping.as_ref(),
+                        part_want,
+                        de,
+                    );
+                    *energy = EnergyTerms {
+                        stretch: fe.energy.stretch,
+                        bend: de.energy,
+                        damping: fe.energy.damping + de.damping,
+                    };
+                    let mut finite = energy.total().is_finite();
+                    if copy_gradient {
+                        grad.fill(0.0);
+                        for s in 0..slots {
+                            for a in 0..3 {
+                                if let Some(i) = local(s, a) {
+                                    let membrane = if i < 18 { fe.gradient[i] } else { 0.0 };
+                                    grad[3 * s + a] = de.gradient[i] + membrane;
+                                }
+                            }
+                        }
+                        finite &= all_finite(grad);
+                    }
+                    if want.hessian.is_some() {
+                        let mut h = de.hessian;
+                        let mut pos = h.fixed_view_mut::<18, 18>(0, 0);
+                        pos += fe.hessian;
+                        if want.hessian == Some(HessianMode::ProjectedPsd) {
+                            project_psd(&mut h);
+                        }
+                        for s1 in 0..slots {
+                            for s2 in 0..=s1 {
+                                let b = &mut hess[9 * pair(s1, s2)..9 * pair(s1, s2) + 9];
+                                for c in 0..3 {
+                                    for a in 0..3 {
+                                        b[3 * c + a] = match (local(s1, a), local(s2, c)) {
+                                            (Some(i), Some(j)) => h[(i, j)],
+                                            _ => 0.0,
+                                        };
+                                    }
+                                }
+                            }
+                        }
+                        finite &= all_finite(hess);
+                    }
+                    (!finite).then_some(f)
+                },
+            )
+            .flatten()
+            .min();
+        match bad_face {
+            Some(f) => Err(EnergyError::NonFinite {
+                face: FaceId::new(f),
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Gradient gather: each vertex (and edge) sums its face slots in the precomputed order.
     fn gather_gradient(&self, gradient: &mut [f64]) {
         let p = &self.pattern;
         let buf = &self.grad_buffer;
-        gradient.par_chunks_mut(3).enumerate().for_each(|(v, g)| {
+        let (positions, angles) = gradient.split_at_mut(3 * self.n_vertices);
+        angles.par_iter_mut().enumerate().for_each(|(e, g)| {
+            let node = p.n_vertices + e;
+            *g = p.grad_src[p.grad_ptr[node]..p.grad_ptr[node + 1]]
+                .iter()
+                .fold(0.0, |s, &src| s + buf[src as usize]);
+        });
+        positions.par_chunks_mut(3).enumerate().for_each(|(v, g)| {
             let mut s = [0.0; 3];
             for &src in &p.grad_src[p.grad_ptr[v]..p.grad_ptr[v + 1]] {
                 let src = src as usize;
@@ -398,6 +635,12 @@ impl Assembler {
     pub fn stencil_vertices(&self, f: FaceId) -> Option<&[VertexId; 6]> {
         (f.idx() < self.stencils.n_faces()).then(|| self.stencils.vertices(f.idx()))
     }
+}
+
+/// The edge-director form whose angles are unknowns of `model`: a director form with bending on
+/// (without bending the angles would not enter the energy).
+fn edge_director(model: &ShellModel) -> Option<EdgeDirector> {
+    model.sff.director().filter(|_| model.terms.bend)
 }
 
 /// Whether every entry is finite. `x · 0` is 0 for finite x and NaN for NaN or ±inf (and, unlike

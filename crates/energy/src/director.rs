@@ -5,10 +5,10 @@
 //! [`eval_face`](crate::eval_face).
 
 use crate::density::{inv2, sv_quadratic, sym_entries};
-use crate::kernel::{FaceRest, FaceStencil, HessianMode, Want};
+use crate::kernel::{FaceDamping, FaceRest, FaceStencil, HessianMode, Want};
 use crate::material::Material;
 use crate::sff::{DIRECTOR_DOFS, EdgeAngles, EdgeDirector};
-use nalgebra::{SMatrix, SVector, SymmetricEigen};
+use nalgebra::{SMatrix, SVector, SymmetricEigen, Vector3};
 use thinshell_mesh::{FaceId, Mesh};
 
 /// σ_{f,e} for every face f and local edge e (opposite local vertex e): +1 when the edge's
@@ -38,6 +38,8 @@ pub fn edge_signs(mesh: &Mesh) -> Vec<[f64; 3]> {
 pub struct DirectorFaceEval {
     /// Bending energy (J).
     pub energy: f64,
+    /// Bending part of the Kelvin–Voigt damping pseudo-energy (J); 0 without damping.
+    pub damping: f64,
     /// Gradient (N for positions, J/rad for angles); zero unless requested.
     pub gradient: SVector<f64, DIRECTOR_DOFS>,
     /// Hessian (N/m, N/rad, J/rad²), symmetric; zero unless requested.
@@ -48,6 +50,7 @@ impl Default for DirectorFaceEval {
     fn default() -> Self {
         Self {
             energy: 0.0,
+            damping: 0.0,
             gradient: SVector::zeros(),
             hessian: SMatrix::zeros(),
         }
@@ -70,51 +73,111 @@ pub fn eval_director_bend(
     want: Want,
     out: &mut DirectorFaceEval,
 ) {
+    eval_director_b_terms(form, material, stencil, angles, rest, None, want, out);
+    if want.hessian == Some(HessianMode::ProjectedPsd) {
+        project_psd(&mut out.hessian);
+    }
+}
+
+/// The b-dependent terms of a face with the edge-director form: bending (always) and, when
+/// `damping` is given, the bending part of Kelvin–Voigt damping
+/// (η/E)/Δt · h³/24 ‖a_prev⁻¹(b − b_prev)‖²_SV · √det ā. Both are quadratics in b, summed before
+/// the chain rule so that b and its derivatives are computed once. No PSD projection here (the
+/// caller projects the whole face Hessian).
+#[allow(clippy::too_many_arguments)] // independent plain inputs of one kernel
+pub(crate) fn eval_director_b_terms(
+    form: &EdgeDirector,
+    material: &Material,
+    stencil: &FaceStencil,
+    angles: &EdgeAngles,
+    rest: &FaceRest,
+    damping: Option<&FaceDamping>,
+    want: Want,
+    out: &mut DirectorFaceEval,
+) {
+    out.energy = 0.0;
+    out.damping = 0.0;
     out.gradient.fill(0.0);
     out.hessian.fill(0.0);
-    let h = material.thickness;
+    let h3 = material.thickness.powi(3) / 24.0;
     let area = rest.a_bar.determinant().sqrt();
-    let k = sv_quadratic(
-        &inv2(&rest.a_bar),
-        material.alpha(),
-        material.beta(),
-        h * h * h / 24.0 * area,
+    let bend = (
+        sv_quadratic(
+            &inv2(&rest.a_bar),
+            material.alpha(),
+            material.beta(),
+            h3 * area,
+        ),
+        sym_entries(&rest.b_bar),
     );
-    let b_bar = sym_entries(&rest.b_bar);
+    let damp = damping.map(|d| {
+        let c = material.viscosity / material.young / d.dt;
+        (
+            sv_quadratic(
+                &inv2(&d.a_prev),
+                material.alpha(),
+                material.beta(),
+                c * h3 * area,
+            ),
+            sym_entries(&d.b_prev),
+        )
+    });
+    // Σ_i (b − c_i)ᵀ K_i (b − c_i) has gradient 2(K b − Σ K_i c_i) in b.
+    let mut k_sum = bend.0;
+    let mut center = bend.0 * bend.1;
+    if let Some((k, c)) = &damp {
+        k_sum += k;
+        center += k * c;
+    }
+    let energies = |b: &Vector3<f64>, out: &mut DirectorFaceEval| {
+        let d = b - bend.1;
+        out.energy = d.dot(&(bend.0 * d));
+        if let Some((k, c)) = &damp {
+            let d = b - c;
+            out.damping = d.dot(&(k * d));
+        }
+    };
     if !want.gradient && want.hessian.is_none() {
-        let d = sym_entries(&form.b_with_angles(stencil, angles)) - b_bar;
-        out.energy = d.dot(&(k * d));
+        let b = sym_entries(&form.b_with_angles(stencil, angles));
+        energies(&b, out);
         return;
     }
     let exact = matches!(
         want.hessian,
         Some(HessianMode::Exact | HessianMode::ProjectedPsd)
     );
-    // The contracted Hessian's weights 2Kd need b first.
+    // The contracted Hessian's weights need b first.
     let der = if exact {
-        let d = sym_entries(&form.b_with_angles(stencil, angles)) - b_bar;
-        let w = (k * d) * 2.0;
+        let b = sym_entries(&form.b_with_angles(stencil, angles));
+        let w = (k_sum * b - center) * 2.0;
         form.derivatives(stencil, angles, Some((&w, &mut out.hessian)))
     } else {
         form.derivatives(stencil, angles, None)
     };
-    let d = sym_entries(&der.b) - b_bar;
-    let kd = k * d;
-    out.energy = d.dot(&kd);
-    out.gradient = der.jacobian.transpose() * (kd * 2.0);
+    let b = sym_entries(&der.b);
+    energies(&b, out);
+    out.gradient = der.jacobian.transpose() * ((k_sum * b - center) * 2.0);
     if want.hessian.is_some() {
-        out.hessian += der.jacobian.transpose() * (k * 2.0) * der.jacobian;
-    }
-    if want.hessian == Some(HessianMode::ProjectedPsd) {
-        project_psd(&mut out.hessian);
+        out.hessian += der.jacobian.transpose() * (k_sum * 2.0) * der.jacobian;
     }
 }
 
-/// Replaces a symmetric matrix by its PSD projection V max(Λ, 0) Vᵀ.
-fn project_psd(h: &mut SMatrix<f64, DIRECTOR_DOFS, DIRECTOR_DOFS>) {
-    let sym = (*h + h.transpose()) * 0.5;
-    let eig = SymmetricEigen::new(sym);
-    let lam = eig.eigenvalues.map(|l| l.max(0.0));
-    let v = &eig.eigenvectors;
-    *h = v * SMatrix::<f64, DIRECTOR_DOFS, DIRECTOR_DOFS>::from_diagonal(&lam) * v.transpose();
+/// `fn $name(h: &mut SMatrix<f64, $n, $n>)`: replaces a symmetric matrix by its PSD projection
+/// V max(Λ, 0) Vᵀ (nalgebra's fixed-size eigen-decomposition needs a concrete size).
+macro_rules! psd_projection {
+    ($name:ident, $n:expr) => {
+        pub(crate) fn $name(h: &mut SMatrix<f64, $n, $n>) {
+            let sym = (*h + h.transpose()) * 0.5;
+            let eig = SymmetricEigen::new(sym);
+            if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
+                *h = sym;
+                return;
+            }
+            let lam = eig.eigenvalues.map(|l| l.max(0.0));
+            let v = &eig.eigenvectors;
+            *h = v * SMatrix::<f64, $n, $n>::from_diagonal(&lam) * v.transpose();
+        }
+    };
 }
+psd_projection!(project_psd, DIRECTOR_DOFS);
+psd_projection!(project_psd_18, 18);

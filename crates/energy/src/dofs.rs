@@ -1,22 +1,25 @@
-//! Unknowns: which vertex coordinates are free.
+//! Unknowns: which vertex coordinates (and edge angles) are free.
 //!
 //! Coordinates are numbered vertex-major, `c = 3·v + axis` (axis 0, 1, 2 = x, y, z), matching the
-//! flat gradient layout. Free coordinates get consecutive dof indices in increasing coordinate
-//! order, so the dof numbering is monotone in `(vertex, axis)`: every dof of vertex `v` comes
-//! before every dof of vertex `w > v`. The assembler relies on this to place whole 3×3 vertex
-//! blocks in the lower triangle.
+//! flat gradient layout; with an edge-director second fundamental form every edge `e` adds one
+//! angle coordinate `c = 3·n_vertices + e` (rad) after all positions. Free coordinates get
+//! consecutive dof indices in increasing coordinate order, so the dof numbering is monotone in
+//! `(vertex, axis)` and every edge dof comes after every position dof. The assembler relies on
+//! this to place whole vertex (and edge) blocks in the lower triangle.
 
 use crate::error::EnergyError;
-use thinshell_mesh::VertexId;
+use thinshell_mesh::{EdgeId, VertexId};
 
 /// Marker for a pinned coordinate in [`DofMap`]'s coordinate → dof table.
 const PINNED: u32 = u32::MAX;
 
-/// Map from vertex coordinates (`3·v + axis`) to free degrees of freedom; pinned coordinates
-/// (single coordinates or whole vertices) have no dof.
+/// Map from coordinates (`3·v + axis`, then one angle per edge when present) to free degrees
+/// of freedom; pinned coordinates (single coordinates, whole vertices, fixed edge angles) have
+/// no dof.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct DofMap {
     n_vertices: usize,
+    n_edges: usize,
     /// Coordinate index → dof index or [`PINNED`].
     coord_to_dof: Vec<u32>,
     /// Dof index → coordinate index.
@@ -29,6 +32,7 @@ impl DofMap {
         let n = 3 * n_vertices;
         DofMap {
             n_vertices,
+            n_edges: 0,
             coord_to_dof: (0..n as u32).collect(),
             dof_to_coord: (0..n).collect(),
         }
@@ -63,9 +67,45 @@ impl DofMap {
         }
         Ok(DofMap {
             n_vertices,
+            n_edges: 0,
             coord_to_dof,
             dof_to_coord,
         })
+    }
+
+    /// Adds one angle unknown per edge (`n_edges` edges, coordinates `3·n_vertices + e`), free
+    /// except for the edges in `fixed` (e.g. clamped edges, whose angle stays 0). Replaces any
+    /// edge unknowns the map had. Errors with [`EnergyError::InvalidEdge`] on an edge
+    /// `≥ n_edges`.
+    pub fn with_edges(
+        mut self,
+        n_edges: usize,
+        fixed: impl IntoIterator<Item = EdgeId>,
+    ) -> Result<DofMap, EnergyError> {
+        let n_pos = 3 * self.n_vertices;
+        let n = n_pos + n_edges;
+        if n >= PINNED as usize {
+            return Err(EnergyError::TooLarge {
+                what: "coordinates",
+                count: n,
+            });
+        }
+        let mut is_fixed = vec![false; n_edges];
+        for e in fixed {
+            if e.idx() >= n_edges {
+                return Err(EnergyError::InvalidEdge { edge: e, n_edges });
+            }
+            is_fixed[e.idx()] = true;
+        }
+        self.coord_to_dof.truncate(n_pos);
+        self.dof_to_coord.retain(|&c| c < n_pos);
+        self.coord_to_dof.resize(n, PINNED);
+        for (e, _) in is_fixed.iter().enumerate().filter(|(_, f)| !**f) {
+            self.coord_to_dof[n_pos + e] = self.dof_to_coord.len() as u32;
+            self.dof_to_coord.push(n_pos + e);
+        }
+        self.n_edges = n_edges;
+        Ok(self)
     }
 
     /// Pins all three coordinates of each given vertex (see [`DofMap::with_pinned`]).
@@ -91,9 +131,45 @@ impl DofMap {
         self.n_vertices
     }
 
+    /// Number of edge angle coordinates (0 without edge unknowns).
+    pub fn n_edges(&self) -> usize {
+        self.n_edges
+    }
+
+    /// Length of a full coordinate vector: `3·n_vertices + n_edges`.
+    pub fn n_coordinates(&self) -> usize {
+        3 * self.n_vertices + self.n_edges
+    }
+
+    /// Number of free position dofs (they come first in the dof numbering).
+    pub fn n_free_positions(&self) -> usize {
+        self.dof_to_coord
+            .partition_point(|&c| c < 3 * self.n_vertices)
+    }
+
+    /// Dof of the angle of edge `e`, `None` if fixed, out of range or without edge unknowns.
+    pub fn edge_dof(&self, e: EdgeId) -> Option<usize> {
+        if e.idx() >= self.n_edges {
+            return None;
+        }
+        self.coordinate_dof(3 * self.n_vertices + e.idx())
+    }
+
+    /// Dof of coordinate `axis` of assembly node `node`: nodes `0..n_vertices` are vertices,
+    /// node `n_vertices + e` is edge `e`, whose only coordinate is axis 0.
+    pub(crate) fn node_dof(&self, node: usize, axis: usize) -> Option<usize> {
+        if node < self.n_vertices {
+            self.dof(VertexId::new(node), axis)
+        } else if axis == 0 {
+            self.edge_dof(EdgeId::new(node - self.n_vertices))
+        } else {
+            None
+        }
+    }
+
     /// Dof of coordinate `axis` of vertex `v`, `None` if pinned or out of range.
     pub fn dof(&self, v: VertexId, axis: usize) -> Option<usize> {
-        if axis >= 3 {
+        if axis >= 3 || v.idx() >= self.n_vertices {
             return None;
         }
         self.coordinate_dof(3 * v.idx() + axis)
@@ -112,15 +188,16 @@ impl DofMap {
         axis < 3 && v.idx() < self.n_vertices && self.dof(v, axis).is_none()
     }
 
-    /// Dof index → flat coordinate index `3·v + axis`, increasing.
+    /// Dof index → flat coordinate index (`3·v + axis`, or `3·n_vertices + e` for an edge
+    /// angle), increasing.
     pub fn free_coordinates(&self) -> &[usize] {
         &self.dof_to_coord
     }
 
-    /// Gathers the free entries of a full coordinate vector (length `3·n_vertices`) into
+    /// Gathers the free entries of a full coordinate vector (length [`DofMap::n_coordinates`]) into
     /// `out` (length [`DofMap::n_free`]).
     pub fn restrict(&self, full: &[f64], out: &mut [f64]) -> Result<(), EnergyError> {
-        check_len("full coordinate vector", 3 * self.n_vertices, full.len())?;
+        check_len("full coordinate vector", self.n_coordinates(), full.len())?;
         check_len("free dof vector", self.n_free(), out.len())?;
         for (o, &c) in out.iter_mut().zip(&self.dof_to_coord) {
             *o = full[c];

@@ -45,6 +45,30 @@ pub enum EnergyError {
         /// Axis of the pin (must be 0, 1 or 2).
         axis: usize,
     },
+    /// An edge id (e.g. of a fixed edge angle) is out of range.
+    #[error("invalid edge {edge}: the mesh has {n_edges} edges")]
+    InvalidEdge {
+        /// Offending edge.
+        edge: thinshell_mesh::EdgeId,
+        /// Number of edges.
+        n_edges: usize,
+    },
+    /// The model's second-fundamental-form discretisation needs edge unknowns and the assembler
+    /// or dof map has none, or the other way round.
+    #[error(
+        "edge unknowns mismatch: the model's second fundamental form {sff:?} {needs} edge \
+         angles, but the {other} {has}"
+    )]
+    EdgeUnknownsMismatch {
+        /// The model's discretisation.
+        sff: crate::sff::SffKind,
+        /// "needs" or "does not use".
+        needs: &'static str,
+        /// What disagrees ("assembler", "dof map").
+        other: &'static str,
+        /// What it has.
+        has: &'static str,
+    },
     /// A rest (or previous-step) form of a face is unusable.
     #[error("face {face}: {form} is {reason}")]
     InvalidRestForm {

@@ -3,7 +3,7 @@
 use crate::density::{inv2, sv_quadratic, sym_entries};
 use crate::material::Material;
 use crate::sff::SecondFundamentalForm;
-use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, SymmetricEigen, Vector3};
+use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
 /// Positions of a face stencil (m). `x[0..3]`: face vertices in stored order; `x[3 + e]`: flap
 /// vertex across local edge e (the edge opposite local vertex e), ignored when `!flap[e]`.
@@ -145,6 +145,35 @@ pub fn eval_face(
     want: Want,
     out: &mut FaceEval,
 ) {
+    eval_face_parts(
+        Some(sff),
+        material,
+        stencil,
+        rest,
+        damping,
+        terms,
+        want,
+        out,
+    );
+    if want.hessian == Some(HessianMode::ProjectedPsd) {
+        project_psd(&mut out.hessian);
+    }
+}
+
+/// [`eval_face`] without the PSD projection; with `sff = None` only the membrane terms
+/// (stretching and the membrane part of damping) are evaluated, for callers that evaluate the
+/// b-dependent terms with another form (the edge directors).
+#[allow(clippy::too_many_arguments)] // the kernel's inputs are independent plain data
+pub(crate) fn eval_face_parts(
+    sff: Option<&dyn SecondFundamentalForm>,
+    material: &Material,
+    stencil: &FaceStencil,
+    rest: &FaceRest,
+    damping: Option<&FaceDamping>,
+    terms: Terms,
+    want: Want,
+    out: &mut FaceEval,
+) {
     out.energy = EnergyTerms::default();
     out.gradient.fill(0.0);
     out.hessian.fill(0.0);
@@ -224,6 +253,7 @@ pub fn eval_face(
     }
 
     // Bending part: b(stencil).
+    let Some(sff) = sff else { return };
     if terms.bend || damp.is_some() {
         let h3 = h * h * h / 24.0;
         let mut k_sum = Matrix3::zeros();
@@ -288,21 +318,9 @@ pub fn eval_face(
             }
         }
     }
-
-    if mode == Some(HessianMode::ProjectedPsd) {
-        project_psd(&mut out.hessian);
-    }
 }
 
 /// Replaces a symmetric matrix by its PSD projection V max(Λ, 0) Vᵀ.
 pub fn project_psd(h: &mut SMatrix<f64, 18, 18>) {
-    let sym = (*h + h.transpose()) * 0.5;
-    let eig = SymmetricEigen::new(sym);
-    if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
-        *h = sym;
-        return;
-    }
-    let lam = eig.eigenvalues.map(|l| l.max(0.0));
-    let v = &eig.eigenvectors;
-    *h = v * SMatrix::<f64, 18, 18>::from_diagonal(&lam) * v.transpose();
+    crate::director::project_psd_18(h);
 }

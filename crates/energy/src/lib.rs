@@ -7,9 +7,11 @@
 //!   ([`density`]) and [`eval_face`], which returns a face's energy, 18-gradient and 18×18
 //!   Hessian (exact, Gauss–Newton or projected to PSD, [`HessianMode`]); the edge-director
 //!   form [`EdgeDirector`] (model.md §1.1, one angle per edge) with its bending kernel
-//!   [`eval_director_bend`] over 21 face dofs and the edge signs [`edge_signs`];
+//!   [`eval_director_bend`] over 21 face dofs and the edge signs [`edge_signs`], selected for a
+//!   whole mesh by [`SffKind::EdgeDirector`];
 //! - **whole mesh** — [`RestState`] (ā, b̄ per face), [`DampingState`], [`lumped_mass`],
-//!   [`DofMap`] (pinned coordinates) and [`Assembler`], which builds the lower-triangular
+//!   [`DofMap`] (pinned coordinates; edge angles with [`DofMap::with_edges`]) and
+//!   [`Assembler`] ([`Assembler::for_model`] for edge directors), which builds the lower-triangular
 //!   Hessian pattern over the free dofs once and refills it in place at every evaluation,
 //!   in parallel and bit-identically for any number of threads.
 //!

@@ -24,9 +24,25 @@ pub struct RestState {
     pub b_bar: Vec<Matrix2<f64>>,
 }
 
-/// The forms (a, b) of every face of `mesh` at positions `x` (not validated).
-fn forms_of(mesh: &Mesh, x: &[Vector3<f64>], sff: SffKind) -> Result<RestState, EnergyError> {
+/// The forms (a, b) of every face of `mesh` at positions `x` (not validated); an edge-director
+/// b uses the edge angles `phi` (one per edge; empty = all 0).
+fn forms_of(
+    mesh: &Mesh,
+    x: &[Vector3<f64>],
+    phi: &[f64],
+    sff: SffKind,
+) -> Result<RestState, EnergyError> {
     check_len("positions", mesh.n_vertices(), x.len())?;
+    if !phi.is_empty() {
+        check_len("edge angles", mesh.n_edges(), phi.len())?;
+        if let Some(e) = phi.iter().position(|p| !p.is_finite()) {
+            return Err(EnergyError::InvalidParameter {
+                name: "edge angle",
+                value: phi[e],
+                reason: "must be finite",
+            });
+        }
+    }
     if let Some(v) = x.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
         return Err(EnergyError::NonFiniteVertex {
             vertex: VertexId::new(v),
@@ -39,7 +55,10 @@ fn forms_of(mesh: &Mesh, x: &[Vector3<f64>], sff: SffKind) -> Result<RestState, 
     for f in 0..mesh.n_faces() {
         let st = stencils.stencil(f, x);
         a.push(first_fundamental_form(&[st.x[0], st.x[1], st.x[2]]));
-        b.push(b_form.b(&st));
+        b.push(match sff.director() {
+            Some(d) if !phi.is_empty() => d.b_with_angles(&st, &stencils.angles(f, phi)),
+            _ => b_form.b(&st),
+        });
     }
     Ok(RestState { a_bar: a, b_bar: b })
 }
@@ -53,7 +72,7 @@ impl RestState {
         x: &[Vector3<f64>],
         sff: SffKind,
     ) -> Result<RestState, EnergyError> {
-        let rest = forms_of(mesh, x, sff)?;
+        let rest = forms_of(mesh, x, &[], sff)?;
         rest.validate(mesh)?;
         Ok(rest)
     }
@@ -137,9 +156,23 @@ pub struct DampingState {
 impl DampingState {
     /// Forms of the positions `x_prev` (m) at the start of a step of length `dt` (s). Errors on
     /// a length mismatch, non-finite positions, a degenerate face or `dt` not finite and > 0.
+    /// An edge-director form is evaluated with all edge angles 0: use
+    /// [`DampingState::from_configuration`] to pass the angles.
     pub fn from_positions(
         mesh: &Mesh,
         x_prev: &[Vector3<f64>],
+        sff: SffKind,
+        dt: f64,
+    ) -> Result<DampingState, EnergyError> {
+        Self::from_configuration(mesh, x_prev, &[], sff, dt)
+    }
+
+    /// Like [`DampingState::from_positions`], with the edge angles `phi_prev` (rad, one per
+    /// edge, or empty for all 0) of an edge-director form at the start of the step.
+    pub fn from_configuration(
+        mesh: &Mesh,
+        x_prev: &[Vector3<f64>],
+        phi_prev: &[f64],
         sff: SffKind,
         dt: f64,
     ) -> Result<DampingState, EnergyError> {
@@ -153,7 +186,7 @@ impl DampingState {
         let RestState {
             a_bar: a_prev,
             b_bar: b_prev,
-        } = forms_of(mesh, x_prev, sff)?;
+        } = forms_of(mesh, x_prev, phi_prev, sff)?;
         for (f, a) in a_prev.iter().enumerate() {
             if let Err(reason) = form_problem(a, true) {
                 return Err(EnergyError::InvalidRestForm {

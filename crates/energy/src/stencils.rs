@@ -1,8 +1,10 @@
-//! Per-face stencils (face vertices + flap vertices) from the mesh topology, built once.
+//! Per-face stencils (face vertices + flap vertices, and the face's edges with their
+//! orientation signs for edge-director unknowns) from the mesh topology, built once.
 
 use crate::kernel::FaceStencil;
+use crate::sff::EdgeAngles;
 use nalgebra::Vector3;
-use thinshell_mesh::{FaceId, Mesh, VertexId};
+use thinshell_mesh::{EdgeId, FaceId, Mesh, VertexId};
 
 /// The six stencil vertices of every face: `[i, j, k, flap_0, flap_1, flap_2]`, flap `e`
 /// across local edge `e` (opposite local vertex `e`), `None` on a boundary edge.
@@ -10,6 +12,10 @@ use thinshell_mesh::{FaceId, Mesh, VertexId};
 pub struct Stencils {
     vertices: Vec<[VertexId; 6]>,
     flap: Vec<[bool; 3]>,
+    /// Edge of each local edge (opposite local vertex e).
+    edges: Vec<[EdgeId; 3]>,
+    /// σ per local edge ([`crate::edge_signs`]).
+    signs: Vec<[f64; 3]>,
 }
 
 impl Stencils {
@@ -33,7 +39,30 @@ impl Stencils {
                 (v, has)
             })
             .unzip();
-        Stencils { vertices, flap }
+        let edges = (0..mesh.n_faces())
+            .map(|f| topo.face_edges(FaceId::new(f)))
+            .collect();
+        Stencils {
+            vertices,
+            flap,
+            edges,
+            signs: crate::director::edge_signs(mesh),
+        }
+    }
+
+    /// The edges of face `f` in local-edge order.
+    pub fn edges(&self, f: usize) -> &[EdgeId; 3] {
+        &self.edges[f]
+    }
+
+    /// The edge angles of face `f` from the per-edge angles `phi` (rad, one per mesh edge,
+    /// length checked by the caller), with the face's orientation signs.
+    pub fn angles(&self, f: usize, phi: &[f64]) -> EdgeAngles {
+        let e = &self.edges[f];
+        EdgeAngles {
+            phi: [phi[e[0].idx()], phi[e[1].idx()], phi[e[2].idx()]],
+            sigma: self.signs[f],
+        }
     }
 
     /// Number of faces.

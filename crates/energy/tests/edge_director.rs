@@ -686,3 +686,63 @@ fn cylinder_mismatch_director_converges_average_does_not() {
         }
     }
 }
+
+/// The tan variant's barrier: folding one hinge of a flat face towards 180° (flap rotated about
+/// edge 0 by θ → π) drives its bending energy to infinity like 1/(π − θ)², while the sin
+/// variant's stays bounded — with the same rest forms (flat, b̄ = 0) and zero angles.
+#[test]
+fn tan_variant_resists_folding_flat_sin_does_not() {
+    let x0 = Vector3::new(0.0, 0.0, 0.0);
+    let x1 = Vector3::new(1.0, 0.0, 0.0);
+    let x2 = Vector3::new(0.0, 1.0, 0.0);
+    // Edge 0 runs x1 → x2; the flap starts mirrored across it (flat hinge) and rotates about it.
+    let mid = (x1 + x2) * 0.5;
+    let axis = Unit::new_normalize(x2 - x1);
+    let flap_flat = Vector3::new(1.0, 1.0, 0.0);
+    let stencil = |theta: f64| FaceStencil {
+        x: [
+            x0,
+            x1,
+            x2,
+            mid + Rotation3::from_axis_angle(&axis, theta) * (flap_flat - mid),
+            x0,
+            x0,
+        ],
+        flap: [true, false, false],
+    };
+    let rest = FaceRest {
+        a_bar: first_fundamental_form(&[x0, x1, x2]),
+        b_bar: Matrix2::zeros(),
+    };
+    let angles = EdgeAngles {
+        phi: [0.0; 3],
+        sigma: [1.0; 3],
+    };
+    let energy = |variant, theta: f64| {
+        bend(
+            &EdgeDirector { variant },
+            &stencil(theta),
+            &angles,
+            &rest,
+            None,
+        )
+        .energy
+    };
+    let pi = std::f64::consts::PI;
+    let (mut sin_max, mut tan_prev) = (0.0f64, 0.0);
+    for k in 1..=6 {
+        let gap = 0.5f64.powi(k); // π − θ
+        let e_sin = energy(DirectorVariant::Sin, pi - gap);
+        let e_tan = energy(DirectorVariant::Tan, pi - gap);
+        sin_max = sin_max.max(e_sin);
+        // tan(θ/2) ≈ 2/(π − θ): the energy grows ~4× per halving of the gap.
+        if k > 1 {
+            let ratio = e_tan / tan_prev;
+            assert!((3.5..4.5).contains(&ratio), "gap {gap}: ratio {ratio}");
+        }
+        tan_prev = e_tan;
+    }
+    // sin(θ/2) ≤ 1: bounded by the energy of II = 2d.
+    assert!(sin_max <= energy(DirectorVariant::Sin, pi) * (1.0 + 1e-12));
+    assert!(tan_prev > 1e3 * sin_max, "{tan_prev} vs {sin_max}");
+}

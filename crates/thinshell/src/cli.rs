@@ -54,14 +54,17 @@ pub fn describe(sim: &Simulation) -> String {
     if terms.stretch {
         on.push("stretching");
     }
+    let bending = format!("bending ({})", sim.model().sff.name().replace('_', " "));
     if terms.bend {
-        on.push("bending (mid-edge average)");
+        on.push(&bending);
     }
     if terms.damping {
         on.push("Kelvin-Voigt damping");
     }
+    let n_angles = sim.system().n_edge_angles();
+    let n_coordinates = 3 * mesh.n_vertices() + n_angles;
     format!(
-        "scene: {}\nmesh: {} vertices, {} faces, {} edges\neffects: {}\nenergy terms evaluated: {}\nunknowns: {} (of {} coordinates; {} pinned)\nintegrator: {:?}, dt = {:e} s, {} steps\ninitial elastic energy: {:e} J\n",
+        "scene: {}\nmesh: {} vertices, {} faces, {} edges\neffects: {}\nenergy terms evaluated: {}\nunknowns: {} (of {} coordinates; {} held){}\nintegrator: {:?}, dt = {:e} s, {} steps\ninitial elastic energy: {:e} J\n",
         sim.name(),
         mesh.n_vertices(),
         mesh.n_faces(),
@@ -69,8 +72,13 @@ pub fn describe(sim: &Simulation) -> String {
         effects.join(", "),
         on.join(", "),
         sim.n_unknowns(),
-        3 * mesh.n_vertices(),
-        3 * mesh.n_vertices() - sim.n_unknowns(),
+        n_coordinates,
+        n_coordinates - sim.n_unknowns(),
+        if n_angles > 0 {
+            format!(", including {n_angles} edge-director angles")
+        } else {
+            String::new()
+        },
         sim.integrator(),
         sim.dt(),
         sim.steps_total(),

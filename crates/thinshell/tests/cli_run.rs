@@ -101,7 +101,7 @@ fn check_prints_what_would_be_simulated() {
     let s = String::from_utf8(out.stdout).unwrap();
     assert!(s.contains("effects: stretching, bending, inertia"), "{s}");
     assert!(
-        s.contains("unknowns: 75 (of 75 coordinates; 0 pinned)"),
+        s.contains("unknowns: 75 (of 75 coordinates; 0 held)"),
         "{s}"
     );
     // Damping is not listed, so it is not among the evaluated terms.

@@ -11,6 +11,12 @@
 //! block `(max, min)` of the lower triangle — transposed when `v1 < v2`. With vertex-major,
 //! monotone dof numbering ([`DofMap`]) a block with row vertex > column vertex lies entirely
 //! below the diagonal; a diagonal block keeps its lower entries only.
+//!
+//! Edge-director unknowns ride on the same machinery: with `edge_slots`, every face has three
+//! more slots, one per edge, and edge `e` is *node* `n_vertices + e`, a node whose only
+//! coordinate is axis 0 (axes 1 and 2 have no dof, like pinned coordinates, so their entries
+//! are never gathered). Edge nodes come after all vertices and their dofs after all position
+//! dofs, so the lower-triangle argument above holds unchanged.
 
 use crate::dofs::DofMap;
 use crate::error::EnergyError;
@@ -34,6 +40,10 @@ pub(super) const fn pair(s1: usize, s2: usize) -> usize {
 
 /// Everything the assembler precomputes from (mesh topology, dofs, stencil size).
 pub(super) struct Pattern {
+    /// Slots per face: vertex slots, then 3 edge slots when edge unknowns are present.
+    pub slots: usize,
+    /// Number of vertex nodes (edge node e is `n_vertices + e`).
+    pub n_vertices: usize,
     /// Lower-triangular CSC structure over the free dofs.
     pub symbolic: SymbolicSparseColMat<usize>,
     /// Position of (d, d) in the value array, per free dof.
@@ -42,7 +52,7 @@ pub(super) struct Pattern {
     pub grad_stride: usize,
     /// f64 per face in the Hessian buffer.
     pub hess_stride: usize,
-    /// Per vertex (CSR): gradient-buffer offsets of the face slots that touch it.
+    /// Per node (CSR): gradient-buffer offsets of the face slots that touch it.
     pub grad_ptr: Vec<usize>,
     /// See `grad_ptr`.
     pub grad_src: Vec<u32>,
@@ -62,11 +72,27 @@ pub(super) struct Pattern {
 }
 
 impl Pattern {
-    /// Builds the pattern for stencils with `n_slots` (3: face only, 6: with flaps).
-    pub fn new(stencils: &Stencils, dofs: &DofMap, n_slots: usize) -> Result<Pattern, EnergyError> {
+    /// Builds the pattern for stencils with `n_slots` vertex slots (3: face only, 6: with
+    /// flaps) and, with `edge_slots`, the three edge-angle slots of every face.
+    pub fn new(
+        stencils: &Stencils,
+        dofs: &DofMap,
+        n_slots: usize,
+        edge_slots: bool,
+    ) -> Result<Pattern, EnergyError> {
         let n_faces = stencils.n_faces();
         let n_vertices = dofs.n_vertices();
-        let (grad_stride, hess_stride) = (3 * n_slots, 9 * n_pairs(n_slots));
+        let n_nodes = n_vertices + if edge_slots { dofs.n_edges() } else { 0 };
+        let slots = n_slots + if edge_slots { 3 } else { 0 };
+        let (grad_stride, hess_stride) = (3 * slots, 9 * n_pairs(slots));
+        let node = |f: usize, s: usize| -> u32 {
+            if s < n_slots {
+                stencils.vertices(f)[s].0
+            } else {
+                (n_vertices + stencils.edges(f)[s - n_slots].idx()) as u32
+            }
+        };
+        let present = |f: usize, s: usize| s >= n_slots || stencils.slot_present(f, s);
         let too_large = |what, count| EnergyError::TooLarge { what, count };
         if n_faces.saturating_mul(hess_stride) >= TRANSPOSED as usize {
             return Err(too_large(
@@ -78,21 +104,20 @@ impl Pattern {
         // Face-block contributions keyed by global block (column vertex, row vertex); the
         // stable sort keeps face order inside a block, which fixes the summation order.
         let mut contrib: Vec<(u32, u32, u32)> =
-            Vec::with_capacity(n_faces * n_pairs(n_slots) + n_vertices);
-        let mut grad: Vec<(u32, u32)> = Vec::with_capacity(n_faces * n_slots);
+            Vec::with_capacity(n_faces * n_pairs(slots) + n_nodes);
+        let mut grad: Vec<(u32, u32)> = Vec::with_capacity(n_faces * slots);
         for f in 0..n_faces {
-            let v = stencils.vertices(f);
-            for s1 in 0..n_slots {
-                if !stencils.slot_present(f, s1) {
+            for s1 in 0..slots {
+                if !present(f, s1) {
                     continue;
                 }
-                let v1 = v[s1].0;
+                let v1 = node(f, s1);
                 grad.push((v1, (f * grad_stride + 3 * s1) as u32));
-                for (s2, w) in v.iter().enumerate().take(s1 + 1) {
-                    if !stencils.slot_present(f, s2) {
+                for s2 in 0..=s1 {
+                    if !present(f, s2) {
                         continue;
                     }
-                    let v2 = w.0;
+                    let v2 = node(f, s2);
                     let src = (f * hess_stride + 9 * pair(s1, s2)) as u32;
                     let (r, c) = (v1.max(v2), v1.min(v2));
                     if v1 == v2 && s1 != s2 {
@@ -105,9 +130,9 @@ impl Pattern {
                 }
             }
         }
-        // Every vertex gets its diagonal block (every diagonal entry present), sorted first
+        // Every node gets its diagonal block (every diagonal entry present), sorted first
         // within its column and contributing nothing.
-        contrib.extend((0..n_vertices as u32).map(|v| (v, v, NONE)));
+        contrib.extend((0..n_nodes as u32).map(|v| (v, v, NONE)));
         contrib.sort_by_key(|&(c, r, src)| (c, r, src != NONE));
         grad.sort_by_key(|&(v, _)| v);
 
@@ -139,7 +164,7 @@ impl Pattern {
             let c = block_vertices[first].0;
             let last = first + block_vertices[first..].partition_point(|&(cc, _)| cc == c);
             for axis_c in 0..3 {
-                let Some(col) = dofs.dof(thinshell_mesh::VertexId(c), axis_c) else {
+                let Some(col) = dofs.node_dof(c as usize, axis_c) else {
                     continue;
                 };
                 debug_assert_eq!(col, col_ptr.len());
@@ -149,7 +174,7 @@ impl Pattern {
                         if r == c && axis_r < axis_c {
                             continue;
                         }
-                        let Some(row) = dofs.dof(thinshell_mesh::VertexId(r), axis_r) else {
+                        let Some(row) = dofs.node_dof(r as usize, axis_r) else {
                             continue;
                         };
                         if row == col {
@@ -181,11 +206,11 @@ impl Pattern {
             }
         }
 
-        let mut grad_ptr = vec![0; n_vertices + 1];
+        let mut grad_ptr = vec![0; n_nodes + 1];
         for &(v, _) in &grad {
             grad_ptr[v as usize + 1] += 1;
         }
-        for v in 0..n_vertices {
+        for v in 0..n_nodes {
             grad_ptr[v + 1] += grad_ptr[v];
         }
         let grad_src = grad.into_iter().map(|(_, s)| s).collect();
@@ -210,6 +235,8 @@ impl Pattern {
             .collect();
 
         Ok(Pattern {
+            slots,
+            n_vertices,
             symbolic,
             diagonal,
             grad_stride,

@@ -53,16 +53,60 @@ pub trait SecondFundamentalForm: Sync {
 /// Choice of second fundamental form discretisation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum SffKind {
-    /// Normalised average of the two unit face normals per edge (model.md §1).
+    /// Normalised average of the two unit face normals per edge (model.md §1): positions only,
+    /// cheapest, but not consistent on irregular meshes or at free edges.
     #[default]
     MidEdgeAverage,
+    /// Edge directors (model.md §1.1): one extra unknown per edge, the angle (rad) of the
+    /// edge's normal director about the edge; consistent under refinement on any mesh.
+    EdgeDirector(DirectorVariant),
 }
 
+static DIRECTOR_SIN: EdgeDirector = EdgeDirector {
+    variant: DirectorVariant::Sin,
+};
+static DIRECTOR_TAN: EdgeDirector = EdgeDirector {
+    variant: DirectorVariant::Tan,
+};
+
 impl SffKind {
-    /// The implementation as a trait object.
+    /// The three discretisations, cheapest first.
+    pub const ALL: [SffKind; 3] = [
+        SffKind::MidEdgeAverage,
+        SffKind::EdgeDirector(DirectorVariant::Sin),
+        SffKind::EdgeDirector(DirectorVariant::Tan),
+    ];
+
+    /// The implementation as a trait object over the 18 stencil positions; an edge-director
+    /// form is evaluated with all edge angles 0 (used for rest forms of a given shape).
     pub fn as_dyn(self) -> &'static dyn SecondFundamentalForm {
         match self {
             SffKind::MidEdgeAverage => &MidEdgeAverage,
+            SffKind::EdgeDirector(DirectorVariant::Sin) => &DIRECTOR_SIN,
+            SffKind::EdgeDirector(DirectorVariant::Tan) => &DIRECTOR_TAN,
         }
+    }
+
+    /// The edge-director form, if this is one (it needs one angle unknown per edge).
+    pub fn director(self) -> Option<EdgeDirector> {
+        match self {
+            SffKind::MidEdgeAverage => None,
+            SffKind::EdgeDirector(variant) => Some(EdgeDirector { variant }),
+        }
+    }
+
+    /// Short name used in scene files and reports: `mid_edge_average`, `edge_director_sin`,
+    /// `edge_director_tan`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SffKind::MidEdgeAverage => "mid_edge_average",
+            SffKind::EdgeDirector(DirectorVariant::Sin) => "edge_director_sin",
+            SffKind::EdgeDirector(DirectorVariant::Tan) => "edge_director_tan",
+        }
+    }
+
+    /// Inverse of [`SffKind::name`].
+    pub fn from_name(name: &str) -> Option<SffKind> {
+        SffKind::ALL.into_iter().find(|k| k.name() == name)
     }
 }

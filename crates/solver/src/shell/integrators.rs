@@ -82,16 +82,29 @@ fn check_dt(dt: f64) -> Result<(), SolverError> {
     }
 }
 
-fn check_state(system: &ShellSystem, state: &State) -> Result<(), SolverError> {
+/// Checks the state's lengths; fills in zero edge angles on a system with edge unknowns when
+/// the state has none yet (e.g. from [`State::at_rest`]).
+fn check_state(system: &ShellSystem, state: &mut State) -> Result<(), SolverError> {
     let n = system.mesh.n_vertices();
-    for (what, len) in [("state.x", state.x.len()), ("state.v", state.v.len())] {
-        if len != n {
+    let n_edges = system.n_edge_angles();
+    if state.phi.is_empty() && n_edges > 0 {
+        state.phi = vec![0.0; n_edges];
+    }
+    for (what, len, expected) in [
+        ("state.x", state.x.len(), n),
+        ("state.v", state.v.len(), n),
+        ("state.phi", state.phi.len(), n_edges),
+    ] {
+        if len != expected {
             return Err(SolverError::DimensionMismatch {
                 what,
-                expected: n,
+                expected,
                 found: len,
             });
         }
+    }
+    if let Some(e) = state.phi.iter().position(|p| !p.is_finite()) {
+        return Err(SolverError::NonFiniteCoordinate { dof: 3 * n + e });
     }
     Ok(())
 }
@@ -155,12 +168,33 @@ fn fallback_mode(system: &ShellSystem, fallback: Option<HessianMode>) -> Option<
 }
 
 impl Static {
-    /// Solves for the equilibrium starting from `x` (overwritten; held coordinates kept).
+    /// Solves for the equilibrium starting from `x` (overwritten; held coordinates kept). With
+    /// edge unknowns the angles start at 0 and are discarded; use
+    /// [`Static::solve_with_angles`] to keep them.
     pub fn solve(
         &mut self,
         system: &mut ShellSystem,
         x: &mut [Vector3<f64>],
     ) -> Result<NewtonReport, SolverError> {
+        let mut phi = vec![0.0; system.n_edge_angles()];
+        self.solve_with_angles(system, x, &mut phi)
+    }
+
+    /// Solves for the equilibrium starting from positions `x` and edge angles `phi` (rad, one
+    /// per edge; empty without edge unknowns), both overwritten.
+    pub fn solve_with_angles(
+        &mut self,
+        system: &mut ShellSystem,
+        x: &mut [Vector3<f64>],
+        phi: &mut [f64],
+    ) -> Result<NewtonReport, SolverError> {
+        if phi.len() != system.n_edge_angles() {
+            return Err(SolverError::DimensionMismatch {
+                what: "edge angles",
+                expected: system.n_edge_angles(),
+                found: phi.len(),
+            });
+        }
         if system.model.terms.damping {
             return Err(SolverError::InvalidSetting {
                 name: "terms.damping",
@@ -176,12 +210,13 @@ impl Static {
             });
         }
         let force_scale = self.force_scale.unwrap_or_else(|| system.force_scale());
-        let mut u = system.gather(x);
-        let n3 = 3 * x.len();
+        let mut u = system.gather(x, phi);
+        let n_coords = system.dofs.n_coordinates();
         let mut obj = ShellObjective {
             sys: system,
             x_full: x.to_vec(),
-            grad_full: vec![0.0; n3],
+            phi_full: phi.to_vec(),
+            grad_full: vec![0.0; n_coords],
             inertia: None,
             damping: None,
             hessian_shift: self.hessian_shift,
@@ -194,7 +229,7 @@ impl Static {
         };
         let result = newton_solve(&mut obj, &mut u, &self.newton, ws);
         let sys = obj.sys;
-        sys.scatter(&u, x);
+        sys.scatter(&u, x, phi);
         result
     }
 }
@@ -207,11 +242,12 @@ impl Integrator for Static {
     ) -> Result<StepReport, SolverError> {
         check_state(system, state)?;
         let mut x = state.x.clone();
+        let mut phi = state.phi.clone();
         system.boundary.apply_prescribed(&mut x, state.t)?;
         let mut hessian = system.hessian_mode;
-        // `solve` leaves its last iterate in `x`, failed or not.
-        let start = x.clone();
-        let report = match self.solve(system, &mut x) {
+        // `solve_with_angles` leaves its last iterate in `x`, `phi`, failed or not.
+        let (start_x, start_phi) = (x.clone(), phi.clone());
+        let report = match self.solve_with_angles(system, &mut x, &mut phi) {
             Ok(r) => r,
             Err(e) => match fallback_mode(system, self.fallback_hessian) {
                 Some(mode) if retryable(&e) => {
@@ -225,11 +261,12 @@ impl Integrator for Static {
                         if retry.is_ok() {
                             break;
                         }
-                        x.copy_from_slice(&start);
+                        x.copy_from_slice(&start_x);
+                        phi.copy_from_slice(&start_phi);
                         if let Some(u) = from {
-                            system.scatter(&u, &mut x);
+                            system.scatter(&u, &mut x, &mut phi);
                         }
-                        retry = self.solve(system, &mut x);
+                        retry = self.solve_with_angles(system, &mut x, &mut phi);
                     }
                     system.hessian_mode = own;
                     retry?
@@ -237,8 +274,9 @@ impl Integrator for Static {
                 _ => return Err(e),
             },
         };
-        let energies = system.energy(&x)?;
+        let energies = system.energy_at(&x, &phi)?;
         state.x = x;
+        state.phi = phi;
         state.v.iter_mut().for_each(|v| *v = Vector3::zeros());
         Ok(StepReport {
             t: state.t,
@@ -293,28 +331,52 @@ impl ImplicitEuler {
         system.boundary.apply_prescribed(&mut x1, t1)?;
         let damping = if system.model.terms.damping {
             Some(
-                DampingState::from_positions(&system.mesh, &state.x, system.model.sff, dt)
-                    .map_err(energy_error)?,
+                DampingState::from_configuration(
+                    &system.mesh,
+                    &state.x,
+                    &state.phi,
+                    system.model.sff,
+                    dt,
+                )
+                .map_err(energy_error)?,
             )
         } else {
             None
         };
         let coords = system.dofs.free_coordinates().to_vec();
+        let n3 = 3 * x1.len();
+        // Edge angles have no mass: their prediction is the previous angle, their inertia 0.
+        let u_prev = system.gather(&state.x, &state.phi);
         let x_tilde: Vec<f64> = coords
             .iter()
-            .map(|&c| state.x[c / 3][c % 3] + dt * state.v[c / 3][c % 3])
+            .zip(&u_prev)
+            .map(|(&c, &u)| {
+                if c < n3 {
+                    u + dt * state.v[c / 3][c % 3]
+                } else {
+                    u
+                }
+            })
             .collect();
         let m_over_dt2 = coords
             .iter()
-            .map(|&c| system.mass[c / 3] / (dt * dt))
+            .map(|&c| {
+                if c < n3 {
+                    system.mass[c / 3] / (dt * dt)
+                } else {
+                    0.0
+                }
+            })
             .collect();
         let mut u = x_tilde.clone();
         let force_scale = self.force_scale.unwrap_or_else(|| system.force_scale());
-        let n3 = 3 * x1.len();
+        let n_coords = system.dofs.n_coordinates();
+        let mut phi1 = state.phi.clone();
         let mut obj = ShellObjective {
             sys: system,
             x_full: x1.clone(),
-            grad_full: vec![0.0; n3],
+            phi_full: phi1.clone(),
+            grad_full: vec![0.0; n_coords],
             inertia: Some(Inertia {
                 x_tilde,
                 m_over_dt2,
@@ -329,7 +391,7 @@ impl ImplicitEuler {
         if let Some(s) = start.filter(|s| s.len() == u.len()) {
             u.copy_from_slice(s);
         } else if !obj.value(&u)?.is_finite() {
-            u = obj.sys.gather(&state.x);
+            u = u_prev;
         }
         let ws = match &mut self.workspace {
             Some(ws) if ws.n_dofs() == u.len() => ws,
@@ -337,12 +399,13 @@ impl ImplicitEuler {
         };
         let report = newton_solve(&mut obj, &mut u, &self.newton, ws)?;
         let energies = obj.last_terms;
-        obj.sys.scatter(&u, &mut x1);
+        obj.sys.scatter(&u, &mut x1, &mut phi1);
         let v1 = x1.iter().zip(&state.x).map(|(a, b)| (a - b) / dt).collect();
         Ok((
             State {
                 x: x1,
                 v: v1,
+                phi: phi1,
                 t: t1,
             },
             report,
@@ -415,6 +478,15 @@ impl Integrator for ExplicitEuler {
     ) -> Result<StepReport, SolverError> {
         let dt = self.dt;
         check_dt(dt)?;
+        if system.has_edge_unknowns() {
+            return Err(SolverError::InvalidSetting {
+                name: "sff",
+                value: 1.0,
+                requirement: "explicit Euler cannot advance edge-director angles (they have no \
+                              mass): use implicit Euler or a static solve, or the mid-edge \
+                              average form",
+            });
+        }
         check_state(system, state)?;
         let n = state.x.len();
         // Damping forces use the previous configuration xⁿ − Δt vⁿ.

@@ -12,22 +12,33 @@ use super::bc::Boundary;
 use super::loads::{Loads, face_volume, face_volume_gradient, face_volume_hessian};
 use crate::{Objective, SolverError};
 
-/// Dynamic state: positions (m), velocities (m/s), time (s), one entry per vertex.
+/// Dynamic state: positions (m), velocities (m/s), one entry per vertex; edge-director angles
+/// (rad), one per edge; time (s).
 #[derive(Clone, Debug, PartialEq)]
 pub struct State {
     /// Positions (m).
     pub x: Vec<Vector3<f64>>,
     /// Velocities (m/s).
     pub v: Vec<Vector3<f64>>,
+    /// Edge-director angles φ_e (rad), one per edge, when the system has edge unknowns
+    /// ([`ShellSystem::has_edge_unknowns`]); empty otherwise. An empty vector on a system with
+    /// edge unknowns means all angles 0 (integrators fill it in on the first step). The angles
+    /// carry no mass: every step solves for them quasi-statically.
+    pub phi: Vec<f64>,
     /// Time (s).
     pub t: f64,
 }
 
 impl State {
-    /// At rest at positions `x`, time 0.
+    /// At rest at positions `x`, time 0, edge angles 0.
     pub fn at_rest(x: Vec<Vector3<f64>>) -> State {
         let v = vec![Vector3::zeros(); x.len()];
-        State { x, v, t: 0.0 }
+        State {
+            x,
+            v,
+            phi: Vec::new(),
+            t: 0.0,
+        }
     }
 }
 
@@ -54,6 +65,10 @@ pub struct ShellSystem {
     pub(crate) mass: Vec<f64>,
     pub(crate) f_ext: Vec<f64>,
     pub(crate) assembler: Assembler,
+    /// Length ℓ̄ (m, mean edge length of the reference mesh) by which edge angles are scaled
+    /// into Newton unknowns u = ℓ̄ φ, so that their gradient entries are forces (N) and their
+    /// steps lengths (m), like those of the positions.
+    pub(crate) angle_scale: f64,
 }
 
 impl std::fmt::Debug for ShellSystem {
@@ -67,7 +82,9 @@ impl std::fmt::Debug for ShellSystem {
 }
 
 impl ShellSystem {
-    /// Builds the dof map, lumped masses, external forces and the assembler.
+    /// Builds the dof map, lumped masses, external forces and the assembler. With an
+    /// edge-director second fundamental form and bending on, the unknowns include one angle
+    /// per edge; the angles of clamped edges are fixed at 0 (pins leave them free).
     pub fn new(
         mesh: Mesh,
         model: ShellModel,
@@ -76,10 +93,16 @@ impl ShellSystem {
         loads: Loads,
     ) -> Result<ShellSystem, SolverError> {
         rest.validate(&mesh).map_err(energy_error)?;
-        let dofs = boundary.dof_map(&mesh)?;
+        let mut dofs = boundary.dof_map(&mesh)?;
+        if model.sff.director().is_some() && model.terms.bend {
+            dofs = dofs
+                .with_edges(mesh.n_edges(), boundary.clamped_edges.iter().copied())
+                .map_err(energy_error)?;
+        }
         let mass = lumped_mass(&mesh, &rest, &model.material).map_err(energy_error)?;
         let f_ext = loads.forces(&mass)?;
-        let assembler = Assembler::new(&mesh, &dofs, model.terms).map_err(energy_error)?;
+        let assembler = Assembler::for_model(&mesh, &dofs, &model).map_err(energy_error)?;
+        let angle_scale = mean_edge_length(&mesh);
         Ok(ShellSystem {
             mesh,
             model,
@@ -91,7 +114,18 @@ impl ShellSystem {
             mass,
             f_ext,
             assembler,
+            angle_scale,
         })
+    }
+
+    /// Whether the unknowns include one edge-director angle per edge.
+    pub fn has_edge_unknowns(&self) -> bool {
+        self.assembler.has_edge_unknowns()
+    }
+
+    /// Number of edge angles a [`State`] of this system carries (0 without edge unknowns).
+    pub fn n_edge_angles(&self) -> usize {
+        self.dofs.n_edges()
     }
 
     /// Free dofs.
@@ -153,8 +187,19 @@ impl ShellSystem {
         if d.is_finite() && d > 0.0 { d } else { 1.0 }
     }
 
-    /// Energy terms (J) at positions `x` (no damping).
+    /// Energy terms (J) at positions `x` (no damping), with all edge angles 0 when the system
+    /// has edge unknowns (see [`ShellSystem::energy_at`]).
     pub fn energy(&mut self, x: &[Vector3<f64>]) -> Result<EnergyTerms, SolverError> {
+        self.energy_at(x, &[])
+    }
+
+    /// Energy terms (J) at positions `x` and edge angles `phi` (rad, one per edge; empty = all
+    /// 0; must be empty without edge unknowns), no damping.
+    pub fn energy_at(
+        &mut self,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+    ) -> Result<EnergyTerms, SolverError> {
         let model = ShellModel {
             terms: self.assembler.terms(),
             ..self.model
@@ -166,19 +211,44 @@ impl ShellSystem {
                 requirement: "energy() evaluates without damping state; use an integrator",
             });
         }
+        let zeros;
+        let phi = if phi.is_empty() && self.has_edge_unknowns() {
+            zeros = vec![0.0; self.dofs.n_edges()];
+            &zeros
+        } else {
+            phi
+        };
         self.assembler
-            .evaluate(&model, x, &self.rest, None, EvalOutput::default())
+            .evaluate_with_angles(&model, x, phi, &self.rest, None, EvalOutput::default())
             .map_err(energy_error)
     }
 
     /// The force (N) the supports exert on every held coordinate at `x`:
     /// `R = ∂E/∂x − F_ext − p ∂V/∂x` there (0 on free coordinates).
+    /// With edge unknowns the angles are taken as 0 (see [`ShellSystem::reactions_at`]).
     pub fn reactions(&mut self, x: &[Vector3<f64>]) -> Result<Vec<f64>, SolverError> {
-        let mut g = vec![0.0; 3 * x.len()];
+        self.reactions_at(x, &[])
+    }
+
+    /// [`ShellSystem::reactions`] at edge angles `phi` (rad, one per edge; empty = all 0).
+    pub fn reactions_at(
+        &mut self,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+    ) -> Result<Vec<f64>, SolverError> {
+        let zeros;
+        let phi = if phi.is_empty() && self.has_edge_unknowns() {
+            zeros = vec![0.0; self.dofs.n_edges()];
+            &zeros
+        } else {
+            phi
+        };
+        let mut g = vec![0.0; self.dofs.n_coordinates()];
         self.assembler
-            .evaluate(
+            .evaluate_with_angles(
                 &self.model,
                 x,
+                phi,
                 &self.rest,
                 None,
                 EvalOutput {
@@ -188,6 +258,7 @@ impl ShellSystem {
             )
             .map_err(energy_error)?;
         super::integrators::add_pressure_gradient(self, x, &mut g);
+        g.truncate(3 * x.len());
         Ok(g.iter()
             .zip(&self.f_ext)
             .enumerate()
@@ -201,20 +272,50 @@ impl ShellSystem {
             .collect())
     }
 
-    /// Free dofs of positions `x`.
-    pub fn gather(&self, x: &[Vector3<f64>]) -> Vec<f64> {
+    /// Free dofs (Newton's unknowns) of positions `x` (m) and edge angles `phi` (rad, one per
+    /// edge, or empty for all 0): free coordinates, then ℓ̄·φ_e (m) of the free edges.
+    pub fn gather(&self, x: &[Vector3<f64>], phi: &[f64]) -> Vec<f64> {
+        let n3 = 3 * self.dofs.n_vertices();
         self.dofs
             .free_coordinates()
             .iter()
-            .map(|&c| x[c / 3][c % 3])
+            .map(|&c| {
+                if c < n3 {
+                    x[c / 3][c % 3]
+                } else {
+                    self.angle_scale * phi.get(c - n3).copied().unwrap_or(0.0)
+                }
+            })
             .collect()
     }
 
-    /// Writes free dofs `u` into positions `x` (held coordinates untouched).
-    pub fn scatter(&self, u: &[f64], x: &mut [Vector3<f64>]) {
+    /// Writes free dofs `u` into positions `x` and edge angles `phi` (held coordinates and
+    /// fixed angles untouched; `phi` may be empty when there are no edge unknowns).
+    pub fn scatter(&self, u: &[f64], x: &mut [Vector3<f64>], phi: &mut [f64]) {
+        let n3 = 3 * self.dofs.n_vertices();
         for (&c, &val) in self.dofs.free_coordinates().iter().zip(u) {
-            x[c / 3][c % 3] = val;
+            if c < n3 {
+                x[c / 3][c % 3] = val;
+            } else if let Some(p) = phi.get_mut(c - n3) {
+                *p = val / self.angle_scale;
+            }
         }
+    }
+}
+
+/// Mean edge length (m) of the reference mesh; 1 if degenerate.
+fn mean_edge_length(mesh: &Mesh) -> f64 {
+    let p = mesh.positions();
+    let edges = mesh.topology().edges();
+    let sum: f64 = edges
+        .iter()
+        .map(|e| (p[e.vertices[1].idx()] - p[e.vertices[0].idx()]).norm())
+        .sum();
+    let mean = sum / edges.len().max(1) as f64;
+    if mean.is_finite() && mean > 0.0 {
+        mean
+    } else {
+        1.0
     }
 }
 
@@ -230,6 +331,8 @@ pub(crate) struct Inertia {
 pub(crate) struct ShellObjective<'a> {
     pub sys: &'a mut ShellSystem,
     pub x_full: Vec<Vector3<f64>>,
+    /// Edge angles (rad), one per edge with edge unknowns, else empty.
+    pub phi_full: Vec<f64>,
     pub grad_full: Vec<f64>,
     pub inertia: Option<Inertia>,
     pub damping: Option<DampingState>,
@@ -284,7 +387,7 @@ impl ShellObjective<'_> {
         gradient: bool,
         hessian: Option<&mut SparseColMat<usize, f64>>,
     ) -> Result<EnergyTerms, EnergyError> {
-        self.sys.scatter(u, &mut self.x_full);
+        self.sys.scatter(u, &mut self.x_full, &mut self.phi_full);
         let mode = self.sys.hessian_mode;
         let out = EvalOutput {
             gradient: if gradient {
@@ -294,9 +397,10 @@ impl ShellObjective<'_> {
             },
             hessian: hessian.map(|h| (h, mode)),
         };
-        self.sys.assembler.evaluate(
+        self.sys.assembler.evaluate_with_angles(
             &self.sys.model,
             &self.x_full,
+            &self.phi_full,
             &self.sys.rest,
             self.damping.as_ref(),
             out,
@@ -308,7 +412,7 @@ impl ShellObjective<'_> {
         let coords = self.sys.dofs.free_coordinates();
         let mut v = -self.sys.loads.pressure * self.volume();
         for (d, &c) in coords.iter().enumerate() {
-            v -= self.sys.f_ext[c] * u[d];
+            v -= self.sys.f_ext.get(c).copied().unwrap_or(0.0) * u[d];
             if let Some(i) = &self.inertia {
                 let dx = u[d] - i.x_tilde[d];
                 v += 0.5 * i.m_over_dt2[d] * dx * dx;
@@ -344,8 +448,14 @@ impl Objective for ShellObjective<'_> {
         self.last_terms = terms;
         self.add_pressure_gradient();
         let coords = self.sys.dofs.free_coordinates();
+        let n_pos = self.sys.dofs.n_free_positions();
+        let inv_scale = 1.0 / self.sys.angle_scale;
         for (d, &c) in coords.iter().enumerate() {
-            g[d] = self.grad_full[c] - self.sys.f_ext[c];
+            g[d] = if d < n_pos {
+                self.grad_full[c] - self.sys.f_ext[c]
+            } else {
+                self.grad_full[c] * inv_scale
+            };
             if let Some(i) = &self.inertia {
                 g[d] += i.m_over_dt2[d] * (u[d] - i.x_tilde[d]);
             }
@@ -363,6 +473,25 @@ impl Objective for ShellObjective<'_> {
                     .assembler
                     .add_face_block(FaceId::new(f), &block, h)
                     .map_err(energy_error)?;
+            }
+        }
+        if self.sys.has_edge_unknowns() {
+            // u = ℓ̄ φ for edge dofs: H_uu = D H_φφ D with D = diag(1, 1/ℓ̄).
+            let n_pos = self.sys.dofs.n_free_positions();
+            let inv_scale = 1.0 / self.sys.angle_scale;
+            let (symbolic, val) = h.parts_mut();
+            for j in n_pos.min(symbolic.ncols())..symbolic.ncols() {
+                for p in symbolic.col_range(j) {
+                    // Rows of an angle column are angles too (lower triangle, angles last).
+                    val[p] *= inv_scale * inv_scale;
+                }
+            }
+            for j in 0..n_pos.min(symbolic.ncols()) {
+                for p in symbolic.col_range(j) {
+                    if symbolic.row_idx()[p] >= n_pos {
+                        val[p] *= inv_scale;
+                    }
+                }
             }
         }
         let offsets = self.sys.assembler.diagonal_offsets();
@@ -395,12 +524,23 @@ impl Objective for ShellObjective<'_> {
 
     fn dof_coordinates(&self) -> Option<Vec<[f64; 3]>> {
         let p = self.sys.mesh.positions();
+        let n3 = 3 * p.len();
+        let edges = self.sys.mesh.topology().edges();
         Some(
             self.sys
                 .dofs
                 .free_coordinates()
                 .iter()
-                .map(|&c| [p[c / 3].x, p[c / 3].y, p[c / 3].z])
+                .map(|&c| {
+                    // An edge angle sits at its edge's midpoint.
+                    let q = if c < n3 {
+                        p[c / 3]
+                    } else {
+                        let e = &edges[c - n3];
+                        (p[e.vertices[0].idx()] + p[e.vertices[1].idx()]) * 0.5
+                    };
+                    [q.x, q.y, q.z]
+                })
                 .collect(),
         )
     }
@@ -456,7 +596,7 @@ mod tests {
             .collect();
         let n = sys.dofs.n_free();
         for inertia in [false, true] {
-            let u0 = sys.gather(&x);
+            let u0 = sys.gather(&x, &[]);
             let inertia = inertia.then(|| Inertia {
                 x_tilde: u0.iter().map(|v| v + 0.01).collect(),
                 m_over_dt2: (0..n).map(|d| 1.0 + d as f64 * 0.01).collect(),
@@ -465,6 +605,7 @@ mod tests {
             let mut obj = ShellObjective {
                 sys: &mut sys,
                 x_full: x.clone(),
+                phi_full: Vec::new(),
                 grad_full: vec![0.0; n3],
                 inertia,
                 damping: None,

@@ -26,6 +26,9 @@ pub struct SceneFile {
     /// Rest forms before growth (default: the forms of the mesh).
     #[serde(default)]
     pub rest: RestSpec,
+    /// Discretisation of the bending energy (effect `bending`; default: mid-edge average).
+    #[serde(default)]
+    pub bending: Option<BendingSpec>,
     /// Growth model and its stimulus (effect `growth`).
     #[serde(default)]
     pub growth: Option<GrowthSpec>,
@@ -87,6 +90,30 @@ impl Effect {
             Effect::Diffusion => "diffusion",
         }
     }
+}
+
+/// How the bending energy is discretised.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct BendingSpec {
+    /// The second fundamental form (default `mid_edge_average`).
+    #[serde(default)]
+    pub form: BendingForm,
+}
+
+/// The discrete second fundamental form (`docs/model.md` §1, §1.1).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum BendingForm {
+    /// Normalised average of the two face normals per edge: positions only, cheapest, not
+    /// consistent on irregular meshes or at free edges.
+    #[default]
+    MidEdgeAverage,
+    /// Edge directors, II = 2d sin α: one extra unknown (an angle) per edge, consistent.
+    EdgeDirectorSin,
+    /// Edge directors, II = 2d tan α: like `edge_director_sin`, with an energy barrier against
+    /// folding a hinge flat onto itself.
+    EdgeDirectorTan,
 }
 
 /// Mesh source: exactly one of `obj` or `generator`.

@@ -85,6 +85,7 @@ pub fn validate(s: &SceneFile) -> Result<(), Problem> {
     initial(&s.initial)?;
     material(&s.material)?;
     rest(&s.rest)?;
+    bending(s, &on)?;
     growth(s, on(Effect::Growth), on(Effect::Diffusion))?;
     loads(s, &on)?;
     boundary(&s.boundary)?;
@@ -354,6 +355,24 @@ fn region(key: &str, r: &RegionSpec) -> Check {
         if v.is_empty() {
             return Err(problem(format!("{key}.vertices"), "is empty"));
         }
+    }
+    Ok(())
+}
+
+fn bending(s: &SceneFile, on: &dyn Fn(Effect) -> bool) -> Check {
+    let Some(b) = &s.bending else { return Ok(()) };
+    if !on(Effect::Bending) {
+        return Err(problem(
+            "bending",
+            "section given but effect `bending` is not in `effects`",
+        ));
+    }
+    if b.form != BendingForm::MidEdgeAverage && s.integrator.kind == IntegratorKind::Explicit {
+        return Err(problem(
+            "bending.form",
+            "edge-director forms add edge angles without mass, which explicit Euler cannot \
+             advance: use the implicit or static integrator, or `mid_edge_average`",
+        ));
     }
     Ok(())
 }

@@ -1,7 +1,9 @@
 //! Scene → [`Simulation`]: mesh, start state, rest forms, pins, loads, energy terms.
 
 use nalgebra::{Matrix2, Vector3};
-use thinshell_energy::{EnergyError, HessianMode, Material, RestState, SffKind, ShellModel, Terms};
+use thinshell_energy::{
+    DirectorVariant, EnergyError, HessianMode, Material, RestState, SffKind, ShellModel, Terms,
+};
 use thinshell_mesh::{Mesh, MeshError, VertexId, generators, io};
 use thinshell_solver::{
     Boundary, ExplicitEuler, ImplicitEuler, Integrator, Loads, NewtonSettings, Prescribed,
@@ -18,8 +20,8 @@ use super::Simulation;
 use crate::reference::{map_xy, wrap_cylinder};
 use crate::scene::Scene;
 use crate::scene::schema::{
-    Effect, GrowthModelKind, GrowthSpec, HessianSpec, IntegratorKind, MeshSpec, RegionSpec,
-    RestSource, StimulusKind, Surface as SceneSurface,
+    BendingForm, Effect, GrowthModelKind, GrowthSpec, HessianSpec, IntegratorKind, MeshSpec,
+    RegionSpec, RestSource, StimulusKind, Surface as SceneSurface,
 };
 
 /// Why a scene could not be turned into a simulation.
@@ -202,7 +204,11 @@ impl Simulation {
             bend: on(Effect::Bending),
             damping: on(Effect::Damping),
         };
-        let sff = SffKind::MidEdgeAverage;
+        let sff = match s.bending.as_ref().map(|b| b.form).unwrap_or_default() {
+            BendingForm::MidEdgeAverage => SffKind::MidEdgeAverage,
+            BendingForm::EdgeDirectorSin => SffKind::EdgeDirector(DirectorVariant::Sin),
+            BendingForm::EdgeDirectorTan => SffKind::EdgeDirector(DirectorVariant::Tan),
+        };
         let model = ShellModel {
             material,
             terms,
@@ -547,12 +553,19 @@ fn elastic_energy(
         damping: false,
         ..model.terms
     };
-    let dofs = thinshell_energy::DofMap::all_free(mesh.n_vertices());
-    let mut assembler = thinshell_energy::Assembler::new(mesh, &dofs, terms)?;
     let model = ShellModel { terms, ..*model };
-    assembler.evaluate(
+    // Edge-director angles start at 0.
+    let n_angles = if model.sff.director().is_some() && terms.bend {
+        mesh.n_edges()
+    } else {
+        0
+    };
+    let dofs = thinshell_energy::DofMap::all_free(mesh.n_vertices()).with_edges(n_angles, [])?;
+    let mut assembler = thinshell_energy::Assembler::for_model(mesh, &dofs, &model)?;
+    assembler.evaluate_with_angles(
         &model,
         x,
+        &vec![0.0; n_angles],
         rest,
         None,
         thinshell_energy::EvalOutput {

@@ -175,6 +175,11 @@ impl Simulation {
     pub fn positions(&self) -> &[Vector3<f64>] {
         &self.state.x
     }
+    /// Current edge-director angles φ_e (rad, one per edge) when the bending form has edge
+    /// unknowns; empty otherwise (and before the first step, meaning all 0).
+    pub fn edge_angles(&self) -> &[f64] {
+        &self.state.phi
+    }
     /// Current velocities, m/s.
     pub fn velocities(&self) -> &[Vector3<f64>] {
         &self.state.v
