@@ -3,7 +3,9 @@
 //!
 //! - `bench-square`: the seed's three square experiments, the seed's way and the fast way.
 //! - `bench-sphere`: the seed's two sphere experiments with energy plots and rendered shapes.
+//! - `accuracy`: error against known answers vs wall time for every accuracy knob.
 
+mod accuracy;
 mod bench_sphere;
 mod bench_square;
 mod plot;
@@ -38,6 +40,19 @@ enum Task {
         #[arg(long)]
         quick: bool,
     },
+    /// What accuracy costs in time: cases with known answers under every accuracy knob.
+    /// Writes docs/accuracy.md, plots under docs/accuracy/ and target/xtask/accuracy.json.
+    Accuracy {
+        /// Fewer knob values and coarser meshes (under a minute).
+        #[arg(long)]
+        quick: bool,
+        /// Directory for accuracy.md and the accuracy/ plots (default: <workspace>/docs).
+        #[arg(long)]
+        docs_dir: Option<PathBuf>,
+        /// The JSON file with every run (default: target/xtask/accuracy.json).
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
 }
 
 /// Where tasks write their results: `<workspace>/target/xtask`.
@@ -62,6 +77,15 @@ fn main() -> ExitCode {
     let result = match args.task {
         Task::BenchSquare { quick } => bench_square::run(quick),
         Task::BenchSphere { quick } => bench_sphere::run(quick),
+        Task::Accuracy {
+            quick,
+            docs_dir,
+            json,
+        } => accuracy::run(&accuracy::Options {
+            quick,
+            docs_dir: docs_dir.unwrap_or_else(|| workspace_root().join("docs")),
+            json_path: json.unwrap_or_else(|| out_dir().join("accuracy.json")),
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
