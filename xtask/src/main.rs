@@ -52,6 +52,9 @@ enum Task {
         /// The JSON file with every run (default: target/xtask/accuracy.json).
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Only the cases whose name contains this text.
+        #[arg(long)]
+        only: Option<String>,
     },
 }
 
@@ -81,10 +84,12 @@ fn main() -> ExitCode {
             quick,
             docs_dir,
             json,
+            only,
         } => accuracy::run(&accuracy::Options {
             quick,
             docs_dir: docs_dir.unwrap_or_else(|| workspace_root().join("docs")),
             json_path: json.unwrap_or_else(|| out_dir().join("accuracy.json")),
+            only,
         }),
     };
     match result {
