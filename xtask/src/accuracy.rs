@@ -89,6 +89,9 @@ struct Run {
     converged: bool,
     /// Elastic energy of the final state, J (static solves only: tells apart equilibria).
     energy: Option<f64>,
+    /// Distance to the discrete equilibrium (the tightest static solve on the same mesh), same
+    /// unit as `error`: the solver's share of the error (seed-mesh squares only).
+    to_discrete: Option<f64>,
 }
 
 /// A convergence series under mesh refinement.
@@ -444,6 +447,20 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
         Loads::default(),
     )?;
 
+    // The discrete equilibrium: the tightest static solve (exact Hessian, line search).
+    let mut x_eq = start.clone();
+    if !static_solve(
+        &mut sys,
+        &mut x_eq,
+        Knobs::tight(),
+        fs,
+        STATIC_MAX_ITERATIONS,
+    )
+    .ok
+    {
+        bail!("{name}: the reference static solve failed");
+    }
+
     // Static solve: tolerance × Hessian × line search.
     let tolerances: &[f64] = if quick {
         &[1e-5, 1e-11]
@@ -476,6 +493,7 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
                     steps: c.steps,
                     converged: c.ok,
                     energy: elastic(&mut sys, &x),
+                    to_discrete: Some(rms_rigid(&x, &x_eq)?),
                 });
             }
         }
@@ -502,6 +520,7 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
                 dt: Some(dt),
                 tolerance: Some(NewtonSettings::default().gradient_tolerance),
                 error: rms_rigid(&s.x, &target)?,
+                to_discrete: Some(rms_rigid(&s.x, &x_eq)?),
                 wall_s: c.wall_s,
                 newton_iterations: c.iterations,
                 steps: c.steps,
@@ -527,6 +546,7 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
                 dt: Some(dt),
                 tolerance: Some(NewtonSettings::default().gradient_tolerance),
                 error: rms_rigid(&s.x, &target)?,
+                to_discrete: Some(rms_rigid(&s.x, &x_eq)?),
                 wall_s: c.wall_s,
                 newton_iterations: c.iterations,
                 steps: c.steps,
@@ -558,8 +578,14 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
         if let Some(rb) = relax_best {
             out.verdict.push(format!(
                 "{}: best static solve {:.2e} m in {:.3} s; best dynamic run {:.2e} m in {:.3} s \
-                 ({}).",
-                name, bs.error, bs.wall_s, rb.error, rb.wall_s, rb.label
+                 ({}; {:.1e} m from the discrete equilibrium).",
+                name,
+                bs.error,
+                bs.wall_s,
+                rb.error,
+                rb.wall_s,
+                rb.label,
+                rb.to_discrete.unwrap_or(f64::NAN)
             ));
         }
     }
@@ -630,6 +656,7 @@ fn cylinder_refinement(sff: SffKind, quick: bool) -> Result<Case> {
                     steps: c.steps,
                     converged: c.ok,
                     energy: elastic(&mut sys, &x),
+                    to_discrete: None,
                 });
             }
             if let Some(e) = best_equilibrium(&out.runs[out.runs.len() - 2..]) {
@@ -736,6 +763,7 @@ fn cap_refinement(sff: SffKind, quick: bool) -> Result<Case> {
                 steps: c.steps,
                 converged: c.ok,
                 energy: elastic(&mut sys, &x),
+                to_discrete: None,
             });
         }
         if let Some(e) = best_equilibrium(&out.runs[out.runs.len() - 2..]) {
@@ -914,6 +942,7 @@ fn strip(bilayer: bool, sff: SffKind, quick: bool) -> Result<Case> {
                 steps: cost.steps,
                 converged: cost.ok,
                 energy: elastic(&mut sys, &x),
+                to_discrete: None,
             });
         }
         if let Some(e) = best_equilibrium(&out.runs[out.runs.len() - 2..]) {
@@ -1052,6 +1081,7 @@ fn cantilever(sff: SffKind, quick: bool) -> Result<Case> {
             steps: c.steps,
             converged: c.ok,
             energy: None,
+            to_discrete: None,
         });
     }
 
@@ -1099,6 +1129,7 @@ fn cantilever(sff: SffKind, quick: bool) -> Result<Case> {
                 steps: c.steps,
                 converged: c.ok,
                 energy: None,
+                to_discrete: None,
             });
         }
     }
@@ -1131,6 +1162,7 @@ fn cantilever(sff: SffKind, quick: bool) -> Result<Case> {
             steps: c.steps,
             converged: c.ok,
             energy: None,
+            to_discrete: None,
         });
     }
 
@@ -1278,6 +1310,7 @@ fn case_json(c: &Case) -> Value {
             "steps": r.steps,
             "converged": r.converged,
             "energy_j": r.energy,
+            "to_discrete_equilibrium": r.to_discrete,
             "pareto": front.contains(&i),
         })).collect::<Vec<_>>(),
         "refinement": c.refinement.iter().map(|s| {
@@ -1368,6 +1401,10 @@ fn markdown(
     conv: &str,
 ) -> String {
     let (nproc, cpu) = machine();
+    let load = std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|l| l.split_whitespace().next().map(str::to_string))
+        .unwrap_or_else(|| "unknown".into());
     let mut md = String::new();
     let cmd = if quick {
         "cargo xtask accuracy --quick"
@@ -1387,7 +1424,10 @@ fn markdown(
         "Wall times are single measurements on a shared 2-core machine where other builds may be \
          running: treat them as ±30 % (more for runs under a millisecond). Wall time covers the \
          solve or the time stepping (Newton workspace and symbolic analysis included, building \
-         the mesh and the system excluded). Second-fundamental-form formulations compared: {}.\n",
+         the mesh and the system excluded); the 1-minute load average when the study ended was \
+         {load} (above 2, other jobs shared the cores). \"To discrete eq.\" is the distance to the \
+         tightest static solution on the same mesh, the solver's share of the error (seed-mesh \
+         squares). Second-fundamental-form formulations compared: {}.\n",
         FORMULATIONS
             .iter()
             .map(|s| format!("`{}`", sff_name(*s)))
@@ -1396,6 +1436,11 @@ fn markdown(
     );
 
     let _ = writeln!(md, "## Recommendation\n");
+    let _ = writeln!(
+        md,
+        "Derived from the runs below (\"within 2× of the best error\" picks the cheapest run that \
+         is about as accurate as anything tried on that case; failed runs never count).\n"
+    );
     for c in cases {
         for v in &c.verdict {
             let _ = writeln!(md, "- ({}) {v}", sff_name(c.sff));
@@ -1422,14 +1467,30 @@ fn markdown(
             let _ = writeln!(md, "- ({}) {}: {conv}.", sff_name(c.sff), s.name);
         }
     }
-    let _ = writeln!(
-        md,
-        "\nThe mid-edge average second fundamental form is not consistent on general meshes \
-         (docs/model.md §1.1): its bending mismatch does not vanish under refinement on irregular \
-         meshes, so refining such a mesh buys time, not accuracy, once its floor is reached; see \
-         the irregular-mesh rows of the cylinder series.\n"
-    );
-
+    // Where the mid-edge average stops converging: the irregular-mesh cylinder series.
+    for c in cases.iter().filter(|c| c.sff == SffKind::MidEdgeAverage) {
+        for s in c.refinement.iter().filter(|s| s.name.contains("irregular")) {
+            if let (Some(first), Some(last)) = (s.points.first(), s.points.last()) {
+                let _ = writeln!(
+                    md,
+                    "\nWhere the mid-edge average stops converging: on irregular meshes its bending \
+                     is not consistent (docs/model.md §1.1), so the {} error goes from {:.2e} at {} \
+                     faces to {:.2e} at {} faces ({:.1}× for {:.0}× the faces) and then levels \
+                     off: refining such a mesh buys time, not accuracy. On the regular meshes the \
+                     same case converges (table below). Results on a mesh of unknown quality are \
+                     only as good as its coarsest level that already sits on the floor.",
+                    s.name,
+                    first.1,
+                    first.0,
+                    last.1,
+                    last.0,
+                    first.1 / last.1,
+                    last.0 as f64 / first.0 as f64
+                );
+            }
+        }
+    }
+    let _ = writeln!(md);
     let _ = writeln!(md, "## Convergence under mesh refinement\n");
     let _ = writeln!(
         md,
@@ -1504,7 +1565,7 @@ fn markdown(
         for (j, r) in c.runs.iter().enumerate() {
             let _ = writeln!(
                 md,
-                "| {} | {}{} | {} | {} | {} | {} | {} | {:.4} | {:.2e} | {} | {} |",
+                "| {} | {}{} | {} | {} | {} | {} | {} | {:.4} | {:.2e} | {} | {} | {} |",
                 r.family,
                 r.label,
                 if r.converged { "" } else { " (**failed**)" },
@@ -1515,6 +1576,7 @@ fn markdown(
                 r.newton_iterations,
                 r.wall_s,
                 r.error,
+                r.to_discrete.map_or("—".into(), |e| format!("{e:.1e}")),
                 r.energy.map_or("—".into(), |e| format!("{e:.2e}")),
                 if front.contains(&j) { "★" } else { "" }
             );
@@ -1522,6 +1584,61 @@ fn markdown(
         let _ = writeln!(md);
     }
     md
+}
+
+/// Adds to `c.notes` how exact and Gauss–Newton Hessians fared over the case's Newton runs
+/// (converged count, median iterations, total wall time), and, where the Newton tolerance was
+/// varied, the error at the loosest and the tightest tolerance.
+fn summarise_knobs(c: &mut Case) {
+    for h in ["exact", "Gauss-Newton"] {
+        let tag = format!("{h} Hessian");
+        let runs: Vec<&Run> = c
+            .runs
+            .iter()
+            .filter(|r| r.label.contains(&tag) && !r.family.contains("tolerance"))
+            .collect();
+        if runs.is_empty() {
+            continue;
+        }
+        let ok = runs.iter().filter(|r| r.converged).count();
+        let mut its: Vec<usize> = runs.iter().map(|r| r.newton_iterations).collect();
+        its.sort_unstable();
+        let wall: f64 = runs.iter().map(|r| r.wall_s).sum();
+        c.notes.push(format!(
+            "{tag}: {ok} of {} runs converged, median {} Newton iterations, {wall:.2} s in all.",
+            runs.len(),
+            its[its.len() / 2]
+        ));
+    }
+    let tol_runs: Vec<&Run> = c
+        .runs
+        .iter()
+        .filter(|r| r.family == "static, exact Hessian, line search on")
+        .collect();
+    let loose = tol_runs.iter().max_by(|a, b| {
+        a.tolerance
+            .unwrap_or(0.0)
+            .total_cmp(&b.tolerance.unwrap_or(0.0))
+    });
+    let tight = tol_runs.iter().min_by(|a, b| {
+        a.tolerance
+            .unwrap_or(0.0)
+            .total_cmp(&b.tolerance.unwrap_or(0.0))
+    });
+    if let (Some(l), Some(t)) = (loose, tight) {
+        if l.tolerance != t.tolerance {
+            c.notes.push(format!(
+                "Newton tolerance (exact Hessian, line search; relative to E·h·ℓ): {:.0e} stops \
+                 after {} iterations at error {:.2e}, {:.0e} after {} at {:.2e}.",
+                l.tolerance.unwrap_or(0.0),
+                l.newton_iterations,
+                l.error,
+                t.tolerance.unwrap_or(0.0),
+                t.newton_iterations,
+                t.error
+            ));
+        }
+    }
 }
 
 /// Runs the study and writes `accuracy.md`, the plots and the JSON.
@@ -1564,6 +1681,7 @@ pub fn run(opts: &Options) -> Result<()> {
             add(cantilever(sff, opts.quick), CASE_NAMES[7])?;
         }
     }
+    cases.iter_mut().for_each(summarise_knobs);
     let total_s = t0.elapsed().as_secs_f64();
 
     let plot_dir = opts.docs_dir.join("accuracy");
