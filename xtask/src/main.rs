@@ -4,7 +4,9 @@
 //! - `bench-square`: the seed's three square experiments, the seed's way and the fast way.
 //! - `bench-sphere`: the seed's two sphere experiments with energy plots and rendered shapes.
 //! - `hard-cases`: heavy variants of the numerical hard cases (issue #8, docs/robustness.md).
+//! - `accuracy`: error against known answers vs wall time for every accuracy knob.
 
+mod accuracy;
 mod bench_sphere;
 mod bench_square;
 mod hard_cases;
@@ -48,6 +50,22 @@ enum Task {
         #[arg(long)]
         quick: bool,
     },
+    /// What accuracy costs in time: cases with known answers under every accuracy knob.
+    /// Writes docs/accuracy.md, plots under docs/accuracy/ and target/xtask/accuracy.json.
+    Accuracy {
+        /// Fewer knob values and coarser meshes (under a minute).
+        #[arg(long)]
+        quick: bool,
+        /// Directory for accuracy.md and the accuracy/ plots (default: <workspace>/docs).
+        #[arg(long)]
+        docs_dir: Option<PathBuf>,
+        /// The JSON file with every run (default: target/xtask/accuracy.json).
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Only the cases whose name contains this text.
+        #[arg(long)]
+        only: Option<String>,
+    },
 }
 
 /// Where tasks write their results: `<workspace>/target/xtask`.
@@ -73,6 +91,17 @@ fn main() -> ExitCode {
         Task::BenchSquare { quick } => bench_square::run(quick),
         Task::BenchSphere { quick } => bench_sphere::run(quick),
         Task::HardCases { quick } => hard_cases::run(quick),
+        Task::Accuracy {
+            quick,
+            docs_dir,
+            json,
+            only,
+        } => accuracy::run(&accuracy::Options {
+            quick,
+            docs_dir: docs_dir.unwrap_or_else(|| workspace_root().join("docs")),
+            json_path: json.unwrap_or_else(|| out_dir().join("accuracy.json")),
+            only,
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

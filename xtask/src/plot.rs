@@ -77,6 +77,18 @@ pub fn save(chart: &Chart, stem: &Path) -> Result<Vec<PathBuf>> {
     Ok(vec![svg, png])
 }
 
+/// Short tick labels: plain numbers in [1e-3, 1e4), one significant digit in e-notation
+/// otherwise (log axes would print 9.999999999e-5).
+fn tick(v: &f64) -> String {
+    let a = v.abs();
+    if a == 0.0 || (1e-3..1e4).contains(&a) {
+        let s = format!("{v:.4}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        format!("{v:.0e}")
+    }
+}
+
 fn keep(v: f64, log: bool) -> bool {
     v.is_finite() && (!log || v > 0.0)
 }
@@ -162,6 +174,8 @@ where
     ctx.configure_mesh()
         .x_desc(&chart.x_label)
         .y_desc(&chart.y_label)
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
         .label_style(("sans-serif", 14))
         .axis_desc_style(("sans-serif", 16))
         .draw()
@@ -183,7 +197,14 @@ where
                 .legend(legend);
         }
     }
+    // On log–log charts (error vs cost) the lower left is empty: nothing beats the Pareto front.
+    let position = if chart.log_x && chart.log_y {
+        SeriesLabelPosition::LowerLeft
+    } else {
+        SeriesLabelPosition::MiddleRight
+    };
     ctx.configure_series_labels()
+        .position(position)
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .label_font(("sans-serif", 14))
