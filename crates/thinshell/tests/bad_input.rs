@@ -81,6 +81,8 @@ fn refused(args: &[&str], paths: &[&Path], what: &str) -> String {
     assert_eq!(err.trim_end().lines().count(), 1, "{what}: {err}");
     assert!(err.starts_with("thinshell: error: "), "{what}: {err}");
     assert!(stdout.trim().is_empty(), "{what}: stdout {stdout}");
+    // Shown with --nocapture: the table in docs/bad-input.md quotes these lines.
+    println!("{what}\t{}\t{}", args[0], err.trim_end());
     err
 }
 
@@ -338,7 +340,7 @@ fn contradictory_settings_and_nothing_to_simulate() {
         (
             "pressure_without_section",
             BASE.replace("\"inertia\"]", "\"inertia\", \"pressure\"]"),
-            vec!["effect `pressure` needs a [pressure] section"],
+            vec!["scene.toml:1:1:", "effect `pressure` needs a [pressure] section"],
         ),
     ];
     for (name, text, expect) in cases {

@@ -179,7 +179,9 @@ fn syntax(text: &str, origin: &str, e: &toml::de::Error) -> SceneError {
 }
 
 fn invalid(text: &str, origin: &str, p: Problem) -> SceneError {
-    let (line, column) = locate(text, &p.key).map_or((0, 0), |o| line_col(text, o));
+    // A key missing from the text altogether (e.g. a section an effect needs) points at the
+    // start of the file, as the parser's own "missing field" errors do, rather than at 0:0.
+    let (line, column) = locate(text, &p.key).map_or((1, 1), |o| line_col(text, o));
     SceneError::Invalid {
         origin: origin.to_string(),
         key: p.key,
