@@ -14,7 +14,8 @@ fuzz_target!(|data: &[u8]| {
     // Everything after a line `---` is one `key=value` override per line.
     let (scene, overrides) = text.split_once("\n---\n").unwrap_or((text, ""));
     let overrides: Vec<String> = overrides.lines().map(str::to_string).collect();
-    let Ok(parsed) = Scene::from_toml_with_overrides(scene, "fuzz.toml", Path::new("."), &overrides)
+    let Ok(parsed) =
+        Scene::from_toml_with_overrides(scene, "fuzz.toml", Path::new("."), &overrides)
     else {
         return;
     };
