@@ -50,6 +50,17 @@ pub enum MeshError {
         /// `|e1 × e2| / ℓ_max²` of the face (twice its area over its longest edge squared).
         relative_area: f64,
     },
+    /// A face is so small or so large that its first fundamental form (squared edge lengths,
+    /// squared area) under- or overflows `f64`: the energies could not be computed.
+    #[error(
+        "face {face} is out of the representable scale: twice its area is {twice_area:e} (edge lengths must lie between about 1e-76 and 1e76)"
+    )]
+    OutOfScale {
+        /// Offending face.
+        face: usize,
+        /// `|e1 × e2|` of the face as computed (0 on underflow, `inf` on overflow).
+        twice_area: f64,
+    },
     /// An edge is shared by three or more faces.
     #[error("edge ({}, {}) is non-manifold: shared by {} faces {faces:?}", .vertices[0], .vertices[1], .faces.len())]
     NonManifoldEdge {

@@ -8,6 +8,7 @@
 
 use nalgebra::Vector3;
 
+use crate::error::MeshError;
 use crate::ids::VertexId;
 use crate::mesh::Mesh;
 
@@ -69,4 +70,27 @@ pub fn mid_edge_normals(mesh: &Mesh, x: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
             }
         })
         .collect()
+}
+
+/// Checks that every face of `mesh` in configuration `x` can be measured in `f64`: `|e1 × e2|²`
+/// (the determinant of the first fundamental form) is a normal number and `ℓ_max⁴` is finite.
+///
+/// [`Mesh::new`] judges faces by shape only, so a mesh with edges of 1e-200 or 1e200 is valid
+/// connectivity; but its fundamental forms under- or overflow and every energy built on them is
+/// `inf` or `NaN`. Callers that compute forms run this check first. The first failing face is
+/// reported as [`MeshError::OutOfScale`].
+pub fn check_scale(mesh: &Mesh, x: &[Vector3<f64>]) -> Result<(), MeshError> {
+    for (face, &f) in mesh.faces().iter().enumerate() {
+        let [i, j, k] = f.map(VertexId::idx);
+        let (u, v) = (x[j] - x[i], x[k] - x[i]);
+        let twice_area = u.cross(&v).norm();
+        let l2 = u
+            .norm_squared()
+            .max(v.norm_squared())
+            .max((v - u).norm_squared());
+        if !((twice_area * twice_area).is_normal() && (l2 * l2).is_finite()) {
+            return Err(MeshError::OutOfScale { face, twice_area });
+        }
+    }
+    Ok(())
 }

@@ -46,6 +46,11 @@ pub fn read_obj_raw(mut reader: impl BufRead) -> Result<RawMesh, MeshError> {
     // `tobj` parses them.
     let mut file_positions: Vec<Vector3<f64>> = Vec::new();
     let mut file_index: HashMap<[u64; 3], usize> = HashMap::new();
+    let n_v_lines = text
+        .lines()
+        .filter(|l| l.split_whitespace().next() == Some("v"))
+        .count();
+    let mut v_lines_so_far = 0;
     for (i, line) in text.lines().enumerate() {
         let mut tokens = line.split_whitespace();
         match tokens.next() {
@@ -55,7 +60,29 @@ pub fn read_obj_raw(mut reader: impl BufRead) -> Result<RawMesh, MeshError> {
                     message: "face with fewer than 3 vertices",
                 });
             }
+            Some("f") => {
+                // `tobj` reports a bad vertex index without its line; find it here. Positive
+                // indices may refer to any `v` line of the file, negative ones count back from
+                // the last `v` line before the face.
+                for t in tokens {
+                    let index = t.split('/').next().and_then(|v| v.parse::<i64>().ok());
+                    let in_range = match index {
+                        Some(k) if k > 0 => k.unsigned_abs() as usize <= n_v_lines,
+                        Some(k) if k < 0 => k.unsigned_abs() as usize <= v_lines_so_far,
+                        Some(_) => false,
+                        // Not a number: left for `tobj` to report.
+                        None => true,
+                    };
+                    if !in_range {
+                        return Err(MeshError::ObjSyntax {
+                            line: i + 1,
+                            message: "face vertex index out of range (0, or beyond the `v` lines)",
+                        });
+                    }
+                }
+            }
             Some("v") => {
+                v_lines_so_far += 1;
                 let vals: Vec<f64> = tokens.map_while(|t| t.parse::<f64>().ok()).collect();
                 // Malformed lines are left for `tobj` to report.
                 if vals.len() >= 3 {

@@ -52,7 +52,7 @@ mod orient;
 pub mod topology;
 
 pub use error::MeshError;
-pub use geometry::{face_areas, face_normal, face_normals, mid_edge_normals};
+pub use geometry::{check_scale, face_areas, face_normal, face_normals, mid_edge_normals};
 pub use ids::{EdgeId, FaceId, VertexId};
 pub use mesh::{BuildReport, DEGENERATE_TOLERANCE, Mesh};
 pub use topology::{Edge, Topology};

@@ -2,7 +2,7 @@
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::Vector3;
-use thinshell_mesh::{Mesh, MeshError, generators, io};
+use thinshell_mesh::{Mesh, MeshError, generators, geometry, io};
 
 fn p(x: f64, y: f64, z: f64) -> Vector3<f64> {
     Vector3::new(x, y, z)
@@ -308,7 +308,38 @@ fn obj_and_io_errors() {
     let e = io::load_obj("/nonexistent/definitely/missing.obj").unwrap_err();
     assert!(matches!(e, MeshError::Io(_)), "{e}");
     let e = io::read_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n".as_bytes()).unwrap_err();
+    assert!(matches!(e, MeshError::ObjSyntax { line: 4, .. }), "{e}");
+    let e = io::read_obj("v 0 0 0\nv 1 0 0\nv 0 1 0 1 2\nf 1 2 3\n".as_bytes()).unwrap_err();
     assert!(matches!(e, MeshError::Obj(_)), "{e}");
+}
+
+#[test]
+fn faces_too_small_or_too_large_for_f64_fail_the_scale_check() {
+    // Mesh::new judges shape only, so these are valid meshes; their forms are not computable.
+    for (s, overflow) in [(1e-160, false), (1e80, true)] {
+        let x: Vec<_> = square().iter().map(|q| q * s).collect();
+        let m = Mesh::new(x, vec![[0, 1, 2], [0, 2, 3]]).unwrap();
+        let e = geometry::check_scale(&m, m.positions()).unwrap_err();
+        match e {
+            MeshError::OutOfScale {
+                face: 0,
+                twice_area,
+            } => {
+                assert_eq!(twice_area.is_infinite(), overflow, "{e}");
+            }
+            other => panic!("unexpected {other}"),
+        }
+        assert!(
+            e.to_string().contains("out of the representable scale"),
+            "{e}"
+        );
+    }
+    // The limits are far from any physical shell: 1e-60 m and 1e60 m pass.
+    for s in [1e-60, 1e60] {
+        let x: Vec<_> = square().iter().map(|q| q * s).collect();
+        let m = Mesh::new(x, vec![[0, 1, 2], [0, 2, 3]]).unwrap();
+        geometry::check_scale(&m, m.positions()).unwrap();
+    }
 }
 
 #[test]

@@ -121,6 +121,35 @@ fn malformed_input_is_an_error_not_a_panic() {
 }
 
 #[test]
+fn bad_face_indices_name_their_line() {
+    let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    for (face, ok) in [
+        ("f 0 1 2", false),                              // OBJ indices start at 1
+        ("f 1 2 4", false),                              // beyond the last `v` line
+        ("f 1 2 99999999999999999", false),              // far beyond
+        ("f -1 -2 -4", false),                           // relative, before the first `v` line
+        ("f -1 -2 -3", true),                            // relative, in range
+        ("f 1/1/1 2/1/1 3/1/1\nvt 0 0\nvn 0 0 1", true), // texture/normal parts are ignored
+    ] {
+        let text = format!("{head}# comment\n{face}\n");
+        let r = io::read_obj(text.as_bytes());
+        if ok {
+            assert_eq!(r.unwrap().n_faces(), 1, "{face}");
+        } else {
+            let e = r.unwrap_err();
+            assert!(
+                matches!(e, MeshError::ObjSyntax { line: 5, .. }),
+                "{face}: {e}"
+            );
+            assert!(e.to_string().contains("index out of range"), "{e}");
+        }
+    }
+    // A positive index may refer to a `v` line further down (tobj resolves it per object).
+    let m = io::read_obj("v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n".as_bytes()).unwrap();
+    assert_eq!(m.n_faces(), 1);
+}
+
+#[test]
 fn write_rejects_wrong_positions() {
     let m = generators::rectangle(1.0, 1.0, 1, 1).unwrap();
     let e = io::write_obj(&m, &m.positions()[..3], Vec::new()).unwrap_err();

@@ -23,8 +23,10 @@ pub enum Failure {
 
 /// `thinshell info MESH`: prints statistics and problems of an OBJ mesh.
 pub fn info(path: &Path) -> Result<(), Failure> {
-    let mesh = thinshell_mesh::io::load_obj(path)
-        .map_err(|e| Failure::BadInput(format!("{}: {e}", path.display())))?;
+    let bad = |e: thinshell_mesh::MeshError| Failure::BadInput(format!("{}: {e}", path.display()));
+    let mesh = thinshell_mesh::io::load_obj(path).map_err(bad)?;
+    // Statistics of a mesh whose areas overflow would print inf/NaN; say why instead.
+    thinshell_mesh::check_scale(&mesh, mesh.positions()).map_err(bad)?;
     println!("{}", path.display());
     println!("{}", mesh_info(&mesh));
     Ok(())
@@ -96,6 +98,9 @@ struct Writer {
     bar: Option<ProgressBar>,
     error: Option<String>,
     frames: usize,
+    /// The step of the last frame counted, so that rewriting it (the failure path writes the
+    /// last good state, which may already be a frame) does not count it twice.
+    last_frame: Option<usize>,
 }
 
 impl Writer {
@@ -140,8 +145,9 @@ impl Writer {
                 return;
             }
         }
-        if self.obj || self.vtk.is_some() {
+        if (self.obj || self.vtk.is_some()) && self.last_frame != Some(step) {
             self.frames += 1;
+            self.last_frame = Some(step);
         }
     }
 }
@@ -229,6 +235,7 @@ pub fn run(
         bar,
         error: None,
         frames: 0,
+        last_frame: None,
     };
     let result = sim.run(&mut writer, stop);
     if let Some(bar) = &writer.bar {

@@ -92,6 +92,57 @@ fn run_writes_outputs_that_agree_with_the_library() {
 }
 
 #[test]
+fn a_failed_run_with_vtk_output_leaves_a_valid_pvd_listing_the_frames_written() {
+    let d = dir().join("vtk-fail");
+    std::fs::create_dir_all(&d).unwrap();
+    let scene_path = d.join("tiny.toml");
+    std::fs::write(&scene_path, SCENE).unwrap();
+    let out_dir = d.join("out");
+    let _ = std::fs::remove_dir_all(&out_dir);
+    // One Newton iteration cannot reach the tolerance: step 1 fails.
+    let out = bin()
+        .args(["run", "--quiet", "--out"])
+        .arg(&out_dir)
+        .arg(&scene_path)
+        .args(["--set", r#"output.formats=["vtk"]"#])
+        .args(["--set", "integrator.newton.max_iterations=1"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.starts_with("thinshell: simulation failed: step 1"),
+        "{err}"
+    );
+    let pvd = std::fs::read_to_string(out_dir.join("frames.pvd")).unwrap();
+    let pvd = roxmltree::Document::parse(&pvd).unwrap();
+    let files: Vec<&str> = pvd
+        .descendants()
+        .filter(|n| n.has_tag_name("DataSet"))
+        .map(|n| n.attribute("file").unwrap())
+        .collect();
+    // The initial frame, listed once although the failure path writes the last good state
+    // (step 0) again, and as OBJ too.
+    assert_eq!(files, ["frame_000000.vtu"]);
+    let vtu = std::fs::read_to_string(out_dir.join("frame_000000.vtu")).unwrap();
+    roxmltree::Document::parse(&vtu).unwrap();
+    let last_good = thinshell_mesh::io::load_obj(out_dir.join("frame_000000.obj")).unwrap();
+    assert_eq!(last_good.n_faces(), 32);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary["status"], "failed");
+    assert_eq!(summary["steps"], 0);
+    assert!(
+        summary["error"].as_str().unwrap().contains("step 1"),
+        "{summary}"
+    );
+    // One state was written (step 0), once.
+    assert_eq!(summary["frames"], 1);
+}
+
+#[test]
 fn check_prints_what_would_be_simulated() {
     let d = dir();
     let p = d.join("check.toml");

@@ -95,6 +95,101 @@ fn out_of_range_values_name_the_key() {
 }
 
 #[test]
+fn impossible_step_settings_are_refused() {
+    // A step count that would run for ever, directly or through end_time.
+    let e = err(&OK.replace("steps = 3", "steps = 1000000001"));
+    assert!(e.contains("`integrator.steps` must be ≤ 1e9"), "{e}");
+    assert!(e.starts_with("bad.toml:8:"), "{e}");
+    Scene::from_toml(
+        &OK.replace("steps = 3", "steps = 1000000000"),
+        "ok.toml",
+        Path::new("."),
+    )
+    .unwrap();
+    let e = err(&OK.replace("steps = 3", "end_time = 1e6"));
+    assert!(e.contains("more than 1e9"), "{e}");
+    // Positive but so small that the inertia term 1/Δt² overflows.
+    let e = err(&OK.replace("dt = 1e-4", "dt = 1e-160"));
+    assert!(e.contains("`integrator.dt` is too small"), "{e}");
+    Scene::from_toml(
+        &OK.replace("dt = 1e-4", "dt = 1e-150"),
+        "ok.toml",
+        Path::new("."),
+    )
+    .unwrap();
+}
+
+#[test]
+fn generator_defaults_take_part_in_range_checks() {
+    let annulus = |keys: &str| {
+        OK.replace(
+            "generator = \"seed_square\"",
+            &format!("generator = \"annulus\"\n{keys}"),
+        )
+    };
+    let e = err(&annulus("inner_radius = 1.5"));
+    assert!(
+        e.contains("`mesh.inner_radius` must be smaller than outer_radius = 1"),
+        "{e}"
+    );
+    let e = err(&annulus("outer_radius = 0.25"));
+    assert!(
+        e.contains("`mesh.inner_radius` must be smaller than outer_radius = 0.25"),
+        "{e}"
+    );
+    Scene::from_toml(&annulus("outer_radius = 0.75"), "ok.toml", Path::new(".")).unwrap();
+}
+
+#[test]
+fn build_errors_name_the_mesh_file_and_the_problem() {
+    use thinshell::sim::{BuildError, Simulation};
+    use thinshell_mesh::MeshError;
+    let dir = tempdir().join("build-errors");
+    std::fs::create_dir_all(&dir).unwrap();
+    let obj_scene = OK.replace("generator = \"seed_square\"", "obj = \"m.obj\"");
+    let scene = Scene::from_toml(&obj_scene, "s.toml", &dir).unwrap();
+    let build = |obj: Option<&str>| {
+        let path = dir.join("m.obj");
+        match obj {
+            Some(text) => std::fs::write(&path, text).unwrap(),
+            None => {
+                let _ = std::fs::remove_file(&path);
+            }
+        }
+        match Simulation::build(&scene) {
+            Ok(_) => panic!("accepted {obj:?}"),
+            Err(e) => e,
+        }
+    };
+    let e = build(None);
+    assert!(
+        matches!(&e, BuildError::MeshFile { path, source: MeshError::Io(_), .. } if *path == dir.join("m.obj")),
+        "{e}"
+    );
+    assert!(e.to_string().contains("m.obj"), "{e}");
+    // Valid connectivity whose forms overflow f64.
+    let e = build(Some("v 0 0 0\nv 1e100 0 0\nv 0 1e100 0\nf 1 2 3\n"));
+    assert!(
+        matches!(
+            &e,
+            BuildError::MeshFile {
+                source: MeshError::OutOfScale { face: 0, .. },
+                ..
+            }
+        ),
+        "{e}"
+    );
+    // A start state mapped out of range by [initial].
+    let huge = OK.replace("[integrator]", "[initial]\nscale = 1e200\n[integrator]");
+    let scene = Scene::from_toml(&huge, "s.toml", &dir).unwrap();
+    let e = Simulation::build(&scene).err().unwrap();
+    assert!(
+        matches!(&e, BuildError::Invalid { key, .. } if key == "initial"),
+        "{e}"
+    );
+}
+
+#[test]
 fn contradictions_are_errors() {
     // Static solve with inertia.
     let e = err(&OK.replace("kind = \"implicit\"", "kind = \"static\""));

@@ -100,11 +100,22 @@ impl Scene {
         })?;
         let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
         let origin = path.display().to_string();
+        Self::from_toml_with_overrides(&text, &origin, &base, overrides)
+    }
+
+    /// [`Scene::from_toml`] after applying `key=value` overrides to the text; with overrides,
+    /// messages name the origin as `"<origin> (with --set)"`.
+    pub fn from_toml_with_overrides(
+        text: &str,
+        origin: &str,
+        base_dir: &Path,
+        overrides: &[String],
+    ) -> Result<Scene, SceneError> {
         if overrides.is_empty() {
-            Self::from_toml(&text, &origin, &base)
+            Self::from_toml(text, origin, base_dir)
         } else {
-            let text = apply_overrides(&text, &origin, overrides)?;
-            Self::from_toml(&text, &format!("{origin} (with --set)"), &base)
+            let text = apply_overrides(text, origin, overrides)?;
+            Self::from_toml(&text, &format!("{origin} (with --set)"), base_dir)
         }
     }
 
@@ -168,7 +179,9 @@ fn syntax(text: &str, origin: &str, e: &toml::de::Error) -> SceneError {
 }
 
 fn invalid(text: &str, origin: &str, p: Problem) -> SceneError {
-    let (line, column) = locate(text, &p.key).map_or((0, 0), |o| line_col(text, o));
+    // A key missing from the text altogether (e.g. a section an effect needs) points at the
+    // start of the file, as the parser's own "missing field" errors do, rather than at 0:0.
+    let (line, column) = locate(text, &p.key).map_or((1, 1), |o| line_col(text, o));
     SceneError::Invalid {
         origin: origin.to_string(),
         key: p.key,

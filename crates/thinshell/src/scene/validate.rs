@@ -228,7 +228,10 @@ fn mesh(m: &MeshSpec) -> Check {
             ));
         }
     }
-    if let (Some(a), Some(b)) = (m.inner_radius, m.outer_radius) {
+    // The generator's defaults take part too: `inner_radius = 2` alone is as wrong as with an
+    // explicit `outer_radius = 1`.
+    if m.inner_radius.is_some() || m.outer_radius.is_some() {
+        let (a, b) = (m.inner_radius.unwrap_or(0.5), m.outer_radius.unwrap_or(1.0));
         if a >= b {
             return Err(problem(
                 "mesh.inner_radius",
@@ -659,6 +662,9 @@ fn boundary(b: &BoundarySpec) -> Check {
     Ok(())
 }
 
+/// Most steps a scene may ask for (directly or through `end_time`).
+const MAX_STEPS: usize = 1_000_000_000;
+
 fn integrator(i: &IntegratorSpec, on: &dyn Fn(Effect) -> bool) -> Check {
     let dynamic = matches!(i.kind, IntegratorKind::Implicit | IntegratorKind::Explicit);
     if dynamic {
@@ -671,6 +677,13 @@ fn integrator(i: &IntegratorSpec, on: &dyn Fn(Effect) -> bool) -> Check {
         let dt =
             i.dt.ok_or_else(|| problem("integrator.dt", "is required by dynamic integrators"))?;
         positive("integrator.dt", dt)?;
+        // The inertia term divides by Δt²: a Δt whose square underflows makes every step inf.
+        if !(1.0 / (dt * dt)).is_finite() {
+            return Err(problem(
+                "integrator.dt",
+                format!("is too small to compute with (1/dt² overflows), got {dt:e}"),
+            ));
+        }
         match (i.steps, i.end_time) {
             (Some(_), Some(_)) | (None, None) => {
                 return Err(problem(
@@ -681,7 +694,7 @@ fn integrator(i: &IntegratorSpec, on: &dyn Fn(Effect) -> bool) -> Check {
             (Some(0), None) => return Err(problem("integrator.steps", "must be ≥ 1")),
             (None, Some(t)) => {
                 positive("integrator.end_time", t)?;
-                if t / dt > 1e9 {
+                if t / dt > MAX_STEPS as f64 {
                     return Err(problem(
                         "integrator.end_time",
                         format!("needs {:.3e} steps of dt = {dt}: more than 1e9", t / dt),
@@ -710,6 +723,13 @@ fn integrator(i: &IntegratorSpec, on: &dyn Fn(Effect) -> bool) -> Check {
             &i.end_time,
             "to a static solve (use steps)",
         )?;
+    }
+    // The same bound as for `end_time`: a run of more steps would never finish.
+    if let Some(k) = i.steps.filter(|&k| k > MAX_STEPS) {
+        return Err(problem(
+            "integrator.steps",
+            format!("must be ≤ 1e9, got {k}"),
+        ));
     }
     let n = &i.newton;
     if i.kind == IntegratorKind::Explicit && *n != NewtonSpec::default() {

@@ -36,6 +36,16 @@ pub enum BuildError {
         /// Why.
         source: MeshError,
     },
+    /// The scene's OBJ file could not be read or is not a valid mesh.
+    #[error("{origin}: mesh file {}: {source}", .path.display())]
+    MeshFile {
+        /// The scene.
+        origin: String,
+        /// The OBJ file, resolved against the scene's directory.
+        path: std::path::PathBuf,
+        /// Why.
+        source: MeshError,
+    },
     /// Rest state, material or assembly set-up failed.
     #[error("{origin}: {source}")]
     Energy {
@@ -166,10 +176,21 @@ impl Simulation {
             origin: origin.clone(),
             source,
         };
-        let mesh = make_mesh(scene, &s.mesh).map_err(|source| BuildError::Mesh {
-            origin: origin.clone(),
-            source,
-        })?;
+        let mesh_err = |source| match &s.mesh.obj {
+            Some(path) => BuildError::MeshFile {
+                origin: origin.clone(),
+                path: scene.base_dir.join(path),
+                source,
+            },
+            None => BuildError::Mesh {
+                origin: origin.clone(),
+                source,
+            },
+        };
+        let mesh = make_mesh(scene, &s.mesh).map_err(mesh_err)?;
+        // Mesh::new judges shape only; forms of faces too small or too large for f64 would be
+        // inf/NaN and surface later as an obscure energy error.
+        thinshell_mesh::check_scale(&mesh, mesh.positions()).map_err(mesh_err)?;
         let n = mesh.n_vertices();
         let x_ref = mesh.positions().to_vec();
 
@@ -184,6 +205,8 @@ impl Simulation {
         if let Some(w) = &s.initial.wrap_cylinder {
             x = wrap_cylinder(&x, w.radius, w.center_x.unwrap_or(0.5));
         }
+        thinshell_mesh::check_scale(&mesh, &x)
+            .map_err(|e| invalid("initial", format!("maps the mesh out of range: {e}")))?;
         let v0 = s
             .initial
             .velocity
