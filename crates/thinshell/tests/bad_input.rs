@@ -81,7 +81,7 @@ fn refused(args: &[&str], paths: &[&Path], what: &str) -> String {
     assert_eq!(err.trim_end().lines().count(), 1, "{what}: {err}");
     assert!(err.starts_with("thinshell: error: "), "{what}: {err}");
     assert!(stdout.trim().is_empty(), "{what}: stdout {stdout}");
-    // Shown with --nocapture: the table in docs/bad-input.md quotes these lines.
+    // Shown with --nocapture: the table in docs/robustness.md (bad input) quotes these lines.
     println!("{what}\t{}\t{}", args[0], err.trim_end());
     err
 }
