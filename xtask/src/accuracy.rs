@@ -34,7 +34,7 @@ type V3 = Vector3<f64>;
 
 /// Second-fundamental-form discretisations compared by the study. Extend this list (e.g. with
 /// the edge-director variants) and every case runs once more per entry.
-pub const FORMULATIONS: &[SffKind] = &[SffKind::MidEdgeAverage];
+pub const FORMULATIONS: &[SffKind] = &SffKind::ALL;
 
 /// Names of the cases every study run must contain (checked by the test).
 pub const CASE_NAMES: &[&str] = &[
@@ -293,11 +293,13 @@ fn iterations_of(e: &SolverError) -> usize {
     }
 }
 
-/// Static equilibrium from `x` (overwritten by the solution, or the last accepted iterate on
-/// failure).
+/// Static equilibrium from `x` and, for edge-director forms, the edge angles `phi` (both
+/// overwritten by the solution, or the last accepted iterate on failure; an empty `phi` starts
+/// from zero angles).
 fn static_solve(
     sys: &mut ShellSystem,
     x: &mut [V3],
+    phi: &mut Vec<f64>,
     k: Knobs,
     force_scale: f64,
     max_iterations: usize,
@@ -306,8 +308,9 @@ fn static_solve(
     let mut st = Static::default();
     st.newton = k.settings(max_iterations);
     st.force_scale = Some(force_scale);
+    phi.resize(sys.n_edge_angles(), 0.0);
     let t0 = Instant::now();
-    let r = st.solve(sys, x);
+    let r = st.solve_with_angles(sys, x, phi);
     let wall_s = t0.elapsed().as_secs_f64();
     match r {
         Ok(rep) => Cost {
@@ -369,9 +372,10 @@ fn integrate(
     Ok(cost)
 }
 
-/// Elastic energy (J) of `x`, `None` if it cannot be evaluated.
-fn elastic(sys: &mut ShellSystem, x: &[V3]) -> Option<f64> {
-    sys.energy(x).ok().map(|e| e.stretch + e.bend)
+/// Elastic energy (J) of `x` and edge angles `phi` (empty: none or all 0), `None` if it cannot
+/// be evaluated.
+fn elastic(sys: &mut ShellSystem, x: &[V3], phi: &[f64]) -> Option<f64> {
+    sys.energy_at(x, phi).ok().map(|e| e.stretch + e.bend)
 }
 
 /// Of the converged runs on one mesh, the error of the one with the lowest final energy (the
@@ -450,6 +454,7 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
     if !static_solve(
         &mut sys,
         &mut x_eq,
+        &mut Vec::new(),
         Knobs::tight(),
         fs,
         STATIC_MAX_ITERATIONS,
@@ -474,7 +479,8 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
                     line_search,
                 };
                 let mut x = start.clone();
-                let c = static_solve(&mut sys, &mut x, k, fs, STATIC_MAX_ITERATIONS);
+                let mut phi = Vec::new();
+                let c = static_solve(&mut sys, &mut x, &mut phi, k, fs, STATIC_MAX_ITERATIONS);
                 out.runs.push(Run {
                     family: format!(
                         "static, {} Hessian, line search {}",
@@ -490,7 +496,7 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
                     newton_iterations: c.iterations,
                     steps: c.steps,
                     converged: c.ok,
-                    energy: elastic(&mut sys, &x),
+                    energy: elastic(&mut sys, &x, &phi),
                     to_discrete: Some(rms_rigid(&x, &x_eq)?),
                 });
             }
@@ -596,7 +602,8 @@ fn cylinder_refinement(sff: SffKind, quick: bool) -> Result<Case> {
     let mut out = Case::new(
         CASE_NAMES[3],
         sff,
-        "unit square with ā^{xy} = I, b̄^{xy} = diag(1, 0), started on a radius-2 cylinder; answer: \
+        "unit square with ā^{xy} = I, b̄^{xy} = diag(1, 0), paper (h = 0.1 mm; a third series \
+         h = 1 cm on the irregular meshes), started on a radius-2 cylinder; answer: \
          the radius-1 cylinder; error = RMS vertex distance after removing rigid motion; static \
          Newton to tolerance 1e-11"
             .into(),
@@ -604,9 +611,21 @@ fn cylinder_refinement(sff: SffKind, quick: bool) -> Result<Case> {
     );
     let levels: &[usize] = if quick { &[4, 8, 16] } else { &[4, 8, 16, 32] };
     let irregular_levels: &[usize] = if quick { &[4, 8, 16] } else { &[4, 8, 16, 32] };
-    for (kind, lv) in [("regular", levels), ("irregular", irregular_levels)] {
+    // Paper (h = 0.1 mm) on regular and irregular meshes, and a 1 cm shell on the irregular
+    // ones: thin shells on irregular meshes add the linear membrane's locking (the mesh cannot
+    // bend isometrically), which only a thicker shell or a finer mesh escapes.
+    let paper_h = Material::paper().thickness;
+    for (kind, lv, thickness) in [
+        ("regular", levels, paper_h),
+        ("irregular", irregular_levels, paper_h),
+        ("irregular", irregular_levels, THICK_CYLINDER),
+    ] {
         let mut series = Refinement {
-            name: format!("cylinder, {kind} meshes"),
+            name: if thickness == paper_h {
+                format!("cylinder, {kind} meshes")
+            } else {
+                format!("cylinder, {kind} meshes, h = {} cm", thickness * 1e2)
+            },
             points: Vec::new(),
         };
         for &n in lv {
@@ -623,7 +642,7 @@ fn cylinder_refinement(sff: SffKind, quick: bool) -> Result<Case> {
             )?;
             let target = wrap_cylinder(&x0, 1.0, 0.5);
             let start = wrap_cylinder(&x0, 2.0, 0.5);
-            let material = Material::paper();
+            let material = paper(thickness);
             let fs = membrane_force_scale(&mesh, &material);
             let faces = mesh.n_faces();
             let mut sys = shell(
@@ -640,11 +659,15 @@ fn cylinder_refinement(sff: SffKind, quick: bool) -> Result<Case> {
                     ..Knobs::tight()
                 };
                 let mut x = start.clone();
-                let c = static_solve(&mut sys, &mut x, k, fs, STATIC_MAX_ITERATIONS);
+                let mut phi = Vec::new();
+                let c = static_solve(&mut sys, &mut x, &mut phi, k, fs, STATIC_MAX_ITERATIONS);
                 let error = rms_rigid(&x, &target)?;
                 out.runs.push(Run {
-                    family: format!("{kind} mesh, {} Hessian", k.hessian_name()),
-                    label: format!("{kind} n={n}, {}", k.label()),
+                    family: format!(
+                        "{kind} mesh, h = {thickness:e} m, {} Hessian",
+                        k.hessian_name()
+                    ),
+                    label: format!("{kind} n={n}, h = {thickness:e} m, {}", k.label()),
                     faces,
                     dt: None,
                     tolerance: Some(k.tolerance),
@@ -653,7 +676,7 @@ fn cylinder_refinement(sff: SffKind, quick: bool) -> Result<Case> {
                     newton_iterations: c.iterations,
                     steps: c.steps,
                     converged: c.ok,
-                    energy: elastic(&mut sys, &x),
+                    energy: elastic(&mut sys, &x, &phi),
                     to_discrete: None,
                 });
             }
@@ -741,7 +764,8 @@ fn cap_refinement(sff: SffKind, quick: bool) -> Result<Case> {
                 ..Knobs::tight()
             };
             let mut x = start.clone();
-            let c = static_solve(&mut sys, &mut x, k, fs, STATIC_MAX_ITERATIONS);
+            let mut phi = Vec::new();
+            let c = static_solve(&mut sys, &mut x, &mut phi, k, fs, STATIC_MAX_ITERATIONS);
             let error = rms_rigid(&x, &target)?;
             out.runs.push(Run {
                 family: format!("{} Hessian", k.hessian_name()),
@@ -754,7 +778,7 @@ fn cap_refinement(sff: SffKind, quick: bool) -> Result<Case> {
                 newton_iterations: c.iterations,
                 steps: c.steps,
                 converged: c.ok,
-                energy: elastic(&mut sys, &x),
+                energy: elastic(&mut sys, &x, &phi),
                 to_discrete: None,
             });
         }
@@ -819,6 +843,9 @@ fn centre_line_curvature(x: &[V3], x_ref: &[V3], mesh: &Mesh, nx: usize, ny: usi
     sum / (hi - lo.max(1)).max(1) as f64
 }
 
+/// Thickness (m) of the second irregular-mesh cylinder series.
+const THICK_CYLINDER: f64 = 1e-2;
+
 /// A strip under through-thickness swelling relaxed statically; error = relative deviation of
 /// the centre-line curvature from the natural curvature −tr(ā⁻¹b̄)/2 of the rest forms.
 fn strip(bilayer: bool, sff: SffKind, quick: bool) -> Result<Case> {
@@ -841,8 +868,9 @@ fn strip(bilayer: bool, sff: SffKind, quick: bool) -> Result<Case> {
         ),
         "relative",
     );
-    // Cells of aspect 4 (length / width) at every level.
-    let levels: &[(usize, usize)] = if quick {
+    // Cells of aspect 4 (length / width) at every level. The edge-director forms stop one level
+    // earlier in the full study: their 6 400-face strips would cost a minute each.
+    let levels: &[(usize, usize)] = if quick || sff.director().is_some() {
         &[(25, 2), (50, 4), (100, 8)]
     } else {
         &[(25, 2), (50, 4), (100, 8), (200, 16)]
@@ -881,6 +909,8 @@ fn strip(bilayer: bool, sff: SffKind, quick: bool) -> Result<Case> {
                 ..Knobs::tight()
             };
             let mut x = x0.clone();
+            // Edge angles are carried from one ramp step to the next, like the positions.
+            let mut phi = Vec::new();
             let mut cost = Cost {
                 ok: true,
                 ..Cost::default()
@@ -898,7 +928,7 @@ fn strip(bilayer: bool, sff: SffKind, quick: bool) -> Result<Case> {
                     STRIP_THICKNESS,
                 )?;
                 growth.update_rest(&mut sys.rest)?;
-                let c = static_solve(&mut sys, &mut x, k, fs, STRIP_MAX_ITERATIONS);
+                let c = static_solve(&mut sys, &mut x, &mut phi, k, fs, STRIP_MAX_ITERATIONS);
                 cost.wall_s += c.wall_s;
                 cost.iterations += c.iterations;
                 cost.steps += 1;
@@ -933,7 +963,7 @@ fn strip(bilayer: bool, sff: SffKind, quick: bool) -> Result<Case> {
                 newton_iterations: cost.iterations,
                 steps: cost.steps,
                 converged: cost.ok,
-                energy: elastic(&mut sys, &x),
+                energy: elastic(&mut sys, &x, &phi),
                 to_discrete: None,
             });
         }
@@ -1274,7 +1304,7 @@ fn slug(s: &str) -> String {
 }
 
 fn sff_name(sff: SffKind) -> String {
-    format!("{sff:?}")
+    sff.name().to_string()
 }
 
 fn fmt_opt(v: Option<f64>) -> String {
@@ -1459,6 +1489,7 @@ fn markdown(
             " except where listed below"
         }
     );
+    bending_form_advice(&mut md, cases);
     for c in cases {
         for v in &c.verdict {
             let _ = writeln!(md, "- ({}) {v}", sff_name(c.sff));
@@ -1477,8 +1508,13 @@ fn markdown(
                     format!("converges, order ≈ {p:.2} (last refinement {l:.2})")
                 }
                 (Some(p), Some(l)) => format!(
-                    "does not converge in this range: fitted order {p:.2}, last refinement {l:.2} — the \
-                     error levels off at the formulation's consistency error"
+                    "does not converge in this range: fitted order {p:.2}, last refinement {l:.2} — {}",
+                    if c.sff.director().is_some() {
+                        "the consistent director bending levels off at the thin membrane's locking \
+                         on irregular meshes (see Bending forms compared)"
+                    } else {
+                        "the error levels off at the formulation's consistency error"
+                    }
                 ),
                 _ => "too few levels for an order".into(),
             };
@@ -1487,7 +1523,11 @@ fn markdown(
     }
     // Where the mid-edge average stops converging: the irregular-mesh cylinder series.
     for c in cases.iter().filter(|c| c.sff == SffKind::MidEdgeAverage) {
-        for s in c.refinement.iter().filter(|s| s.name.contains("irregular")) {
+        for s in c
+            .refinement
+            .iter()
+            .filter(|s| s.name == "cylinder, irregular meshes")
+        {
             if let (Some(first), Some(last)) = (s.points.first(), s.points.last()) {
                 let _ = writeln!(
                     md,
@@ -1508,6 +1548,7 @@ fn markdown(
             }
         }
     }
+    forms_compared(&mut md, cases);
     let _ = writeln!(md);
     let _ = writeln!(md, "## Convergence under mesh refinement\n");
     let _ = writeln!(
@@ -1660,6 +1701,172 @@ fn summarise_knobs(c: &mut Case) {
     }
 }
 
+/// The bending forms side by side: finest-level error of every refinement series, the coarsest
+/// level at which each form is at least as accurate as the mid-edge average's finest level,
+/// and the wall time of all runs of each case.
+fn forms_compared(md: &mut String, cases: &[Case]) {
+    if FORMULATIONS.len() < 2 {
+        return;
+    }
+    let names: Vec<String> = FORMULATIONS.iter().map(|f| sff_name(*f)).collect();
+    let _ = writeln!(md, "\n## Bending forms compared\n");
+    let _ = writeln!(
+        md,
+        "Error at the finest level of every refinement series, and (in brackets) the faces of the \
+         coarsest level at which the form is at least as accurate as the mid-edge average at its \
+         finest level. The edge-director forms carry one extra unknown per edge and cost about 3× \
+         per Newton iteration on the same mesh (`docs/performance.md`).\n"
+    );
+    let _ = writeln!(md, "| series | finest faces | {} |", names.join(" | "));
+    let _ = writeln!(md, "|---|---:|{}", "---:|".repeat(names.len()));
+    let series_of = |sff: SffKind, name: &str| -> Option<&Refinement> {
+        cases
+            .iter()
+            .filter(|c| c.sff == sff)
+            .flat_map(|c| c.refinement.iter())
+            .find(|s| s.name == name)
+    };
+    for base in cases
+        .iter()
+        .filter(|c| c.sff == SffKind::MidEdgeAverage)
+        .flat_map(|c| c.refinement.iter())
+    {
+        let Some(&(faces, target)) = base.points.last() else {
+            continue;
+        };
+        let cells: Vec<String> = FORMULATIONS
+            .iter()
+            .map(|&f| {
+                match series_of(f, &base.name).and_then(|s| s.points.last().map(|p| (s, p))) {
+                    Some((s, &(_, e))) => {
+                        let reach = s.points.iter().find(|p| p.1 <= target).map(|p| p.0);
+                        match reach {
+                            Some(n) => format!("{e:.2e} ({n})"),
+                            None => format!("{e:.2e} (—)"),
+                        }
+                    }
+                    None => "—".into(),
+                }
+            })
+            .collect();
+        let _ = writeln!(md, "| {} | {faces} | {} |", base.name, cells.join(" | "));
+    }
+    // Thin shells on irregular meshes: is the directors' remaining error membrane locking?
+    for &f in FORMULATIONS.iter().filter(|f| f.director().is_some()) {
+        let thin = series_of(f, "cylinder, irregular meshes");
+        let thick = cases
+            .iter()
+            .filter(|c| c.sff == f)
+            .flat_map(|c| c.refinement.iter())
+            .find(|s| s.name.starts_with("cylinder, irregular meshes, h ="));
+        if let (Some(thin), Some(thick)) = (thin, thick) {
+            let last = |s: &Refinement| s.orders().1.last().copied().unwrap_or(f64::NAN);
+            let _ = writeln!(
+                md,
+                "\n({}) On the irregular cylinder meshes the paper shell's error falls to {:.2e} and \
+                 its last refinement has order {:.2}; the same meshes with {} converge with order \
+                 {:.2} (fit {:.2}) to {:.2e}. The director bending is consistent; what remains for \
+                 the paper shell is the linear membrane's locking on irregular meshes (the mesh \
+                 cannot bend isometrically, and a 0.1 mm membrane is 10⁴× stiffer than it bends), \
+                 which only finer meshes or thicker shells leave behind. The mid-edge average \
+                 ends at {:.2e} (paper) and {:.2e} ({}): its floor is its inconsistency.",
+                sff_name(f),
+                thin.points.last().map_or(f64::NAN, |p| p.1),
+                last(thin),
+                thick
+                    .name
+                    .trim_start_matches("cylinder, irregular meshes, "),
+                last(thick),
+                thick.orders().0.unwrap_or(f64::NAN),
+                thick.points.last().map_or(f64::NAN, |p| p.1),
+                final_error(series_of(
+                    SffKind::MidEdgeAverage,
+                    "cylinder, irregular meshes"
+                )),
+                final_error(series_of(SffKind::MidEdgeAverage, &thick.name)),
+                thick
+                    .name
+                    .trim_start_matches("cylinder, irregular meshes, "),
+            );
+        }
+    }
+    let _ = writeln!(
+        md,
+        "\nWall time of all runs of a case (s; every knob, every level), per form:\n"
+    );
+    let _ = writeln!(md, "| case | {} |", names.join(" | "));
+    let _ = writeln!(md, "|---|{}", "---:|".repeat(names.len()));
+    for name in CASE_NAMES {
+        let cells: Vec<String> = FORMULATIONS
+            .iter()
+            .map(|&f| {
+                cases
+                    .iter()
+                    .find(|c| c.sff == f && c.name == *name)
+                    .map_or("—".into(), |c| {
+                        format!("{:.2}", c.runs.iter().map(|r| r.wall_s).sum::<f64>())
+                    })
+            })
+            .collect();
+        let _ = writeln!(md, "| {name} | {} |", cells.join(" | "));
+    }
+    let _ = writeln!(
+        md,
+        "\n(— in the dynamic case: explicit Euler cannot advance the massless director angles, and \
+         the case's reference is an explicit run, so it compares time steps for the average only. \
+         The directors' strips stop at 1 600 faces to keep the study under 10 minutes.)"
+    );
+}
+
+/// One generated paragraph: which bending form to use, from the refinement series of every form.
+fn bending_form_advice(md: &mut String, cases: &[Case]) {
+    let Some(&director) = FORMULATIONS.iter().find(|f| f.director().is_some()) else {
+        return;
+    };
+    let (mut series, mut beaten_at_coarsest, mut ratio_sum) = (0, 0, 0.0);
+    for base in cases
+        .iter()
+        .filter(|c| c.sff == SffKind::MidEdgeAverage)
+        .flat_map(|c| c.refinement.iter())
+    {
+        let other = cases
+            .iter()
+            .filter(|c| c.sff == director)
+            .flat_map(|c| c.refinement.iter())
+            .find(|s| s.name == base.name);
+        let (Some(&(_, avg)), Some(other)) = (base.points.last(), other) else {
+            continue;
+        };
+        let Some(&(_, dir_finest)) = other.points.last() else {
+            continue;
+        };
+        series += 1;
+        ratio_sum += (avg / dir_finest).log10();
+        if other.points.first().is_some_and(|p| p.1 <= avg) {
+            beaten_at_coarsest += 1;
+        }
+    }
+    if series == 0 {
+        return;
+    }
+    let _ = writeln!(
+        md,
+        "**Bending form**: for accuracy, use `{}` (`[bending] form` in a scene). In {beaten_at_coarsest} \
+         of {series} refinement series its *coarsest* mesh is already at least as accurate as the \
+         mid-edge average's *finest*, and at the finest level its error is on average {:.0}× \
+         smaller (geometric mean), for about 3× the cost per Newton iteration on the same mesh. \
+         Keep `mid_edge_average` for quick looks, for explicit Euler, and on regular meshes, \
+         where it converges too (cylinder, regular meshes).\n",
+        sff_name(director),
+        10f64.powf(ratio_sum / series as f64)
+    );
+}
+
+/// Error at the finest level of a series (NaN if absent).
+fn final_error(s: Option<&Refinement>) -> f64 {
+    s.and_then(|s| s.points.last()).map_or(f64::NAN, |p| p.1)
+}
+
 /// Runs the study and writes `accuracy.md`, the plots and the JSON.
 pub fn run(opts: &Options) -> Result<()> {
     let t0 = Instant::now();
@@ -1696,7 +1903,9 @@ pub fn run(opts: &Options) -> Result<()> {
         if want(CASE_NAMES[6]) {
             add(strip(true, sff, opts.quick), CASE_NAMES[6])?;
         }
-        if want(CASE_NAMES[7]) {
+        // The dynamic case's reference and its explicit runs need explicit Euler, which cannot
+        // advance the massless edge-director angles: it compares time steps for the average.
+        if want(CASE_NAMES[7]) && sff.director().is_none() {
             add(cantilever(sff, opts.quick), CASE_NAMES[7])?;
         }
     }
@@ -1756,6 +1965,9 @@ mod tests {
         let cases = doc["cases"].as_array().ok_or_else(|| anyhow!("no cases"))?;
         for sff in FORMULATIONS {
             for name in CASE_NAMES {
+                if *name == CASE_NAMES[7] && sff.director().is_some() {
+                    continue;
+                }
                 let c = cases
                     .iter()
                     .find(|c| c["case"] == *name && c["formulation"] == sff_name(*sff))
