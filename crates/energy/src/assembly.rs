@@ -321,15 +321,7 @@ impl Assembler {
             .enumerate()
             .map_init(FaceEval::default, |fe, (f, ((grad, hess), energy))| {
                 let stencil = stencils.stencil(f, x);
-                let face_rest = FaceRest {
-                    a_bar: rest.a_bar[f],
-                    b_bar: rest.b_bar[f],
-                };
-                let face_damping = damping.map(|d| FaceDamping {
-                    a_prev: d.a_prev[f],
-                    b_prev: d.b_prev[f],
-                    dt: d.dt,
-                });
+                let (face_rest, face_damping) = face_data(rest, damping, f);
                 eval_face(
                     sff,
                     &model.material,
@@ -417,15 +409,7 @@ impl Assembler {
                 || (FaceEval::default(), DirectorFaceEval::default()),
                 |(fe, de), (f, ((grad, hess), energy))| {
                     let stencil = stencils.stencil(f, x);
-                    let face_rest = FaceRest {
-                        a_bar: rest.a_bar[f],
-                        b_bar: rest.b_bar[f],
-                    };
-                    let face_damping = damping.map(|d| FaceDamping {
-                        a_prev: d.a_prev[f],
-                        b_prev: d.b_prev[f],
-                        dt: d.dt,
-                    });
+                    let (face_rest, face_damping) = face_data(rest, damping, f);
                     eval_face_parts(
                         None,
                         &model.material,
@@ -635,6 +619,24 @@ impl Assembler {
     pub fn stencil_vertices(&self, f: FaceId) -> Option<&[VertexId; 6]> {
         (f.idx() < self.stencils.n_faces()).then(|| self.stencils.vertices(f.idx()))
     }
+}
+
+/// Rest forms and (when damping) previous-step forms of face `f`.
+fn face_data(
+    rest: &RestState,
+    damping: Option<&DampingState>,
+    f: usize,
+) -> (FaceRest, Option<FaceDamping>) {
+    let face_rest = FaceRest {
+        a_bar: rest.a_bar[f],
+        b_bar: rest.b_bar[f],
+    };
+    let face_damping = damping.map(|d| FaceDamping {
+        a_prev: d.a_prev[f],
+        b_prev: d.b_prev[f],
+        dt: d.dt,
+    });
+    (face_rest, face_damping)
 }
 
 /// The edge-director form whose angles are unknowns of `model`: a director form with bending on
