@@ -21,12 +21,9 @@ fn material() -> Material {
     }
 }
 
-/// Static equilibrium of the cylinder case from the seed's start (rolled to radius 2); returns
-/// the RMS distance (m) to the radius-1 cylinder modulo rigid motion and the Newton report.
-fn cylinder_error(mesh: &Mesh, sff: SffKind) -> (f64, NewtonReport, usize) {
-    let (a, b) = SquareCase::Cylinder.planar_forms();
-    let rest = RestState::from_planar(mesh, a, b).unwrap();
-    let model = ShellModel {
+/// Stretching and bending with `sff`, no damping.
+fn elastic_model(sff: SffKind) -> ShellModel {
+    ShellModel {
         material: material(),
         terms: Terms {
             stretch: true,
@@ -34,7 +31,15 @@ fn cylinder_error(mesh: &Mesh, sff: SffKind) -> (f64, NewtonReport, usize) {
             damping: false,
         },
         sff,
-    };
+    }
+}
+
+/// Static equilibrium of the cylinder case from the seed's start (rolled to radius 2); returns
+/// the RMS distance (m) to the radius-1 cylinder modulo rigid motion and the Newton report.
+fn cylinder_error(mesh: &Mesh, sff: SffKind) -> (f64, NewtonReport, usize) {
+    let (a, b) = SquareCase::Cylinder.planar_forms();
+    let rest = RestState::from_planar(mesh, a, b).unwrap();
+    let model = elastic_model(sff);
     let x0 = mesh.positions().to_vec();
     let mut sys = ShellSystem::new(
         mesh.clone(),
@@ -129,15 +134,7 @@ fn director_variants_start_with_zero_angles_and_keep_unknown_count() {
         (SffKind::EdgeDirector(DirectorVariant::Tan), mesh.n_edges()),
     ] {
         let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
-        let model = ShellModel {
-            material: material(),
-            terms: Terms {
-                stretch: true,
-                bend: true,
-                damping: false,
-            },
-            sff,
-        };
+        let model = elastic_model(sff);
         let mut sys = ShellSystem::new(
             mesh.clone(),
             model,
@@ -291,15 +288,7 @@ fn clamps_fix_edge_angles_and_pins_do_not() {
     assert!(!pinned_edges.is_empty());
     let sff = SffKind::EdgeDirector(DirectorVariant::Tan);
     let rest = RestState::from_mesh(&mesh, p, sff).unwrap();
-    let model = ShellModel {
-        material: material(),
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
-        sff,
-    };
+    let model = elastic_model(sff);
     let boundary = Boundary {
         clamped_edges: clamped.clone(),
         pinned_coordinates: pinned.iter().map(|&v| (v, 2)).collect(),
