@@ -85,13 +85,17 @@ pub fn describe(sim: &Simulation) -> String {
         sim.dt(),
         sim.steps_total(),
     );
-    if sim.integrator() == crate::scene::schema::IntegratorKind::Static {
+    let system = sim.system();
+    let has_loads = system.loads != thinshell_solver::Loads::default()
+        || !system.boundary.prescribed.is_empty();
+    if sim.integrator() == crate::scene::schema::IntegratorKind::Static && has_loads {
         let ramp = sim.load_ramp();
+        let n = sim.steps_total();
         let factors = match ramp {
-            crate::scene::schema::LoadRamp::Linear => format!(
-                "load factor 1/{n}, 2/{n}, …, 1 over the {n} steps",
-                n = sim.steps_total()
-            ),
+            _ if n == 1 => "one step at full load".to_string(),
+            crate::scene::schema::LoadRamp::Linear => {
+                format!("load factor 1/{n}, 2/{n}, …, 1 over the {n} steps")
+            }
             crate::scene::schema::LoadRamp::None => "full loads from the first step".to_string(),
         };
         text += &format!("load ramp: {} ({factors})\n", ramp.key());
