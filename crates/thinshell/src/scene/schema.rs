@@ -187,7 +187,7 @@ pub struct InitialSpec {
     /// Rolls a flat mesh in the xy-plane onto a cylinder with axis ∥ y (the seed's map, model.md §5).
     #[serde(default)]
     pub wrap_cylinder: Option<WrapCylinder>,
-    /// Initial velocity of every vertex, m/s (default 0).
+    /// Initial velocity of every vertex, m/s (default 0); dynamic integrators only.
     #[serde(default)]
     pub velocity: Option<[f64; 3]>,
 }
