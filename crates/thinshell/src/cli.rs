@@ -292,6 +292,7 @@ pub fn run(
         "frames": writer.frames,
         "wall_s": result.as_ref().map(|s| s.wall_s).ok(),
         "newton_iterations": result.as_ref().map(|s| s.newton_iterations).ok(),
+        "load_factor": sim.load_factor(),
     });
     let summary_path = dir.join("summary.json");
     let text = serde_json::to_string_pretty(&summary)

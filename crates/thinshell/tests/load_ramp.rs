@@ -380,5 +380,7 @@ fn steps_csv_has_the_load_factor_column() {
         .map(|l| l.split(',').next_back().unwrap().parse().unwrap())
         .collect();
     assert_eq!(factors, [0.25, 0.5, 0.75, 1.0]);
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(summary.contains("\"load_factor\": 1.0"), "{summary}");
     let _ = std::fs::remove_dir_all(&dir);
 }
