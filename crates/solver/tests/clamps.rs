@@ -167,3 +167,56 @@ fn clamp_holds_both_rows_on_alternating_diagonals() {
     assert_eq!(vertices, expected);
     assert_eq!(held.len(), 3 * 2 * (ny + 1));
 }
+
+/// On an irregular triangulation the clamp holds the one-ring of the clamped boundary vertices:
+/// every vertex of every face that has a clamped edge (what clamps held before), plus the
+/// vertices of the faces that only touch the clamped boundary at a vertex; nothing farther in
+/// than one edge from the clamped boundary.
+#[test]
+fn clamp_holds_the_one_ring_on_an_irregular_mesh() {
+    let mesh = generators::irregular_rectangle(LENGTH, WIDTH * 4.0, 12, 3).unwrap();
+    let edges = clamped_edges(&mesh);
+    assert!(edges.len() >= 2);
+    let boundary = Boundary {
+        clamped_edges: edges.clone(),
+        ..Boundary::default()
+    };
+    let mut held = vec![false; mesh.n_vertices()];
+    for (v, _) in boundary.held_coordinates(&mesh).unwrap() {
+        held[v.idx()] = true;
+    }
+    let topo = mesh.topology();
+    for &e in &edges {
+        for v in mesh.faces()[topo.edge(e).left.idx()] {
+            assert!(
+                held[v.idx()],
+                "vertex {v:?} of a clamped edge's face is free"
+            );
+        }
+    }
+    let p = mesh.positions();
+    let longest = topo
+        .edges()
+        .iter()
+        .map(|e| (p[e.vertices[0].idx()] - p[e.vertices[1].idx()]).norm())
+        .fold(0.0f64, f64::max);
+    let on_line = |v: usize| p[v].x.abs() < 1e-12;
+    let mut second_row = 0;
+    for v in 0..mesh.n_vertices() {
+        if held[v] && !on_line(v) {
+            second_row += 1;
+            assert!(p[v].x <= longest + 1e-12, "vertex {v} at x = {}", p[v].x);
+            // A held vertex off the line shares a face with a clamped vertex.
+            let touches = topo.vertex_faces(VertexId::new(v)).iter().any(|f| {
+                mesh.faces()[f.idx()]
+                    .iter()
+                    .any(|w| on_line(w.idx()) && held[w.idx()])
+            });
+            assert!(touches, "vertex {v}");
+        }
+    }
+    assert!(
+        second_row >= edges.len(),
+        "{second_row} second-row vertices"
+    );
+}
