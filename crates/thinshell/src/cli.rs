@@ -65,8 +65,8 @@ pub fn describe(sim: &Simulation) -> String {
     }
     let n_angles = sim.system().n_edge_angles();
     let n_coordinates = 3 * mesh.n_vertices() + n_angles;
-    format!(
-        "scene: {}\nmesh: {} vertices, {} faces, {} edges\neffects: {}\nenergy terms evaluated: {}\nunknowns: {} (of {} coordinates; {} held){}\nintegrator: {:?}, dt = {:e} s, {} steps\ninitial elastic energy: {:e} J\n",
+    let mut text = format!(
+        "scene: {}\nmesh: {} vertices, {} faces, {} edges\neffects: {}\nenergy terms evaluated: {}\nunknowns: {} (of {} coordinates; {} held){}\nintegrator: {:?}, dt = {:e} s, {} steps\n",
         sim.name(),
         mesh.n_vertices(),
         mesh.n_faces(),
@@ -84,8 +84,36 @@ pub fn describe(sim: &Simulation) -> String {
         sim.integrator(),
         sim.dt(),
         sim.steps_total(),
-        sim.energy().stretch + sim.energy().bend,
-    )
+    );
+    let system = sim.system();
+    let has_loads = system.loads != thinshell_solver::Loads::default()
+        || !system.boundary.prescribed.is_empty();
+    if sim.integrator() == crate::scene::schema::IntegratorKind::Static && has_loads {
+        let ramp = sim.load_ramp();
+        let n = sim.steps_total();
+        let factors = match ramp {
+            _ if n == 1 => "one step at full load".to_string(),
+            crate::scene::schema::LoadRamp::Linear => {
+                format!("load factor 1/{n}, 2/{n}, …, 1 over the {n} steps")
+            }
+            crate::scene::schema::LoadRamp::None => "full loads from the first step".to_string(),
+        };
+        text += &format!("load ramp: {} ({factors})\n", ramp.key());
+    }
+    let elastic = |e: thinshell_energy::EnergyTerms| e.stretch + e.bend;
+    match sim.initial_energy_grown() {
+        // With growth the first step solves against the grown rest forms, not those before
+        // growth: the energy the first step starts from is the one that says how far it has to go.
+        Some(grown) => {
+            text += &format!(
+                "initial elastic energy at the grown rest state (what step 1 starts from): {:e} J\ninitial elastic energy against the rest forms before growth: {:e} J\n",
+                elastic(grown),
+                elastic(sim.energy()),
+            );
+        }
+        None => text += &format!("initial elastic energy: {:e} J\n", elastic(sim.energy())),
+    }
+    text
 }
 
 /// Writes frames, `steps.csv` and a progress bar while a simulation runs.
@@ -162,7 +190,7 @@ impl Observer for Writer {
             self.frame(sim);
         }
         let row = format!(
-            "{},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e},{:e},{:e},{:e},{:e}\n",
+            "{},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e},{:e},{:e},{:e},{:e},{}\n",
             r.step,
             r.time,
             r.energy.stretch,
@@ -176,7 +204,8 @@ impl Observer for Writer {
             r.wall_s,
             r.assembly_s,
             r.factorization_s,
-            r.solve_s
+            r.solve_s,
+            r.load_factor
         );
         if let Err(e) = self
             .csv
@@ -211,7 +240,7 @@ pub fn run(
     let csv_path = dir.join("steps.csv");
     let mut csv =
         std::io::BufWriter::new(std::fs::File::create(&csv_path).map_err(|e| io(e, &csv_path))?);
-    csv.write_all(b"step,time_s,stretch_J,bend_J,damping_J,kinetic_J,newton_iterations,backtracks,regularizations,residual,wall_s,assembly_s,factorization_s,solve_s\n")
+    csv.write_all(b"step,time_s,stretch_J,bend_J,damping_J,kinetic_J,newton_iterations,backtracks,regularizations,residual,wall_s,assembly_s,factorization_s,solve_s,load_factor\n")
         .map_err(|e| io(e, &csv_path))?;
     let bar = (!quiet).then(|| {
         let bar = ProgressBar::new(sim.steps_total() as u64);
@@ -263,6 +292,7 @@ pub fn run(
         "frames": writer.frames,
         "wall_s": result.as_ref().map(|s| s.wall_s).ok(),
         "newton_iterations": result.as_ref().map(|s| s.newton_iterations).ok(),
+        "load_factor": sim.load_factor(),
     });
     let summary_path = dir.join("summary.json");
     let text = serde_json::to_string_pretty(&summary)

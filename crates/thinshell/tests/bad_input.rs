@@ -175,6 +175,14 @@ fn unknown_keys_and_wrong_types() {
             vec!["scene.toml:9:", "`-2`", "expected usize"],
         ),
         (
+            "unknown_load_ramp",
+            format!("{BASE}load_ramp = \"quadratic\"\n"),
+            vec![
+                "scene.toml:10:13:",
+                "unknown variant `quadratic`, expected `linear` or `none`",
+            ],
+        ),
+        (
             "effects_not_array",
             BASE.replace(
                 "effects = [\"stretching\", \"bending\", \"inertia\"]",
@@ -336,6 +344,21 @@ fn contradictory_settings_and_nothing_to_simulate() {
             BASE.replace("\"inertia\"]", "\"inertia\", \"point_loads\"]")
                 + "[[point_loads]]\nvertex = 9\nforce = [0.0, 0.0, 1.0]\n",
             vec!["`point_loads[0].vertex` vertex 9 out of range (the mesh has 9)"],
+        ),
+        (
+            "velocity_in_static_solve",
+            "effects = [\"stretching\", \"bending\"]\n[mesh]\ngenerator = \"disc\"\n[initial]\nvelocity = [0.0, 0.0, 1.0]\n[integrator]\nkind = \"static\"\n".into(),
+            vec!["scene.toml:5:1:", "`initial.velocity` has no meaning in a static solve"],
+        ),
+        (
+            "load_ramp_in_dynamic_solve",
+            format!("{BASE}load_ramp = \"linear\"\n"),
+            vec!["scene.toml:10:1:", "`integrator.load_ramp` does not apply to a dynamic integrator"],
+        ),
+        (
+            "load_ramp_without_loads",
+            "effects = [\"stretching\", \"bending\"]\n[mesh]\ngenerator = \"disc\"\n[integrator]\nkind = \"static\"\nsteps = 4\nload_ramp = \"linear\"\n".into(),
+            vec!["scene.toml:7:1:", "`integrator.load_ramp` has nothing to ramp"],
         ),
         (
             "pressure_without_section",

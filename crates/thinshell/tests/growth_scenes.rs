@@ -105,11 +105,14 @@ fn moisture_strip_follows_its_natural_curvature() {
     let (mut peak, mut last) = (0.0f64, 0.0);
     for (k, &(angle, kappa)) in curl.samples.iter().enumerate().skip(1) {
         let want = kappa * 0.1;
-        // Narrow-strip regime w²κ/h ≪ 1 (w = 2 mm, h = 0.1 mm): within 1 % (measured ≤ 0.5 %,
-        // the mid-edge average with 4 cells across); at the peak w²κ/h ≈ 0.8 and the strip
-        // bends 4 % less than κL (the finite-width correction).
+        // Narrow-strip regime w²κ/h ≪ 1 (w = 2 mm, h = 0.1 mm): within 1.5 % (measured
+        // +1.1 … +1.3 %, the mid-edge average with 4 cells across); at the peak w²κ/h ≈ 0.8 and
+        // the strip bends 3 % less than κL (the finite-width correction). The clamp holds the
+        // whole first cell (Δx = 2 mm) flat, a first-order error of about Δx/(2L) = 1 % in the
+        // tip angle (docs/scenes.md, clamps); holding only part of the second row, as clamps
+        // did before, gave +0.3 … +0.5 % here.
         let narrowness = 0.002f64.powi(2) * kappa.abs() / 1e-4;
-        let tol = if narrowness < 0.1 { 0.01 } else { 0.05 };
+        let tol = if narrowness < 0.1 { 0.015 } else { 0.05 };
         assert!(
             (angle / want - 1.0).abs() < tol,
             "step {}: tip {angle} vs κL {want} (w²κ/h = {narrowness})",

@@ -32,8 +32,12 @@ pub struct Boundary {
     /// Single coordinates `(vertex, axis)` fixed (axis 0, 1, 2 = x, y, z), e.g. a support that
     /// only blocks z.
     pub pinned_coordinates: Vec<(VertexId, usize)>,
-    /// Clamped edges: both edge vertices and the opposite vertex of the edge's face (the next
-    /// row inwards) are pinned, which fixes the edge's position and its tangent plane.
+    /// Clamped edges (boundary edges): the clamp holds two rows of vertices, the edges' own
+    /// vertices and every vertex of every face that touches one of them (the one-ring of the
+    /// clamped vertices), which fixes the edges' positions and the tangent plane along them on
+    /// any triangulation (alternating diagonals, irregular). At the ends of a clamp that covers
+    /// only part of a boundary loop this also holds the next boundary vertex beyond each end.
+    /// With edge-director bending the angles of the clamped edges are fixed at 0.
     pub clamped_edges: Vec<EdgeId>,
     /// Vertices moved along a prescribed path.
     pub prescribed: Vec<Prescribed>,
@@ -45,17 +49,37 @@ impl Boundary {
         let mut held: Vec<(VertexId, usize)> = self.pinned_coordinates.clone();
         let mut whole: Vec<VertexId> = self.pinned_vertices.clone();
         whole.extend(self.prescribed.iter().map(|p| p.vertex));
-        let edges = mesh.topology().edges();
+        let topo = mesh.topology();
+        let edges = topo.edges();
+        let mut clamped = vec![false; mesh.n_vertices()];
         for &e in &self.clamped_edges {
             let edge = edges.get(e.idx()).ok_or(SolverError::InvalidSetting {
                 name: "clamped_edges",
                 value: e.idx() as f64,
                 requirement: "edge id out of range",
             })?;
-            whole.extend_from_slice(&edge.vertices);
-            let face = mesh.faces()[edge.left.idx()];
-            whole.extend(face.iter().copied().filter(|v| !edge.vertices.contains(v)));
+            for v in edge.vertices {
+                clamped[v.idx()] = true;
+            }
         }
+        // The second row: every vertex of a face at a clamped vertex. Taking only the face of
+        // each clamped edge misses every other second-row vertex on a grid with alternating
+        // diagonals, and the strip between the rows then hinges.
+        let mut held_vertex = clamped.clone();
+        for (v, _) in clamped.iter().enumerate().filter(|(_, c)| **c) {
+            for &f in topo.vertex_faces(VertexId::new(v)) {
+                for w in mesh.faces()[f.idx()] {
+                    held_vertex[w.idx()] = true;
+                }
+            }
+        }
+        whole.extend(
+            held_vertex
+                .iter()
+                .enumerate()
+                .filter(|(_, h)| **h)
+                .map(|(v, _)| VertexId::new(v)),
+        );
         for v in whole {
             held.extend((0..3).map(|a| (v, a)));
         }

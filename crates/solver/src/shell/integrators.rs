@@ -55,7 +55,7 @@ pub trait Integrator {
 
 /// `g −= p ∂V/∂x`: the pressure force enters like an external force.
 pub(crate) fn add_pressure_gradient(system: &ShellSystem, x: &[Vector3<f64>], g: &mut [f64]) {
-    let p = system.loads.pressure;
+    let p = system.pressure();
     if p == 0.0 {
         return;
     }

@@ -57,13 +57,16 @@ pub struct ShellSystem {
     pub rest: RestState,
     /// Held coordinates and prescribed motion.
     pub boundary: Boundary,
-    /// External loads.
+    /// External loads at load factor 1 (see [`ShellSystem::set_load_factor`]).
     pub loads: Loads,
     /// Hessian mode used by Newton (exact, Gauss–Newton, projected).
     pub hessian_mode: HessianMode,
     pub(crate) dofs: DofMap,
     pub(crate) mass: Vec<f64>,
+    /// External forces (N) at the current load factor: `λ · loads.forces(mass)`.
     pub(crate) f_ext: Vec<f64>,
+    /// Load factor λ (dimensionless) multiplying gravity, point forces and pressure.
+    pub(crate) load_factor: f64,
     pub(crate) assembler: Assembler,
     /// Length ℓ̄ (m, mean edge length of the reference mesh) by which edge angles are scaled
     /// into Newton unknowns u = ℓ̄ φ, so that their gradient entries are forces (N) and their
@@ -113,6 +116,7 @@ impl ShellSystem {
             dofs,
             mass,
             f_ext,
+            load_factor: 1.0,
             assembler,
             angle_scale,
         })
@@ -156,12 +160,58 @@ impl ShellSystem {
                 requirement: "must be positive and finite",
             });
         }
-        self.f_ext = self.loads.forces(&mass)?;
+        self.f_ext = self.scaled_forces(&mass)?;
         self.mass = mass;
         Ok(())
     }
 
-    /// External force per coordinate (N).
+    /// `λ · loads.forces(mass)` (N).
+    fn scaled_forces(&self, mass: &[f64]) -> Result<Vec<f64>, SolverError> {
+        let mut f = self.loads.forces(mass)?;
+        if self.load_factor != 1.0 {
+            f.iter_mut().for_each(|v| *v *= self.load_factor);
+        }
+        Ok(f)
+    }
+
+    /// Sets the load factor λ (dimensionless, finite): from now on the external forces
+    /// (gravity, point forces) and the pressure are λ times those of [`ShellSystem::loads`].
+    /// A static load ramp solves a sequence of equilibria at growing λ, each from the previous
+    /// one. Prescribed motion is a function of time and is not scaled here: a static ramp
+    /// evaluates it at a time proportional to λ (the scene runner does, `docs/scenes.md`).
+    pub fn set_load_factor(&mut self, lambda: f64) -> Result<(), SolverError> {
+        if !lambda.is_finite() {
+            return Err(SolverError::InvalidSetting {
+                name: "load_factor",
+                value: lambda,
+                requirement: "must be finite",
+            });
+        }
+        let previous = self.load_factor;
+        self.load_factor = lambda;
+        match self.scaled_forces(&self.mass) {
+            Ok(f) => {
+                self.f_ext = f;
+                Ok(())
+            }
+            Err(e) => {
+                self.load_factor = previous;
+                Err(e)
+            }
+        }
+    }
+
+    /// The load factor λ (1 unless changed by [`ShellSystem::set_load_factor`]).
+    pub fn load_factor(&self) -> f64 {
+        self.load_factor
+    }
+
+    /// The pressure (Pa) at the current load factor: `λ · loads.pressure`.
+    pub fn pressure(&self) -> f64 {
+        self.load_factor * self.loads.pressure
+    }
+
+    /// External force per coordinate (N) at the current load factor.
     pub fn external_forces(&self) -> &[f64] {
         &self.f_ext
     }
@@ -355,7 +405,7 @@ impl ShellObjective<'_> {
 
     /// Enclosed volume (m³) of `x_full`; 0 without pressure.
     fn volume(&self) -> f64 {
-        if self.sys.loads.pressure == 0.0 {
+        if self.sys.pressure() == 0.0 {
             return 0.0;
         }
         (0..self.sys.mesh.n_faces())
@@ -365,7 +415,7 @@ impl ShellObjective<'_> {
 
     /// Adds the pressure force gradient −p ∂V/∂x into the full gradient.
     fn add_pressure_gradient(&mut self) {
-        let p = self.sys.loads.pressure;
+        let p = self.sys.pressure();
         if p == 0.0 {
             return;
         }
@@ -410,7 +460,7 @@ impl ShellObjective<'_> {
     /// Inertia and load part of the value at `u` (call after `eval`, which fills `x_full`).
     fn extra_value(&self, u: &[f64]) -> f64 {
         let coords = self.sys.dofs.free_coordinates();
-        let mut v = -self.sys.loads.pressure * self.volume();
+        let mut v = -self.sys.pressure() * self.volume();
         for (d, &c) in coords.iter().enumerate() {
             v -= self.sys.f_ext.get(c).copied().unwrap_or(0.0) * u[d];
             if let Some(i) = &self.inertia {
@@ -465,7 +515,7 @@ impl Objective for ShellObjective<'_> {
 
     fn hessian(&mut self, u: &[f64], h: &mut SparseColMat<usize, f64>) -> Result<(), SolverError> {
         self.eval(u, false, Some(h)).map_err(energy_error)?;
-        let p = self.sys.loads.pressure;
+        let p = self.sys.pressure();
         if p != 0.0 {
             for f in 0..self.sys.mesh.n_faces() {
                 let block = face_volume_hessian(self.face_x(f)) * -p;

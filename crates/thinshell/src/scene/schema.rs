@@ -187,7 +187,7 @@ pub struct InitialSpec {
     /// Rolls a flat mesh in the xy-plane onto a cylinder with axis ∥ y (the seed's map, model.md §5).
     #[serde(default)]
     pub wrap_cylinder: Option<WrapCylinder>,
-    /// Initial velocity of every vertex, m/s (default 0).
+    /// Initial velocity of every vertex, m/s (default 0); dynamic integrators only.
     #[serde(default)]
     pub velocity: Option<[f64; 3]>,
 }
@@ -523,6 +523,27 @@ pub enum IntegratorKind {
     Static,
 }
 
+/// How a static scene's loads grow over its steps.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum LoadRamp {
+    /// Load factor λ_k = k/N at step k of N: step k solves for the equilibrium under k/N of
+    /// every load, starting from the equilibrium of step k − 1.
+    Linear,
+    /// Full loads from the first step (λ = 1): the steps are a growth pseudo-time.
+    None,
+}
+
+impl LoadRamp {
+    /// The scene key's spelling.
+    pub fn key(self) -> &'static str {
+        match self {
+            LoadRamp::Linear => "linear",
+            LoadRamp::None => "none",
+        }
+    }
+}
+
 /// Which Hessian Newton uses.
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
@@ -554,6 +575,11 @@ pub struct IntegratorSpec {
     /// Halve Δt on a failed step and grow it back after successes (default false).
     #[serde(default)]
     pub adaptive_dt: bool,
+    /// Static solves only: how the loads (gravity, pressure, point loads, prescribed
+    /// displacement) grow over the steps. Default: `linear` without growth, `none` with growth
+    /// (see [`LoadRamp`] and `docs/scenes.md`).
+    #[serde(default)]
+    pub load_ramp: Option<LoadRamp>,
     /// Newton settings (implicit, static).
     #[serde(default)]
     pub newton: NewtonSpec,

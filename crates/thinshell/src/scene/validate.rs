@@ -90,6 +90,7 @@ pub fn validate(s: &SceneFile) -> Result<(), Problem> {
     loads(s, &on)?;
     boundary(&s.boundary)?;
     integrator(&s.integrator, &on)?;
+    static_only(s, &on)?;
     output(&s.output)
 }
 
@@ -746,6 +747,38 @@ fn integrator(i: &IntegratorSpec, on: &dyn Fn(Effect) -> bool) -> Check {
     }
     if n.max_iterations == Some(0) {
         return Err(problem("integrator.newton.max_iterations", "must be ≥ 1"));
+    }
+    Ok(())
+}
+
+/// Keys that only a static solve reads: `integrator.load_ramp`; and `initial.velocity`, which
+/// a static solve would silently drop (it has no velocities).
+fn static_only(s: &SceneFile, on: &dyn Fn(Effect) -> bool) -> Check {
+    if s.integrator.kind != IntegratorKind::Static {
+        return absent(
+            "integrator.load_ramp",
+            &s.integrator.load_ramp,
+            "to a dynamic integrator (loads act at full value from t = 0; ramp them in a \
+             static solve)",
+        );
+    }
+    if s.initial.velocity.is_some() {
+        return Err(problem(
+            "initial.velocity",
+            "has no meaning in a static solve (it finds an equilibrium, with no velocities): \
+             remove it or use a dynamic integrator",
+        ));
+    }
+    let has_loads = [Effect::Gravity, Effect::Pressure, Effect::PointLoads]
+        .into_iter()
+        .any(on)
+        || !s.boundary.prescribed.is_empty();
+    if s.integrator.load_ramp.is_some() && !has_loads {
+        return Err(problem(
+            "integrator.load_ramp",
+            "has nothing to ramp: it needs effect `gravity`, `pressure` or `point_loads`, or \
+             `boundary.prescribed`",
+        ));
     }
     Ok(())
 }

@@ -13,15 +13,15 @@ use thinshell_solver::{
 use thinshell_growth::{
     Anisotropy, Diffusion, DiffusionSettings, DiffusionSource, DirectedHeat, FaceStimulus, Growth,
     GrowthError, GrowthModel, Isotropic, Prescribed as PrescribedStimulus, Region, SourceKind,
-    StimulusField, Surface, Swelling,
+    StimulusField, Surface, Swelling, apply_growth,
 };
 
 use super::Simulation;
 use crate::reference::{map_xy, wrap_cylinder};
 use crate::scene::Scene;
 use crate::scene::schema::{
-    BendingForm, Effect, GrowthModelKind, GrowthSpec, HessianSpec, IntegratorKind, MeshSpec,
-    RegionSpec, RestSource, StimulusKind, Surface as SceneSurface,
+    BendingForm, Effect, GrowthModelKind, GrowthSpec, HessianSpec, IntegratorKind, LoadRamp,
+    MeshSpec, RegionSpec, RestSource, StimulusKind, Surface as SceneSurface,
 };
 
 /// Why a scene could not be turned into a simulation.
@@ -339,6 +339,15 @@ impl Simulation {
             (None, None) => 1,
         };
         let static_solve = it.kind == IntegratorKind::Static;
+        // A static scene without growth has no other use for several steps than a load path;
+        // with growth the steps are the growth's pseudo-time, and every intermediate state must
+        // feel the full loads (docs/scenes.md).
+        let load_ramp = match (static_solve, it.load_ramp) {
+            (false, _) => LoadRamp::None,
+            (true, Some(r)) => r,
+            (true, None) if on(Effect::Growth) => LoadRamp::None,
+            (true, None) => LoadRamp::Linear,
+        };
         let mut settings = NewtonSettings::default();
         if static_solve {
             settings.max_iterations = 500;
@@ -381,18 +390,22 @@ impl Simulation {
         }
         let diameter = (hi - lo).norm().max(f64::MIN_POSITIVE);
         let edge = diameter / (mesh.n_faces() as f64).sqrt().max(1.0);
-        let growth = match s.growth.as_ref().filter(|_| on(Effect::Growth)) {
-            Some(g) => Some(
-                build_growth(g, &mesh, &x_ref, &rest, material.thickness).map_err(|source| {
-                    BuildError::Growth {
+        let (growth, grown_rest) = match s.growth.as_ref().filter(|_| on(Effect::Growth)) {
+            Some(g) => {
+                let (growth, grown) = build_growth(g, &mesh, &x_ref, &rest, material.thickness)
+                    .map_err(|source| BuildError::Growth {
                         origin: origin.clone(),
                         source,
-                    }
-                })?,
-            ),
-            None => None,
+                    })?;
+                (Some(growth), Some(grown))
+            }
+            None => (None, None),
         };
         let energy = elastic_energy(&mesh, &model, &rest, &x).map_err(energy_err)?;
+        let energy_grown = match &grown_rest {
+            Some(r) => Some(elastic_energy(&mesh, &model, r, &x).map_err(energy_err)?),
+            None => None,
+        };
         let mut system =
             ShellSystem::new(mesh, model, rest, boundary, loads).map_err(solver_err)?;
         system.hessian_mode = hessian_mode;
@@ -437,7 +450,11 @@ impl Simulation {
             steps_done: 0,
             steps_total: steps,
             energy,
+            energy_grown,
             growth,
+            load_ramp,
+            // A static solve starts from the unloaded start state; dynamic loads act from t = 0.
+            load_factor: if static_solve { 0.0 } else { 1.0 },
         })
     }
 }
@@ -470,14 +487,15 @@ fn region_of(spec: &RegionSpec) -> Region {
     }
 }
 
-/// Growth model and stimulus field of a validated `[growth]` section.
+/// Growth model and stimulus field of a validated `[growth]` section, and the rest forms for
+/// the initial stimulus (what the first step sees).
 fn build_growth(
     g: &GrowthSpec,
     mesh: &Mesh,
     x_ref: &[Vector3<f64>],
     rest: &RestState,
     thickness: f64,
-) -> Result<Growth, GrowthError> {
+) -> Result<(Growth, RestState), GrowthError> {
     let model: Box<dyn GrowthModel> = match g.model {
         GrowthModelKind::Isotropic => Box::new(Isotropic {
             p: g.p.unwrap_or(0.0),
@@ -557,11 +575,14 @@ fn build_growth(
             Box::new(Diffusion::new(mesh, rest, settings, &sources)?)
         }
     };
+    let mut grown = rest.clone();
+    apply_growth(model.as_ref(), rest, field.values(), thickness, &mut grown)?;
     let growth = Growth::new(model, field, rest.clone(), thickness)?;
-    match g.mass_uptake {
-        Some(rho) => growth.with_mass_uptake(rho),
-        None => Ok(growth),
-    }
+    let growth = match g.mass_uptake {
+        Some(rho) => growth.with_mass_uptake(rho)?,
+        None => growth,
+    };
+    Ok((growth, grown))
 }
 
 /// Stretching and bending energy of `x` (J), without the damping term (which needs a previous

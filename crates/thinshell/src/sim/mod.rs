@@ -27,7 +27,7 @@ use thinshell_solver::{Integrator, ShellSystem, SolverError, State};
 
 pub use build::BuildError;
 
-use crate::scene::schema::{Effect, IntegratorKind};
+use crate::scene::schema::{Effect, IntegratorKind, LoadRamp};
 
 /// Energies by term, J.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -76,6 +76,8 @@ pub struct StepRecord {
     pub regularizations: usize,
     /// Final relative residual ‖∇Φ‖∞ / force scale (0 for explicit Euler).
     pub residual: f64,
+    /// Load factor λ of the step (static load ramps; 1 for dynamic integrators).
+    pub load_factor: f64,
     /// Wall time of the step, s.
     pub wall_s: f64,
     /// Of which: energy assembly, s.
@@ -159,7 +161,12 @@ pub struct Simulation {
     pub(crate) steps_done: usize,
     pub(crate) steps_total: usize,
     pub(crate) energy: EnergyTerms,
+    /// Energy of the start state against the rest forms of the initial stimulus (growth only).
+    pub(crate) energy_grown: Option<EnergyTerms>,
     pub(crate) growth: Option<Growth>,
+    pub(crate) load_ramp: LoadRamp,
+    /// Load factor λ of the current state (static: 0 before the first step).
+    pub(crate) load_factor: f64,
 }
 
 impl Simulation {
@@ -200,9 +207,15 @@ impl Simulation {
     pub fn steps_total(&self) -> usize {
         self.steps_total
     }
-    /// Energies of the current state, J.
+    /// Energies of the current state, J (before the first step: against the rest forms
+    /// before growth; see [`Simulation::initial_energy_grown`]).
     pub fn energy(&self) -> EnergyTerms {
         self.energy
+    }
+    /// Growth scenes: energies (J) of the start state against the rest forms of the initial
+    /// stimulus, the grown rest state the first step solves against; `None` without growth.
+    pub fn initial_energy_grown(&self) -> Option<EnergyTerms> {
+        self.energy_grown
     }
     /// The effects switched on.
     pub fn effects(&self) -> &[Effect] {
@@ -234,6 +247,32 @@ impl Simulation {
     /// Time step, s.
     pub fn dt(&self) -> f64 {
         self.dt
+    }
+    /// How a static scene's loads grow over its steps (`LoadRamp::None` for dynamic ones).
+    pub fn load_ramp(&self) -> LoadRamp {
+        self.load_ramp
+    }
+    /// Load factor λ of the current state: the fraction of the scene's loads (forces,
+    /// pressure, prescribed displacement) it is in equilibrium with (static solves: 0 before
+    /// the first step); 1 for dynamic integrators.
+    pub fn load_factor(&self) -> f64 {
+        self.load_factor
+    }
+    /// Load factor λ_k that static step `k` (1-based) solves for: k/N with a linear ramp over
+    /// N steps, else 1.
+    pub fn load_factor_of_step(&self, k: usize) -> f64 {
+        match (self.kind, self.load_ramp) {
+            (IntegratorKind::Static, LoadRamp::Linear) if self.steps_total > 0 => {
+                (k.min(self.steps_total) as f64) / self.steps_total as f64
+            }
+            _ => 1.0,
+        }
+    }
+    /// Time (s) at which a static solve at load factor λ evaluates the prescribed motion
+    /// x₀ + t·v: λ·N·Δt, so that the whole prescribed displacement N·Δt·v is reached at λ = 1
+    /// (with a linear ramp this is the end of step k, k·Δt).
+    fn prescribed_time(&self, lambda: f64) -> f64 {
+        lambda * self.steps_total as f64 * self.dt
     }
     /// The growth coupling, when the scene has the `growth` effect.
     pub fn growth(&self) -> Option<&Growth> {
@@ -284,9 +323,11 @@ impl Simulation {
     /// Takes one step with the scene's integrator; on failure the state is unchanged.
     ///
     /// With growth, the step is: rest forms (and masses, if the stimulus adds mass) from the
-    /// current stimulus → elastic step → stimulus step. A quasi-static step whose Newton solve
-    /// fails after the rest forms changed is retried by continuation: the rest forms move from
-    /// their previous to their new values in up to 2⁶ sub-steps.
+    /// current stimulus → elastic step → stimulus step. A static step solves at the load factor
+    /// of [`Simulation::load_factor_of_step`], starting from the previous equilibrium. A static
+    /// step whose Newton solve fails after the rest forms or the load factor changed is retried
+    /// by continuation: rest forms and load factor move from their previous to their new values
+    /// in up to 2⁶ sub-steps.
     pub fn step(&mut self) -> Result<StepRecord, StepError> {
         let start = Instant::now();
         let step = self.steps_done + 1;
@@ -307,15 +348,41 @@ impl Simulation {
                 self.system.set_mass(mass).map_err(|e| fail(e.into()))?;
             }
         }
-        let report = match self.integrator.step(&mut self.system, &mut self.state) {
-            Ok(r) => r,
-            Err(first) => match previous_rest.filter(|_| self.kind == IntegratorKind::Static) {
-                Some(previous) => self
-                    .continuation(&previous)
-                    .map_err(|_| fail(first.into()))?,
-                None => return Err(fail(first.into())),
-            },
+        let static_solve = self.kind == IntegratorKind::Static;
+        let lambda_prev = self.load_factor;
+        let lambda = self.load_factor_of_step(step);
+        if static_solve {
+            self.system
+                .set_load_factor(lambda)
+                .map_err(|e| fail(e.into()))?;
+            // The static integrator evaluates prescribed motion at the state's time.
+            self.state.t = self.prescribed_time(lambda);
+        }
+        let result = match self.integrator.step(&mut self.system, &mut self.state) {
+            Ok(r) => Ok(r),
+            Err(first) => {
+                self.state.t = time;
+                // A static step whose rest forms or loads changed is retried by continuation.
+                if static_solve && (previous_rest.is_some() || lambda != lambda_prev) {
+                    self.continuation(previous_rest.as_ref(), lambda_prev, lambda)
+                        .map_err(|_| first)
+                } else {
+                    Err(first)
+                }
+            }
         };
+        let report = match result {
+            Ok(r) => r,
+            Err(e) => {
+                self.state.t = time;
+                if static_solve {
+                    // Back to the loads of the last good state (cannot fail: it was set before).
+                    let _ = self.system.set_load_factor(lambda_prev);
+                }
+                return Err(fail(e.into()));
+            }
+        };
+        self.load_factor = lambda;
         if let Some(g) = &mut self.growth {
             g.advance(time, self.dt).map_err(|e| fail(e.into()))?;
         }
@@ -330,6 +397,7 @@ impl Simulation {
             time: self.state.t,
             energy: self.energy.into(),
             kinetic: self.kinetic_energy(),
+            load_factor: lambda,
             ..StepRecord::default()
         };
         if let Some(n) = &report.newton {
@@ -347,22 +415,32 @@ impl Simulation {
 }
 
 impl Simulation {
-    /// Quasi-static continuation from rest forms `previous` to the current ones; returns the
-    /// report of the last sub-step with the Newton iterations of all sub-steps.
+    /// Quasi-static continuation of one step: the rest forms move from `previous` (if given) to
+    /// the current ones and the load factor from `from` to `to` (prescribed motion with it), in
+    /// sub-steps that halve on failure; returns the report of the last sub-step with the Newton
+    /// iterations of all sub-steps.
     fn continuation(
         &mut self,
-        previous: &thinshell_energy::RestState,
+        previous: Option<&thinshell_energy::RestState>,
+        from: f64,
+        to: f64,
     ) -> Result<thinshell_solver::StepReport, SolverError> {
-        let target = self.system.rest.clone();
+        let target = previous.map(|_| self.system.rest.clone());
         let (mut done, mut step) = (0.0f64, 0.5f64);
         let mut iterations = 0;
         loop {
             let s = (done + step).min(1.0);
-            blend_rest(previous, &target, s, &mut self.system.rest)
-                .map_err(|e| SolverError::Objective(e.to_string()))?;
+            if let (Some(previous), Some(target)) = (previous, &target) {
+                blend_rest(previous, target, s, &mut self.system.rest)
+                    .map_err(|e| SolverError::Objective(e.to_string()))?;
+            }
+            let lambda = from + s * (to - from);
+            self.system.set_load_factor(lambda)?;
             let mut trial = self.state.clone();
+            trial.t = self.prescribed_time(lambda);
             match self.integrator.step(&mut self.system, &mut trial) {
                 Ok(mut report) => {
+                    trial.t = self.state.t;
                     self.state = trial;
                     done = s;
                     if let Some(n) = report.newton.as_mut() {
@@ -377,7 +455,9 @@ impl Simulation {
                 }
                 Err(e) => {
                     if step <= 0.5f64.powi(MAX_CONTINUATION_HALVINGS as i32) {
-                        self.system.rest = target;
+                        if let Some(target) = target {
+                            self.system.rest = target;
+                        }
                         return Err(e);
                     }
                     step /= 2.0;
