@@ -69,6 +69,8 @@ pub struct ShellSystem {
     /// into Newton unknowns u = ℓ̄ φ, so that their gradient entries are forces (N) and their
     /// steps lengths (m), like those of the positions.
     pub(crate) angle_scale: f64,
+    /// Angle-only sub-problem of [`ShellSystem::relax_edge_angles`], built on first use.
+    pub(crate) angle_relaxation: Option<Box<super::angles::AngleRelaxation>>,
 }
 
 impl std::fmt::Debug for ShellSystem {
@@ -115,6 +117,7 @@ impl ShellSystem {
             f_ext,
             assembler,
             angle_scale,
+            angle_relaxation: None,
         })
     }
 

@@ -370,13 +370,6 @@ fn bending(s: &SceneFile, on: &dyn Fn(Effect) -> bool) -> Check {
             "section given but effect `bending` is not in `effects`",
         ));
     }
-    if b.form != BendingForm::MidEdgeAverage && s.integrator.kind == IntegratorKind::Explicit {
-        return Err(problem(
-            "bending.form",
-            "edge-director forms add edge angles without mass, which explicit Euler cannot \
-             advance: use the implicit or static integrator, or `mid_edge_average`",
-        ));
-    }
     Ok(())
 }
 
