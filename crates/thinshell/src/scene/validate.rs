@@ -363,7 +363,9 @@ fn region(key: &str, r: &RegionSpec) -> Check {
 }
 
 fn bending(s: &SceneFile, on: &dyn Fn(Effect) -> bool) -> Check {
-    let Some(b) = &s.bending else { return Ok(()) };
+    if s.bending.is_none() {
+        return Ok(());
+    }
     if !on(Effect::Bending) {
         return Err(problem(
             "bending",
