@@ -45,7 +45,7 @@ fn explicit_scene_without_bending_section_runs_with_directors() {
     assert_eq!(sim.model().sff, SffKind::default());
     // Total energy with the angles at their minimiser (the start state has them at 0, which
     // is not: the reference is taken after the first step relaxed them).
-    let mut total = |sim: &mut Simulation| {
+    let total = |sim: &mut Simulation| {
         sim.step().unwrap();
         let (x, phi) = (sim.positions().to_vec(), sim.edge_angles().to_vec());
         let e = sim.system_mut().energy_at(&x, &phi).unwrap();
