@@ -59,13 +59,19 @@ pub trait SecondFundamentalForm: Sync {
 /// `thinshell_mesh::generators::rectangle` / `cylinder_patch` as soon as the curvature is not
 /// aligned with the grid (a cylinder at 45° to the grid: +65 % energy at every resolution, at
 /// 30°: +49 %; a simply supported square plate's lowest frequency 28 % high — measured in
-/// `crates/thinshell/tests/default_form.rs`).
+/// `crates/solver/tests/default_form.rs`).
 ///
-/// Why `tan` rather than `sin` (measured in the same test file and in
-/// `crates/solver/benches/bending_forms.rs`): both converge at the same order with errors
-/// within a few per cent of each other and cost the same per Newton iteration; `tan` adds an
-/// energy barrier as a hinge folds towards 180°, which keeps crumpled or strongly compressed
-/// starts from folding through themselves — the variant the paper authors' library recommends.
+/// Why `tan` rather than `sin` (measured): the accuracy is the same class — on the
+/// alternating-grid cylinder both converge at order 2 with tan's error 2–4× smaller, on the
+/// plate both give 2.373 Hz, in `docs/accuracy.md` tan's error is 1.0–1.3× sin's on cylinders
+/// and strips and 3.5× smaller on a spherical cap — and so is the cost (same unknowns and
+/// pattern; equal wall times within noise in the accuracy study and in
+/// `cargo bench -p thinshell-solver --bench explicit_step`). On a sheet folded to 0.05 rad
+/// from flat (the solver's `start_folded_nearly_flat` hard case run with each form), a static
+/// solve with `sin` "converges" with the sheet folded completely flat onto itself (opening
+/// angle 0); `tan`'s energy barrier as a hinge approaches 180° (II ∝ tan α → ∞) makes that fold
+/// cost 1 600× more, and implicit steps start opening it (0.050 → 0.059 rad in 30 steps) — the
+/// variant the paper authors' library recommends.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SffKind {
     /// Normalised average of the two unit face normals per edge (model.md §1, the paper's
