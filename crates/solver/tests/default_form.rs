@@ -422,3 +422,57 @@ fn explicit_euler_with_the_default_form_matches_implicit() {
     // The angles moved with the plate (they are not stuck at 0).
     assert!(explicit.phi.iter().any(|p| p.abs() > 1e-6));
 }
+
+/// Bad input to the angle relaxation gets a typed error, never a panic.
+#[test]
+fn relax_edge_angles_checks_its_input() {
+    let mesh = generators::rectangle(1.0, 1.0, 3, 3).unwrap();
+    let material = Material::paper();
+    let x = mesh.positions().to_vec();
+    let build = |sff: SffKind| {
+        let rest = RestState::from_mesh(&mesh, &x, sff).unwrap();
+        ShellSystem::new(
+            mesh.clone(),
+            bending_only(material, sff),
+            rest,
+            Boundary::default(),
+            Loads::default(),
+        )
+        .unwrap()
+    };
+    let s = AngleSettings::default();
+    // No edge unknowns with the average.
+    let mut avg = build(SffKind::MidEdgeAverage);
+    let e = avg
+        .relax_edge_angles(&x, &mut [], None, &s, None)
+        .unwrap_err();
+    assert!(
+        matches!(e, thinshell_solver::SolverError::InvalidSetting { .. }),
+        "{e:?}"
+    );
+    let mut sys = build(TAN);
+    let mut short = vec![0.0; sys.n_edge_angles() - 1];
+    let e = sys
+        .relax_edge_angles(&x, &mut short, None, &s, None)
+        .unwrap_err();
+    assert!(
+        matches!(e, thinshell_solver::SolverError::DimensionMismatch { .. }),
+        "{e:?}"
+    );
+    let mut phi = vec![0.0; sys.n_edge_angles()];
+    let bad = AngleSettings {
+        tolerance: -1.0,
+        ..s
+    };
+    let e = sys
+        .relax_edge_angles(&x, &mut phi, None, &bad, None)
+        .unwrap_err();
+    assert!(
+        matches!(e, thinshell_solver::SolverError::InvalidSetting { .. }),
+        "{e:?}"
+    );
+    // At the flat rest state the angles are already optimal: one evaluation, nothing moves.
+    let r = sys.relax_edge_angles(&x, &mut phi, None, &s, None).unwrap();
+    assert_eq!(r.gradient_evaluations, 1);
+    assert!(phi.iter().all(|p| *p == 0.0));
+}

@@ -26,6 +26,9 @@ use super::system::{ShellSystem, energy_error};
 use crate::linear::RegularizationParams;
 use crate::{Ordering, SolverError, SparseCholesky};
 
+/// Largest correction (rad) taken with a reused factorisation; larger ones refactorise first.
+const MAX_CHORD_STEP: f64 = 0.05;
+
 /// Settings of [`ShellSystem::relax_edge_angles`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AngleSettings {
@@ -242,10 +245,13 @@ impl AngleRelaxation {
                 fresh = true;
             }
             let mut norm = self.correction(n3)?;
-            // A reused factorisation whose last chord step did not contract well: refresh it.
+            // A reused factorisation whose last chord step did not contract well, or that
+            // proposes a large step (it may be from a very different configuration; chord
+            // steps have no line search): refresh it.
             if !fresh
                 && norm > settings.tolerance
-                && chord_from.is_some_and(|prev| norm > settings.contraction * prev)
+                && (norm > MAX_CHORD_STEP
+                    || chord_from.is_some_and(|prev| norm > settings.contraction * prev))
             {
                 self.factorize(sys, x, phi, damping)?;
                 report.factorizations += 1;
