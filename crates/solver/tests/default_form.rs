@@ -336,8 +336,9 @@ fn kinetic(mass: &[f64], v: &[Vector3<f64>]) -> f64 {
 
 /// A plate (simply supported as above, 1 m, 8×8) set vibrating by an initial velocity bump,
 /// with the default form. Explicit Euler (angles relaxed every step) and implicit Euler at the
-/// same small Δt agree to 2 % of the motion over ≈ 0.2 periods, and explicit Euler keeps
-/// kinetic + elastic energy to 1 % (symplectic: bounded oscillation, no drift).
+/// same small Δt agree to 0.1 % of the motion over ≈ 0.2 periods (measured 5e-5: both first
+/// order, Δt·ω ≈ 1e-3), and explicit Euler keeps kinetic + elastic energy to 0.2 % (measured
+/// 2.3e-4; symplectic: bounded oscillation, no drift).
 #[test]
 fn explicit_euler_with_the_default_form_matches_implicit() {
     let mesh = generators::rectangle(1.0, 1.0, 8, 8).unwrap();
@@ -383,10 +384,7 @@ fn explicit_euler_with_the_default_form_matches_implicit() {
     let mut im = ImplicitEuler::new(dt);
     let mut worst_energy = 0.0f64;
     for _ in 0..steps {
-        let r = ex.step(&mut sys, &mut explicit).unwrap();
-        // Energies of an explicit step are those at its start: pair them with the start's
-        // kinetic energy (computed before the step from the previous state).
-        let _ = r;
+        ex.step(&mut sys, &mut explicit).unwrap();
         im.step(&mut sys, &mut implicit).unwrap();
         let elastic = sys.energy_at(&explicit.x, &explicit.phi).unwrap().total();
         let total = kinetic(&mass, &explicit.v) + elastic;
@@ -415,10 +413,10 @@ fn explicit_euler_with_the_default_form_matches_implicit() {
     );
     assert!(moved > 1e-3, "nothing moved: {moved}");
     assert!(
-        diff < 0.02 * moved,
+        diff < 1e-3 * moved,
         "explicit/implicit differ by {diff} for motion {moved}"
     );
-    assert!(worst_energy < 0.01, "explicit energy error {worst_energy}");
+    assert!(worst_energy < 2e-3, "explicit energy error {worst_energy}");
     // The angles moved with the plate (they are not stuck at 0).
     assert!(explicit.phi.iter().any(|p| p.abs() > 1e-6));
 }
