@@ -111,6 +111,6 @@ pub use newton::{
 pub use objective::Objective;
 pub use ordering::Ordering;
 pub use shell::{
-    Boundary, ExplicitEuler, ImplicitEuler, Integrator, Loads, Prescribed, ShellSystem, State,
-    Static, StepReport,
+    AngleReport, AngleSettings, Boundary, ExplicitEuler, ImplicitEuler, Integrator, Loads,
+    Prescribed, ShellSystem, State, Static, StepReport,
 };

@@ -151,8 +151,10 @@ fn check_prints_what_would_be_simulated() {
     assert!(out.status.success());
     let s = String::from_utf8(out.stdout).unwrap();
     assert!(s.contains("effects: stretching, bending, inertia"), "{s}");
+    // The default bending form: 25 vertices, plus one director angle per edge (56).
+    assert!(s.contains("bending (edge director tan)"), "{s}");
     assert!(
-        s.contains("unknowns: 75 (of 75 coordinates; 0 held)"),
+        s.contains("unknowns: 131 (of 131 coordinates; 0 held), including 56 edge-director angles"),
         "{s}"
     );
     // Damping is not listed, so it is not among the evaluated terms.

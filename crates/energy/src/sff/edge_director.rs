@@ -32,11 +32,10 @@ const LOCAL: usize = 13;
 type LVec = SVector<f64, LOCAL>;
 type LMat = SMatrix<f64, LOCAL, LOCAL>;
 
-/// How the director angle enters II_i.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+/// How the director angle enters II_i (default `Tan`, see [`SffKind`](super::SffKind)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DirectorVariant {
     /// II_i = 2 d_i sin α_i (Weischedel's discrete shell; equals the mid-edge average at φ = 0).
-    #[default]
     Sin,
     /// II_i = 2 d_i tan α_i (energy barrier as a hinge folds towards 180°).
     Tan,

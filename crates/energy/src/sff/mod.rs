@@ -51,15 +51,52 @@ pub trait SecondFundamentalForm: Sync {
 }
 
 /// Choice of second fundamental form discretisation.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+///
+/// The default is [`SffKind::EdgeDirector`]`(`[`DirectorVariant::Tan`]`)`, the form that is
+/// consistent on every mesh. The mid-edge average is kept for reproducing the paper and for
+/// cost comparisons; its bending energy does **not** converge under refinement on irregular
+/// meshes, at free edges, and on the alternating-diagonal grids of
+/// `thinshell_mesh::generators::rectangle` / `cylinder_patch` as soon as the curvature is not
+/// aligned with the grid (a cylinder at 45° to the grid: +65 % energy at every resolution, at
+/// 30°: +49 %; a simply supported square plate's lowest frequency 28 % high — measured in
+/// `crates/solver/tests/default_form.rs`).
+///
+/// Why `tan` rather than `sin` (measured): the accuracy is the same class — on the
+/// alternating-grid cylinder both converge at order 2 with tan's error 2–4× smaller, on the
+/// plate both give 2.373 Hz, in `docs/accuracy.md` tan's error is 1.0–1.3× sin's on cylinders
+/// and strips and 3.5× smaller on a spherical cap — and so is the cost (same unknowns and
+/// pattern; equal wall times within noise in the accuracy study and in
+/// `cargo bench -p thinshell-solver --bench explicit_step`). On a sheet folded to 0.05 rad
+/// from flat (the solver's `start_folded_nearly_flat` hard case run with each form), a static
+/// solve with `sin` "converges" with the sheet folded completely flat onto itself (opening
+/// angle 0); `tan`'s energy barrier as a hinge approaches 180° (II ∝ tan α → ∞) makes that fold
+/// cost 1 600× more, and implicit steps start opening it (0.050 → 0.059 rad in 30 steps) — the
+/// variant the paper authors' library recommends.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SffKind {
-    /// Normalised average of the two unit face normals per edge (model.md §1): positions only,
-    /// cheapest, but not consistent on irregular meshes or at free edges.
-    #[default]
+    /// Normalised average of the two unit face normals per edge (model.md §1, the paper's
+    /// form): positions only, cheapest per iteration, but inconsistent — its error does not
+    /// shrink under refinement on irregular meshes, at free edges and on alternating-diagonal
+    /// grids bent across the grid.
     MidEdgeAverage,
     /// Edge directors (model.md §1.1): one extra unknown per edge, the angle (rad) of the
     /// edge's normal director about the edge; consistent under refinement on any mesh.
+    /// Default: `EdgeDirector(DirectorVariant::Tan)`.
     EdgeDirector(DirectorVariant),
+}
+
+impl Default for SffKind {
+    /// The tan edge-director form (see [`SffKind`] for why).
+    fn default() -> Self {
+        SffKind::EdgeDirector(DirectorVariant::Tan)
+    }
+}
+
+impl Default for DirectorVariant {
+    /// `Tan`: the folding barrier, same accuracy and cost as `Sin` (see [`SffKind`]).
+    fn default() -> Self {
+        DirectorVariant::Tan
+    }
 }
 
 static DIRECTOR_SIN: EdgeDirector = EdgeDirector {

@@ -5,7 +5,8 @@
 //!   (model.md §3), with Newton; on failure optionally a retry with a fallback Hessian
 //!   (e.g. Gauss–Newton), then halving of Δt.
 //! - [`ExplicitEuler`]: symplectic Euler `vⁿ⁺¹ = vⁿ + Δt Λ⁻¹(F_ext − ∇E(xⁿ))`,
-//!   `xⁿ⁺¹ = xⁿ + Δt vⁿ⁺¹`; conditionally stable.
+//!   `xⁿ⁺¹ = xⁿ + Δt vⁿ⁺¹`; conditionally stable. Edge-director angles are relaxed at xⁿ
+//!   first (`super::angles`).
 //! - [`Static`]: minimises `E(x) − F_extᵀx`. Rigid motions (a null space when too few
 //!   coordinates are held) are handled by a small shift `κ·mean|H_dd|` of the Hessian diagonal
 //!   only (the gradient is exact, so the equilibrium is unchanged; the iterates simply do not
@@ -20,6 +21,7 @@
 use nalgebra::Vector3;
 use thinshell_energy::{DampingState, EnergyTerms, EvalOutput, HessianMode};
 
+use super::angles::AngleSettings;
 use super::loads::face_volume_gradient;
 use super::system::{Inertia, ShellObjective, ShellSystem, State, energy_error};
 use crate::{NewtonReport, NewtonSettings, NewtonWorkspace, Objective, SolverError, newton_solve};
@@ -464,6 +466,12 @@ impl Integrator for ImplicitEuler {
 }
 
 /// Symplectic (semi-implicit) Euler with lumped masses.
+///
+/// With an edge-director form the massless edge angles are relaxed at xⁿ before the force is
+/// taken ([`ShellSystem::relax_edge_angles`], default [`AngleSettings`]): the force is then the
+/// gradient of the reduced energy min_φ E(x, φ), so the scheme keeps the energy behaviour of
+/// symplectic Euler. The relaxation usually costs one to three gradient evaluations per step
+/// and a refactorisation of the small angle Hessian now and then.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ExplicitEuler {
     /// Time step Δt (s).
@@ -478,18 +486,10 @@ impl Integrator for ExplicitEuler {
     ) -> Result<StepReport, SolverError> {
         let dt = self.dt;
         check_dt(dt)?;
-        if system.has_edge_unknowns() {
-            return Err(SolverError::InvalidSetting {
-                name: "sff",
-                value: 1.0,
-                requirement: "explicit Euler cannot advance edge-director angles (they have no \
-                              mass): use implicit Euler or a static solve, or the mid-edge \
-                              average form",
-            });
-        }
         check_state(system, state)?;
         let n = state.x.len();
-        // Damping forces use the previous configuration xⁿ − Δt vⁿ.
+        // Damping forces use the previous configuration xⁿ − Δt vⁿ (with this step's starting
+        // angles: the previous step's are not kept).
         let damping = if system.model.terms.damping {
             let prev: Vec<Vector3<f64>> = state
                 .x
@@ -498,26 +498,47 @@ impl Integrator for ExplicitEuler {
                 .map(|(x, v)| x - dt * v)
                 .collect();
             Some(
-                DampingState::from_positions(&system.mesh, &prev, system.model.sff, dt)
-                    .map_err(energy_error)?,
+                DampingState::from_configuration(
+                    &system.mesh,
+                    &prev,
+                    &state.phi,
+                    system.model.sff,
+                    dt,
+                )
+                .map_err(energy_error)?,
             )
         } else {
             None
         };
-        let mut g = vec![0.0; 3 * n];
-        let energies = system
-            .assembler
-            .evaluate(
-                &system.model,
+        let mut phi1 = state.phi.clone();
+        let (g, energies) = if system.has_edge_unknowns() {
+            let mut g = vec![0.0; system.dofs.n_coordinates()];
+            let report = system.relax_edge_angles(
                 &state.x,
-                &system.rest,
+                &mut phi1,
                 damping.as_ref(),
-                EvalOutput {
-                    gradient: Some(&mut g),
-                    hessian: None,
-                },
-            )
-            .map_err(energy_error)?;
+                &AngleSettings::default(),
+                Some(&mut g),
+            )?;
+            (g, report.energies)
+        } else {
+            let mut g = vec![0.0; 3 * n];
+            let energies = system
+                .assembler
+                .evaluate(
+                    &system.model,
+                    &state.x,
+                    &system.rest,
+                    damping.as_ref(),
+                    EvalOutput {
+                        gradient: Some(&mut g),
+                        hessian: None,
+                    },
+                )
+                .map_err(energy_error)?;
+            (g, energies)
+        };
+        let mut g = g;
         add_pressure_gradient(system, &state.x, &mut g);
         let t1 = state.t + dt;
         let mut x1 = state.x.clone();
@@ -552,6 +573,7 @@ impl Integrator for ExplicitEuler {
         }
         state.x = x1;
         state.v = v1;
+        state.phi = phi1;
         state.t = t1;
         Ok(StepReport {
             t: t1,

@@ -72,6 +72,8 @@ pub struct ShellSystem {
     /// into Newton unknowns u = ℓ̄ φ, so that their gradient entries are forces (N) and their
     /// steps lengths (m), like those of the positions.
     pub(crate) angle_scale: f64,
+    /// Angle-only sub-problem of [`ShellSystem::relax_edge_angles`], built on first use.
+    pub(crate) angle_relaxation: Option<Box<super::angles::AngleRelaxation>>,
 }
 
 impl std::fmt::Debug for ShellSystem {
@@ -119,6 +121,7 @@ impl ShellSystem {
             load_factor: 1.0,
             assembler,
             angle_scale,
+            angle_relaxation: None,
         })
     }
 

@@ -26,7 +26,8 @@ pub struct SceneFile {
     /// Rest forms before growth (default: the forms of the mesh).
     #[serde(default)]
     pub rest: RestSpec,
-    /// Discretisation of the bending energy (effect `bending`; default: mid-edge average).
+    /// Discretisation of the bending energy (effect `bending`; default: `edge_director_tan`,
+    /// the consistent form).
     #[serde(default)]
     pub bending: Option<BendingSpec>,
     /// Growth model and its stimulus (effect `growth`).
@@ -96,7 +97,7 @@ impl Effect {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct BendingSpec {
-    /// The second fundamental form (default `mid_edge_average`).
+    /// The second fundamental form (default `edge_director_tan`).
     #[serde(default)]
     pub form: BendingForm,
 }
@@ -105,14 +106,15 @@ pub struct BendingSpec {
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum BendingForm {
-    /// Normalised average of the two face normals per edge: positions only, cheapest, not
-    /// consistent on irregular meshes or at free edges.
-    #[default]
+    /// Normalised average of the two face normals per edge (the paper's form): positions only,
+    /// cheapest, but not consistent on irregular meshes, at free edges, or on
+    /// alternating-diagonal grids bent across the grid.
     MidEdgeAverage,
     /// Edge directors, II = 2d sin α: one extra unknown (an angle) per edge, consistent.
     EdgeDirectorSin,
     /// Edge directors, II = 2d tan α: like `edge_director_sin`, with an energy barrier against
-    /// folding a hinge flat onto itself.
+    /// folding a hinge flat onto itself. The default (`thinshell_energy::SffKind::default`).
+    #[default]
     EdgeDirectorTan,
 }
 

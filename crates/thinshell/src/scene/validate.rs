@@ -364,18 +364,13 @@ fn region(key: &str, r: &RegionSpec) -> Check {
 }
 
 fn bending(s: &SceneFile, on: &dyn Fn(Effect) -> bool) -> Check {
-    let Some(b) = &s.bending else { return Ok(()) };
+    if s.bending.is_none() {
+        return Ok(());
+    }
     if !on(Effect::Bending) {
         return Err(problem(
             "bending",
             "section given but effect `bending` is not in `effects`",
-        ));
-    }
-    if b.form != BendingForm::MidEdgeAverage && s.integrator.kind == IntegratorKind::Explicit {
-        return Err(problem(
-            "bending.form",
-            "edge-director forms add edge angles without mass, which explicit Euler cannot \
-             advance: use the implicit or static integrator, or `mid_edge_average`",
         ));
     }
     Ok(())

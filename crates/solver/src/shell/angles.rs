@@ -1,0 +1,390 @@
+//! Edge-director angles relaxed at fixed positions (model.md §1.1).
+//!
+//! The angles φ_e of an edge-director form carry no mass: at every instant they minimise the
+//! energy for the current positions. Implicit and static solves find them together with the
+//! positions; [`ExplicitEuler`](super::ExplicitEuler), which only moves positions, calls
+//! [`ShellSystem::relax_edge_angles`] once per step. With the angles at their minimiser
+//! φ*(x), ∂E/∂φ = 0, so the position force −∂E/∂x(x, φ*) is the exact gradient of the reduced
+//! energy E*(x) = min_φ E(x, φ): the explicit step integrates a conservative system.
+//!
+//! The sub-problem is the shell with every vertex coordinate held: its Hessian is the sparse
+//! angle block (one row per free edge, five entries per row), assembled by its own
+//! [`Assembler`] and factorised by a [`SparseCholesky`] whose symbolic analysis is done once.
+//! Newton iterations reuse the last factorisation while it contracts (chord steps: gradient
+//! evaluations only) and refactorise when it stops doing so — in a time-stepping loop the
+//! angle Hessian changes little from step to step.
+
+use faer::Par;
+use faer::sparse::SparseColMat;
+use nalgebra::Vector3;
+use thinshell_energy::{
+    Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, HessianMode,
+};
+use thinshell_mesh::VertexId;
+
+use super::system::{ShellSystem, energy_error};
+use crate::linear::RegularizationParams;
+use crate::{Ordering, SolverError, SparseCholesky};
+
+/// Largest correction (rad) taken with a reused factorisation; larger ones refactorise first.
+const MAX_CHORD_STEP: f64 = 0.05;
+
+/// Settings of [`ShellSystem::relax_edge_angles`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AngleSettings {
+    /// Converged when the Newton correction max_e |δφ_e| (rad) is at most this. Angles are
+    /// dimensionless, so the test does not depend on the material or mesh scale; the
+    /// remaining force error on the positions is ∂²E/∂x∂φ·δφ.
+    pub tolerance: f64,
+    /// Gradient evaluations allowed per call before [`SolverError::NewtonDidNotConverge`].
+    pub max_iterations: usize,
+    /// A reused factorisation is replaced when a chord step shrinks the correction by less
+    /// than this factor (in (0, 1)).
+    pub contraction: f64,
+}
+
+impl Default for AngleSettings {
+    fn default() -> Self {
+        AngleSettings {
+            tolerance: 1e-10,
+            max_iterations: 50,
+            contraction: 0.25,
+        }
+    }
+}
+
+/// What one [`ShellSystem::relax_edge_angles`] call did.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct AngleReport {
+    /// Gradient evaluations (the last one is at the returned angles).
+    pub gradient_evaluations: usize,
+    /// Hessian evaluations and numeric factorisations (0 when the previous factorisation was
+    /// good enough throughout).
+    pub factorizations: usize,
+    /// Energy-only evaluations of the line search.
+    pub value_evaluations: usize,
+    /// Last Newton correction max_e |δφ_e| (rad), at most the tolerance on success.
+    pub last_correction: f64,
+    /// Energy terms (J) at the returned angles (damping included when given).
+    pub energies: EnergyTerms,
+}
+
+/// Cached angle-only problem of a [`ShellSystem`]: assembler with every vertex coordinate
+/// held, Hessian buffer, factorisation, scratch vectors.
+pub(crate) struct AngleRelaxation {
+    assembler: Assembler,
+    hessian: SparseColMat<usize, f64>,
+    cholesky: SparseCholesky,
+    factorized: bool,
+    mu: f64,
+    /// Edge index of every free angle dof.
+    edge_of_dof: Vec<usize>,
+    grad_full: Vec<f64>,
+    delta: Vec<f64>,
+    trial: Vec<f64>,
+    /// Running totals over all calls (for cost measurements).
+    pub(crate) totals: AngleReport,
+}
+
+impl AngleRelaxation {
+    fn new(sys: &ShellSystem) -> Result<AngleRelaxation, SolverError> {
+        let n = sys.mesh.n_vertices();
+        let all_vertices = (0..n).map(VertexId::new);
+        let dofs = DofMap::with_pinned_vertices(n, all_vertices)
+            .and_then(|d| {
+                d.with_edges(
+                    sys.mesh.n_edges(),
+                    sys.boundary.clamped_edges.iter().copied(),
+                )
+            })
+            .map_err(energy_error)?;
+        let assembler = Assembler::for_model(&sys.mesh, &dofs, &sys.model).map_err(energy_error)?;
+        let hessian = assembler.hessian_template();
+        let cholesky = SparseCholesky::new(hessian.symbolic(), Ordering::Amd, None, Par::Seq)?;
+        let n3 = 3 * n;
+        let edge_of_dof: Vec<usize> = dofs.free_coordinates().iter().map(|&c| c - n3).collect();
+        let m = edge_of_dof.len();
+        Ok(AngleRelaxation {
+            assembler,
+            hessian,
+            cholesky,
+            factorized: false,
+            mu: 0.0,
+            edge_of_dof,
+            grad_full: vec![0.0; dofs.n_coordinates()],
+            delta: vec![0.0; m],
+            trial: Vec::new(),
+            totals: AngleReport::default(),
+        })
+    }
+
+    /// Whether this cache still fits `sys` (same counts of coordinates and free angles).
+    fn fits(&self, sys: &ShellSystem) -> bool {
+        self.grad_full.len() == sys.dofs.n_coordinates()
+            && self.edge_of_dof.len() == sys.dofs.n_free() - sys.dofs.n_free_positions()
+    }
+
+    fn energy(
+        &mut self,
+        sys: &ShellSystem,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+        damping: Option<&DampingState>,
+    ) -> Result<f64, SolverError> {
+        match self.assembler.evaluate_with_angles(
+            &sys.model,
+            x,
+            phi,
+            &sys.rest,
+            damping,
+            EvalOutput::default(),
+        ) {
+            Ok(t) => Ok(t.total()),
+            // A trial angle where tan α blows up: reject it in the line search.
+            Err(EnergyError::NonFinite { .. }) => Ok(f64::INFINITY),
+            Err(e) => Err(energy_error(e)),
+        }
+    }
+
+    fn gradient(
+        &mut self,
+        sys: &ShellSystem,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+        damping: Option<&DampingState>,
+    ) -> Result<EnergyTerms, SolverError> {
+        self.assembler
+            .evaluate_with_angles(
+                &sys.model,
+                x,
+                phi,
+                &sys.rest,
+                damping,
+                EvalOutput {
+                    gradient: Some(&mut self.grad_full),
+                    hessian: None,
+                },
+            )
+            .map_err(energy_error)
+    }
+
+    fn factorize(
+        &mut self,
+        sys: &ShellSystem,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+        damping: Option<&DampingState>,
+    ) -> Result<(), SolverError> {
+        self.factorized = false;
+        self.assembler
+            .evaluate_with_angles(
+                &sys.model,
+                x,
+                phi,
+                &sys.rest,
+                damping,
+                EvalOutput {
+                    gradient: None,
+                    hessian: Some((&mut self.hessian, HessianMode::Exact)),
+                },
+            )
+            .map_err(energy_error)?;
+        self.cholesky
+            .factorize_regularized(
+                &mut self.hessian,
+                &RegularizationParams::default(),
+                &mut self.mu,
+            )
+            .map_err(|e| SolverError::Linear(format!("edge-angle Hessian: {e:?}")))?;
+        self.factorized = true;
+        Ok(())
+    }
+
+    /// δ = −H⁻¹ g_φ from the current factorisation and gradient; returns max |δ| (rad).
+    fn correction(&mut self, n3: usize) -> Result<f64, SolverError> {
+        for (d, &e) in self.delta.iter_mut().zip(&self.edge_of_dof) {
+            *d = -self.grad_full[n3 + e];
+        }
+        self.cholesky.solve_in_place(&mut self.delta)?;
+        let m = self.delta.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+        if m.is_finite() {
+            Ok(m)
+        } else {
+            Err(SolverError::NonFinite {
+                what: "Newton direction",
+                iteration: 0,
+                dof: None,
+            })
+        }
+    }
+
+    /// Newton on the free angles at fixed `x`; `phi` holds the start and receives the result.
+    fn relax(
+        &mut self,
+        sys: &ShellSystem,
+        x: &[Vector3<f64>],
+        phi: &mut [f64],
+        damping: Option<&DampingState>,
+        settings: &AngleSettings,
+    ) -> Result<AngleReport, SolverError> {
+        let n3 = 3 * x.len();
+        let mut report = AngleReport::default();
+        let mut residuals = Vec::new();
+        // Correction predicted before the last chord step (None after a fresh Newton step).
+        let mut chord_from: Option<f64> = None;
+        let result = loop {
+            report.energies = self.gradient(sys, x, phi, damping)?;
+            report.gradient_evaluations += 1;
+            if self.edge_of_dof.is_empty() {
+                break Ok(());
+            }
+            let mut fresh = false;
+            if !self.factorized {
+                self.factorize(sys, x, phi, damping)?;
+                report.factorizations += 1;
+                fresh = true;
+            }
+            let mut norm = self.correction(n3)?;
+            // A reused factorisation whose last chord step did not contract well, or that
+            // proposes a large step (it may be from a very different configuration; chord
+            // steps have no line search): refresh it.
+            if !fresh
+                && norm > settings.tolerance
+                && (norm > MAX_CHORD_STEP
+                    || chord_from.is_some_and(|prev| norm > settings.contraction * prev))
+            {
+                self.factorize(sys, x, phi, damping)?;
+                report.factorizations += 1;
+                fresh = true;
+                norm = self.correction(n3)?;
+            }
+            report.last_correction = norm;
+            residuals.push(norm);
+            if norm <= settings.tolerance {
+                break Ok(());
+            }
+            if report.gradient_evaluations >= settings.max_iterations {
+                break Err(());
+            }
+            let mut t = 1.0;
+            if fresh {
+                // Armijo backtracking on the energy: the exact Hessian may be far from the
+                // curvature when the angles start far from their minimiser (tan near ±π/2).
+                let e0 = report.energies.total();
+                let slope: f64 = self
+                    .delta
+                    .iter()
+                    .zip(&self.edge_of_dof)
+                    .map(|(d, &e)| d * self.grad_full[n3 + e])
+                    .sum();
+                let mut trial = std::mem::take(&mut self.trial);
+                trial.clear();
+                trial.extend_from_slice(phi);
+                loop {
+                    for (d, &e) in self.delta.iter().zip(&self.edge_of_dof) {
+                        trial[e] = phi[e] + t * d;
+                    }
+                    let e1 = self.energy(sys, x, &trial, damping)?;
+                    report.value_evaluations += 1;
+                    if e1 <= e0 + 1e-4 * t * slope || t < 1e-10 {
+                        break;
+                    }
+                    t *= 0.5;
+                }
+                self.trial = trial;
+                chord_from = None;
+            } else {
+                chord_from = Some(norm);
+            }
+            for (d, &e) in self.delta.iter().zip(&self.edge_of_dof) {
+                phi[e] += t * d;
+            }
+        };
+        let t = &mut self.totals;
+        t.gradient_evaluations += report.gradient_evaluations;
+        t.factorizations += report.factorizations;
+        t.value_evaluations += report.value_evaluations;
+        match result {
+            Ok(()) => Ok(report),
+            Err(()) => Err(SolverError::NewtonDidNotConverge {
+                iterations: report.gradient_evaluations,
+                residuals,
+                tolerance: settings.tolerance,
+                last_good: phi.to_vec(),
+            }),
+        }
+    }
+}
+
+impl ShellSystem {
+    /// Minimises the energy over the free edge-director angles `phi` (rad, one per edge; the
+    /// start, overwritten with the result) at fixed positions `x` (m), by Newton's method on
+    /// the angle block of the Hessian (see the module docs). `damping`, when the system has
+    /// damping on, is the Kelvin–Voigt state of the step. When `gradient` is given it receives
+    /// the full gradient (N, then J/rad per edge; length `3·n_vertices + n_edges`) at the
+    /// returned angles. Without edge unknowns nothing is done except that gradient.
+    ///
+    /// Errors: wrong lengths, an invalid configuration, or no convergence within
+    /// `settings.max_iterations` ([`SolverError::NewtonDidNotConverge`], whose `residuals`
+    /// are the corrections in rad and `last_good` the angles reached).
+    pub fn relax_edge_angles(
+        &mut self,
+        x: &[Vector3<f64>],
+        phi: &mut [f64],
+        damping: Option<&DampingState>,
+        settings: &AngleSettings,
+        gradient: Option<&mut [f64]>,
+    ) -> Result<AngleReport, SolverError> {
+        if !self.has_edge_unknowns() {
+            return Err(SolverError::InvalidSetting {
+                name: "sff",
+                value: 0.0,
+                requirement: "edge angles exist only with an edge-director form and bending on",
+            });
+        }
+        let n_edges = self.n_edge_angles();
+        for (what, len, expected) in [
+            ("positions", x.len(), self.mesh.n_vertices()),
+            ("edge angles", phi.len(), n_edges),
+        ] {
+            if len != expected {
+                return Err(SolverError::DimensionMismatch {
+                    what,
+                    expected,
+                    found: len,
+                });
+            }
+        }
+        if !(settings.tolerance > 0.0
+            && settings.tolerance.is_finite()
+            && settings.contraction > 0.0
+            && settings.contraction < 1.0)
+        {
+            return Err(SolverError::InvalidSetting {
+                name: "angle settings",
+                value: settings.tolerance,
+                requirement: "tolerance > 0 and finite, contraction in (0, 1)",
+            });
+        }
+        let mut cache = match self.angle_relaxation.take() {
+            Some(c) if c.fits(self) => c,
+            _ => Box::new(AngleRelaxation::new(self)?),
+        };
+        let result = cache.relax(self, x, phi, damping, settings);
+        if let (Ok(_), Some(g)) = (&result, gradient) {
+            let n = g.len().min(cache.grad_full.len());
+            g[..n].copy_from_slice(&cache.grad_full[..n]);
+        }
+        self.angle_relaxation = Some(cache);
+        result
+    }
+
+    /// Totals of every [`ShellSystem::relax_edge_angles`] call on this system so far
+    /// (evaluations and factorisations; `energies` and `last_correction` of the last call).
+    pub fn angle_relaxation_totals(&self) -> AngleReport {
+        self.angle_relaxation
+            .as_ref()
+            .map(|c| c.totals)
+            .unwrap_or_default()
+    }
+}
