@@ -105,8 +105,8 @@ pub mod shell;
 pub use error::SolverError;
 pub use linear::{FactorStats, RegularizationKind, SparseCholesky};
 pub use newton::{
-    Convergence, NewtonReport, NewtonSettings, NewtonTimings, NewtonWorkspace, RegularizationEvent,
-    newton_solve,
+    Convergence, HessianPolicy, IterationHessian, NewtonReport, NewtonSettings, NewtonTimings,
+    NewtonWorkspace, RegularizationEvent, newton_solve,
 };
 pub use objective::Objective;
 pub use ordering::Ordering;
