@@ -21,7 +21,8 @@
 //! `‖dx‖∞ ≤ step_tolerance · length_scale` ([`Convergence::Step`]; after a full step it is
 //! estimated from the current factorisation, `‖H⁻¹∇f(x + dx)‖∞`, which costs one triangular
 //! solve instead of a factorisation); or its predicted decrease `−½∇fᵀdx` is below the
-//! round-off of f, `16 ε |f|` ([`Convergence::RoundOff`]: f cannot see any further progress); or,
+//! round-off of f, `16 ε |f|`, and the last step did not halve the gradient
+//! ([`Convergence::RoundOff`]: neither f nor ∇f shows further progress); or,
 //! only for objectives whose force scale is a meaningful size of their forces
 //! ([`Objective::gradient_test`]), `‖∇f‖∞ ≤ gradient_tolerance · force_scale`
 //! ([`Convergence::Gradient`]). The correction measures the distance to the equilibrium in the
@@ -35,7 +36,7 @@ use faer::sparse::SparseColMat;
 
 use crate::SolverError;
 use crate::linear::{
-    FactorError, FactorOutcome, FactorStats, RegularizationKind, RegularizationParams,
+    FactorError, FactorStats, RegularizationKind, RegularizationParams,
     SparseCholesky,
 };
 use crate::objective::Objective;
@@ -110,10 +111,10 @@ impl Default for NewtonSettings {
             max_iterations: 100,
             hessian: HessianPolicy::Adaptive,
             gradient_tolerance: 1e-8,
-            // Positions to 1e-9 of the body's size (angles to about 1e-9 × its size in edge
-            // lengths): far below discretisation error, above round-off on well-posed problems
-            // (the round-off criterion covers the others).
-            step_tolerance: 1e-9,
+            // Positions to 1e-12 of the body's size (angles to about 1e-12 × its size in edge
+            // lengths): far below discretisation error; where round-off is above it, the
+            // round-off criterion ends the solve.
+            step_tolerance: 1e-12,
             line_search: true,
             armijo_c1: 1e-4,
             backtrack_factor: 0.5,
@@ -399,6 +400,34 @@ impl Record {
     }
 }
 
+/// Largest relative shift (of the mean |H_dd|) the adaptive policy applies to the own Hessian
+/// before it switches to the PSD one; also the largest shift with which a Newton correction
+/// still counts for the convergence test.
+const SMALL_SHIFT: f64 = 1e-8;
+
+/// First Levenberg–Marquardt damping of PSD steps (relative to the mean |H_dd|) after a
+/// backtracked PSD step; below it the damping is switched off.
+const DAMPING_MIN: f64 = 1e-6;
+/// Backtracks of a PSD step (its full step was at least 2³ times too long) that raise the
+/// damping.
+const DAMPING_BACKTRACKS: usize = 3;
+/// Factor the damping grows by after a backtracked PSD step and shrinks by after a good one.
+const DAMPING_GROWTH: f64 = 10.0;
+
+/// Shifted attempts of `params` that stay at or below [`SMALL_SHIFT`].
+fn small_shift_attempts(params: &RegularizationParams) -> usize {
+    if params.max_attempts == 0 || params.initial > SMALL_SHIFT {
+        return 0;
+    }
+    let mut attempts = 1;
+    let mut mu = params.initial;
+    while mu * params.growth <= SMALL_SHIFT * (1.0 + 1e-12) && attempts < params.max_attempts {
+        mu *= params.growth;
+        attempts += 1;
+    }
+    attempts
+}
+
 /// Round-off of an objective value f: changes below it are invisible.
 fn value_noise(f: f64) -> f64 {
     16.0 * f64::EPSILON * f.abs()
@@ -536,6 +565,8 @@ pub fn newton_solve<O: Objective + ?Sized>(
     // PSD steps to wait before trying it again, and that wait after the next failure.
     let adaptive = settings.hessian == HessianPolicy::Adaptive && objective.has_psd_hessian();
     let mut try_own = true;
+    // Levenberg–Marquardt damping of PSD iterations (relative to the mean |H_dd|).
+    let mut damping = 0.0f64;
     let mut wait = 0usize;
     let mut backoff = 1usize;
 
@@ -564,19 +595,23 @@ pub fn newton_solve<O: Objective + ?Sized>(
         )?;
         let mut plain = None;
         if adaptive && kind == IterationHessian::Own && try_own {
+            // The own Hessian, shifted by at most SMALL_SHIFT (far below bending stiffness:
+            // it only lifts the tiny negative eigenvalues of a nearly converged, slightly
+            // compressed shell); anything more indefinite switches to the PSD Hessian.
+            let small = RegularizationParams {
+                max_attempts: small_shift_attempts(&reg_params),
+                ..reg_params
+            };
             let t = Instant::now();
-            let r = ws.cholesky.factorize(ws.hessian.as_ref());
+            let r = ws
+                .cholesky
+                .factorize_regularized(&mut ws.hessian, &small, &mut ws.mu);
             rec.timings.factorization += t.elapsed();
             match r {
-                Ok(()) => {
-                    plain = Some(FactorOutcome {
-                        mu: 0.0,
-                        max_shift: 0.0,
-                        attempts: 1,
-                    });
-                }
+                Ok(o) => plain = Some(o),
                 Err(FactorError::NotPositiveDefinite { .. }) => {
                     rec.failed_factorizations += 1;
+                    ws.mu = 0.0;
                     try_own = false;
                     wait = backoff;
                     backoff = backoff.saturating_mul(2);
@@ -590,6 +625,19 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     )?;
                 }
                 Err(FactorError::Other(e)) => return Err(e),
+            }
+        }
+        if kind == IterationHessian::Psd && damping > 0.0 {
+            // Levenberg–Marquardt damping of the PSD Hessian: shortens and turns the step
+            // towards the gradient where the quadratic model overshoots (large rotations of a
+            // thin shell, whose Gauss–Newton model sees no membrane cost of bending out of
+            // plane from flat).
+            let offsets = ws.cholesky.diagonal_offsets();
+            let val = ws.hessian.val_mut();
+            let mean = offsets.iter().map(|&o| val[o].abs()).sum::<f64>()
+                / offsets.len().max(1) as f64;
+            for &o in offsets {
+                val[o] += damping * mean;
             }
         }
         let outcome = match plain {
@@ -644,13 +692,19 @@ pub fn newton_solve<O: Objective + ?Sized>(
 
         // An unshifted Newton correction below the step tolerance, or one whose predicted
         // decrease f cannot resolve: x is converged. The step is not taken.
-        if outcome.mu == 0.0 {
+        if outcome.mu <= SMALL_SHIFT {
             let dx_max = norm_inf(&ws.dx);
             rec.corrections.push(dx_max / length_scale);
             if dx_max <= step_limit {
                 return Ok(rec.report(iteration, Convergence::Step));
             }
-            if -0.5 * slope <= value_noise(f) {
+            // Round-off: f cannot resolve the predicted decrease and the last step no longer
+            // halved the gradient (while it does, Newton still makes progress on it).
+            let n = rec.residuals.len();
+            if -0.5 * slope <= value_noise(f)
+                && n >= 2
+                && rec.residuals[n - 1] > 0.5 * rec.residuals[n - 2]
+            {
                 return Ok(rec.report(iteration, Convergence::RoundOff));
             }
         }
@@ -754,16 +808,6 @@ pub fn newton_solve<O: Objective + ?Sized>(
         }
         rec.residuals.push(norm_inf(&ws.g) / force_scale);
         rec.values.push(f);
-        if std::env::var_os("NEWTON_DEBUG").is_some() {
-            eprintln!(
-                "it {iteration} {kind:?} mu {:.1e} bt {backtracks} f {f:.6e} df {:.3e} pred {:.3e} dx {:.3e} res {:.3e}",
-                outcome.mu,
-                f - f_old,
-                0.5 * slope,
-                norm_inf(&ws.dx) / length_scale,
-                rec.residuals[rec.residuals.len() - 1]
-            );
-        }
 
         // Adaptive policy: a backtracked step of the own Hessian means its quadratic model is
         // poor here; a full PSD step that achieved at least half the predicted decrease
@@ -772,9 +816,16 @@ pub fn newton_solve<O: Objective + ?Sized>(
         if adaptive {
             match kind {
                 IterationHessian::Own if backtracks > 0 => try_own = false,
+                IterationHessian::Psd if backtracks >= DAMPING_BACKTRACKS => {
+                    damping = (damping * DAMPING_GROWTH).max(DAMPING_MIN);
+                }
                 IterationHessian::Psd if backtracks == 0 && slope < 0.0 => {
                     let rho = (f - f_old) / (0.5 * slope);
                     if rho >= 0.5 {
+                        damping /= DAMPING_GROWTH * DAMPING_GROWTH;
+                        if damping < DAMPING_MIN {
+                            damping = 0.0;
+                        }
                         if wait == 0 {
                             try_own = true;
                         } else {
@@ -788,7 +839,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
 
         // After a full unshifted step, estimate the next correction with the same
         // factorisation (one triangular solve): a short one ends the solve here.
-        if outcome.mu == 0.0 && backtracks == 0 {
+        if outcome.mu <= SMALL_SHIFT && backtracks == 0 {
             if gradient_test && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
             {
                 return Ok(rec.report(iteration, Convergence::Gradient));

@@ -279,7 +279,7 @@ fn disc_with_spherical_cap_rest_forms_becomes_the_cap() {
 #[test]
 fn strip_with_oblique_natural_curvature_winds_into_a_helix() {
     for sff in SffKind::ALL {
-        let mesh = generators::rectangle(3.0, 0.3, 30, 3).unwrap();
+        let mesh = generators::rectangle(2.5, 0.3, 25, 3).unwrap();
         let x0 = mesh.positions().to_vec();
         let helix = wrap(&x0, 1.0, std::f64::consts::FRAC_PI_3);
         let rest = RestState::from_mesh(&mesh, &helix, sff).unwrap();
