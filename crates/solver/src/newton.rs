@@ -5,17 +5,28 @@
 //! backtracks along `dx` until the Armijo condition `f(x + α dx) ≤ f(x) + c₁ α ∇fᵀdx` holds.
 //!
 //! **Which H** ([`HessianPolicy`]): by default ([`HessianPolicy::Adaptive`]) the objective's own
-//! (exact) Hessian while it factorises unshifted and its steps are taken in full, and the
-//! objective's positive semi-definite Hessian ([`Objective::psd_hessian`], Gauss–Newton for
-//! shells) otherwise: an unshifted factorisation that fails switches to the PSD Hessian in the
-//! same iteration (one wasted factorisation), and so does a backtracked exact step for the next
-//! iteration; after a full PSD step whose actual decrease is at least half the predicted one the
-//! exact Hessian is tried again (after 1, 2, 4, … such steps once it has failed). Far from a
-//! solution the PSD Hessian keeps the curvature of the forms without the shift a regularised
-//! indefinite Hessian needs (which turns Newton into a slow gradient method and can lead into a
-//! wrong local minimum); close to it the exact Hessian gives quadratic convergence.
-//! [`HessianPolicy::Fixed`] always uses the objective's own Hessian, shifted when it is not
-//! positive definite (as is the PSD Hessian, should it be singular).
+//! (exact) Hessian while it factorises with at most a tiny shift (≤ 1e-8 of the mean |H_dd|,
+//! far below bending stiffness) and its full steps pass the Armijo test, and the objective's
+//! positive semi-definite Hessian ([`Objective::psd_hessian`], Gauss–Newton for shells)
+//! otherwise:
+//! - an own Hessian that does not factorise switches to the PSD one in the same iteration (the
+//!   wasted factorisation is counted in [`NewtonReport::failed_factorizations`]);
+//! - an own step whose full length fails the Armijo test is discarded and the iteration redone
+//!   with the PSD Hessian ([`NewtonReport::rejected_steps`]): a short step along the direction
+//!   of a quadratic model that does not hold may lead towards a saddle or a poor minimum;
+//! - after a full PSD step whose actual decrease is at least half the predicted one (the
+//!   iterate is where a quadratic model holds) the own Hessian is tried again, after 1, 2, 4, …
+//!   such steps once it has failed;
+//! - PSD steps that need ≥ 3 backtracks raise a Levenberg–Marquardt damping `λ·mean|H_dd|` on
+//!   the diagonal (from 1e-6, ×10), good full steps lower it (÷100): a Gauss–Newton model sees
+//!   no membrane cost of bending a flat or folded sheet out of plane and overshoots there.
+//!
+//! Far from a solution the PSD Hessian keeps the curvature of the forms without the shift a
+//! regularised indefinite Hessian needs (which turns Newton into a slow gradient method and can
+//! lead into a wrong local minimum); close to it the exact Hessian gives quadratic convergence.
+//! Every iteration records which one it used ([`NewtonReport::hessians`]).
+//! [`HessianPolicy::Fixed`] always uses the objective's own Hessian, shifted as much as needed
+//! when it is not positive definite (as is the PSD Hessian, should it be singular).
 //!
 //! **When converged** (one definition, scale-free): the unshifted Newton correction is short,
 //! `‖dx‖∞ ≤ step_tolerance · length_scale` ([`Convergence::Step`]; after a full step it is
@@ -36,8 +47,7 @@ use faer::sparse::SparseColMat;
 
 use crate::SolverError;
 use crate::linear::{
-    FactorError, FactorStats, RegularizationKind, RegularizationParams,
-    SparseCholesky,
+    FactorError, FactorStats, RegularizationKind, RegularizationParams, SparseCholesky,
 };
 use crate::objective::Objective;
 use crate::ordering::Ordering;
@@ -571,8 +581,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
     let mut backoff = 1usize;
 
     loop {
-        if gradient_test && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
-        {
+        if gradient_test && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance {
             return Ok(rec.report(iteration, Convergence::Gradient));
         }
         if iteration >= settings.max_iterations {
@@ -634,8 +643,8 @@ pub fn newton_solve<O: Objective + ?Sized>(
             // plane from flat).
             let offsets = ws.cholesky.diagonal_offsets();
             let val = ws.hessian.val_mut();
-            let mean = offsets.iter().map(|&o| val[o].abs()).sum::<f64>()
-                / offsets.len().max(1) as f64;
+            let mean =
+                offsets.iter().map(|&o| val[o].abs()).sum::<f64>() / offsets.len().max(1) as f64;
             for &o in offsets {
                 val[o] += damping * mean;
             }
@@ -840,7 +849,8 @@ pub fn newton_solve<O: Objective + ?Sized>(
         // After a full unshifted step, estimate the next correction with the same
         // factorisation (one triangular solve): a short one ends the solve here.
         if outcome.mu <= SMALL_SHIFT && backtracks == 0 {
-            if gradient_test && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
+            if gradient_test
+                && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
             {
                 return Ok(rec.report(iteration, Convergence::Gradient));
             }

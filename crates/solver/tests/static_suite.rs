@@ -139,11 +139,17 @@ fn compatible_sphere_growth_reaches_the_scaled_sphere() {
             "sphere p = 1, s = 0.1",
             sff,
             &r,
-            &format!("E {e0:.3e} -> {e:.3e} J, radius error {radius_err:.1e} m, shape error {shape:.1e}"),
+            &format!(
+                "E {e0:.3e} -> {e:.3e} J, radius error {radius_err:.1e} m, shape error {shape:.1e}"
+            ),
         );
         assert!(newton(&r).iterations <= MAX_ITERATIONS);
         assert!(e <= 1e-12 * e0, "{}: energy {e} of {e0}", sff.name());
-        assert!(radius_err < 1e-7, "{}: radius error {radius_err}", sff.name());
+        assert!(
+            radius_err < 1e-7,
+            "{}: radius error {radius_err}",
+            sff.name()
+        );
         assert!(shape < 1e-7, "{}: shape error {shape}", sff.name());
         assert_eq!(r.stable, Some(true));
     }
@@ -293,7 +299,12 @@ fn strip_with_oblique_natural_curvature_winds_into_a_helix() {
         .unwrap();
         let (r, state) = solve_default(&mut sys, x0);
         let shape = shape_error(&state.x, &helix);
-        print_case("strip -> helix", sff, &r, &format!("shape error {shape:.2e}"));
+        print_case(
+            "strip -> helix",
+            sff,
+            &r,
+            &format!("shape error {shape:.2e}"),
+        );
         assert!(newton(&r).iterations <= MAX_ITERATIONS);
         assert!(shape < 1e-7, "{}: shape error {shape}", sff.name());
         assert_eq!(r.stable, Some(true));
@@ -350,12 +361,20 @@ fn converged_solves_match_a_much_tighter_reference() {
             rep.iterations
         );
         assert!(rep.iterations >= 1, "{}: angles not optimised", sff.name());
-        assert!(phi_max > 1e-4, "{}: angles barely moved ({phi_max})", sff.name());
+        assert!(
+            phi_max > 1e-4,
+            "{}: angles barely moved ({phi_max})",
+            sff.name()
+        );
         assert!(e0 - e > 1e-4 * e0, "{}: energy {e} of {e0}", sff.name());
         // The step tolerance, 1e-9 of the sphere's size (2 m) in u = ℓ̄φ with ℓ̄ ≈ 0.1 m:
         // about 2e-8 rad.
         assert!(dphi <= 3e-8, "{}: {dphi}", sff.name());
-        assert!((e - e_ref).abs() <= 1e-10 * e_ref, "{}: {e} vs {e_ref}", sff.name());
+        assert!(
+            (e - e_ref).abs() <= 1e-10 * e_ref,
+            "{}: {e} vs {e_ref}",
+            sff.name()
+        );
     }
     // Positions (and angles): the seed cylinder from flat.
     for sff in SffKind::ALL {
@@ -389,7 +408,11 @@ fn converged_solves_match_a_much_tighter_reference() {
             sff.name()
         );
         assert!(dx < 1e-7, "{}: {dx}", sff.name());
-        assert!((e - e_ref).abs() <= 1e-8 * e_ref, "{}: {e} vs {e_ref}", sff.name());
+        assert!(
+            (e - e_ref).abs() <= 1e-8 * e_ref,
+            "{}: {e} vs {e_ref}",
+            sff.name()
+        );
     }
 }
 
@@ -406,7 +429,7 @@ fn stability_of_the_equilibrium_is_reported() {
             let ends: Vec<VertexId> = (0..mesh.n_vertices())
                 .filter(|&v| {
                     let x = mesh.positions()[v].x;
-                    x < 1e-9 || x > 1.0 - 1e-9
+                    !(1e-9..=1.0 - 1e-9).contains(&x)
                 })
                 .map(VertexId::new)
                 .collect();

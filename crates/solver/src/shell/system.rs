@@ -548,7 +548,8 @@ impl ShellObjective<'_> {
         h: &mut SparseColMat<usize, f64>,
         mode: HessianMode,
     ) -> Result<(), SolverError> {
-        self.eval_mode(u, false, Some(h), mode).map_err(energy_error)?;
+        self.eval_mode(u, false, Some(h), mode)
+            .map_err(energy_error)?;
         let p = self.sys.loads.pressure;
         if p != 0.0 {
             for f in 0..self.sys.mesh.n_faces() {

@@ -7,8 +7,7 @@ use thinshell_energy::{
 use thinshell_mesh::{Mesh, MeshError, VertexId, generators, io};
 use thinshell_solver::{
     Boundary, ExplicitEuler, HessianPolicy, ImplicitEuler, Integrator, Loads, NewtonSettings,
-    Prescribed,
-    ShellSystem, SolverError, State, Static,
+    Prescribed, ShellSystem, SolverError, State, Static,
 };
 
 use thinshell_growth::{
