@@ -6,8 +6,9 @@
 //!    line search plus `adaptive_dt` (Gauss–Newton retry, then Δt halving).
 //! 2. A 10⁴-step damped run of a hanging 8 × 8 flag: the total energy must never rise.
 //! 3. Strong uniform growth (ā = 0.25 a⁰ and 4 a⁰) on a level-3 icosphere at Δt = 1e-2 s.
-//! 4. The swelling strip whose static Newton crawls, at 4 to 32 cells across, with the exact
-//!    Hessian, a smaller first regularisation shift, and the Gauss–Newton fallback.
+//! 4. The swelling strip whose static Newton crawled, at 4 to 32 cells across, with the default
+//!    (adaptive) Newton, and for comparison the exact Hessian (`HessianPolicy::Fixed`), a
+//!    smaller first regularisation shift, and the Gauss–Newton fallback.
 //!
 //! Every run checks that positions stay finite, and the solver-level runs that the potential
 //! never rises within a Newton solve. Failures of a run are outcomes (reported, with the error);

@@ -15,8 +15,9 @@
 //!   with the PSD Hessian ([`NewtonReport::rejected_steps`]): a short step along the direction
 //!   of a quadratic model that does not hold may lead towards a saddle or a poor minimum;
 //! - after a full PSD step whose actual decrease is at least half the predicted one (the
-//!   iterate is where a quadratic model holds) the own Hessian is tried again, after 1, 2, 4, …
-//!   such steps once it has failed;
+//!   iterate is where a quadratic model holds), and after a PSD step that backtracked (its model
+//!   overshoots too, e.g. a membrane sagging from flat), the own Hessian is tried again — after
+//!   1, 2, 4, … such steps once it has failed or been rejected;
 //! - PSD steps that need ≥ 3 backtracks raise a Levenberg–Marquardt damping `λ·mean|H_dd|` on
 //!   the diagonal (from 1e-6, ×10), good full steps lower it (÷100): a Gauss–Newton model sees
 //!   no membrane cost of bending a flat or folded sheet out of plane and overshoots there.
@@ -825,8 +826,17 @@ pub fn newton_solve<O: Objective + ?Sized>(
         if adaptive {
             match kind {
                 IterationHessian::Own if backtracks > 0 => try_own = false,
-                IterationHessian::Psd if backtracks >= DAMPING_BACKTRACKS => {
-                    damping = (damping * DAMPING_GROWTH).max(DAMPING_MIN);
+                IterationHessian::Psd if backtracks > 0 => {
+                    if backtracks >= DAMPING_BACKTRACKS {
+                        damping = (damping * DAMPING_GROWTH).max(DAMPING_MIN);
+                    }
+                    // The PSD model overshoots too: the own Hessian may do better here (a
+                    // membrane sagging from flat). Rejections make it wait 1, 2, 4, … steps.
+                    if wait == 0 {
+                        try_own = true;
+                    } else {
+                        wait -= 1;
+                    }
                 }
                 IterationHessian::Psd if backtracks == 0 && slope < 0.0 => {
                     let rho = (f - f_old) / (0.5 * slope);

@@ -280,12 +280,12 @@ fn disc_with_spherical_cap_rest_forms_becomes_the_cap() {
     }
 }
 
-/// A flat strip whose rest forms are those of the strip wound around a cylinder of radius
+/// A flat strip (2.2 × 0.3 m) whose rest forms are those of the strip wound around a cylinder of radius
 /// 1 m at 30° to its axis (b̄ = κ d⊗d with d at 60° to the strip) winds into that helix.
 #[test]
 fn strip_with_oblique_natural_curvature_winds_into_a_helix() {
     for sff in SffKind::ALL {
-        let mesh = generators::rectangle(2.5, 0.3, 25, 3).unwrap();
+        let mesh = generators::rectangle(2.2, 0.3, 22, 3).unwrap();
         let x0 = mesh.positions().to_vec();
         let helix = wrap(&x0, 1.0, std::f64::consts::FRAC_PI_3);
         let rest = RestState::from_mesh(&mesh, &helix, sff).unwrap();
