@@ -275,17 +275,6 @@ fn shell(
     Ok(ShellSystem::new(mesh, model, rest, boundary, loads)?)
 }
 
-/// The scene builder's force scale of static solves: E·h·ℓ with ℓ = bounding-box diagonal /
-/// √faces (a mean edge length), N.
-fn membrane_force_scale(mesh: &Mesh, material: &Material) -> f64 {
-    let (lo, hi) = mesh.positions().iter().fold(
-        (V3::repeat(f64::INFINITY), V3::repeat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
-    );
-    let edge = (hi - lo).norm() / (mesh.n_faces() as f64).sqrt().max(1.0);
-    material.young * material.thickness * edge
-}
-
 fn iterations_of(e: &SolverError) -> usize {
     match e {
         SolverError::NewtonDidNotConverge { iterations, .. } => *iterations,
@@ -301,13 +290,14 @@ fn static_solve(
     x: &mut [V3],
     phi: &mut Vec<f64>,
     k: Knobs,
-    force_scale: f64,
     max_iterations: usize,
 ) -> Cost {
     sys.hessian_mode = k.hessian;
     let mut st = Static::default();
     st.newton = k.settings(max_iterations);
-    st.force_scale = Some(force_scale);
+    // The knob's tolerance is a gradient test against the solver's one force scale, on top of
+    // the solver's scale-free convergence test.
+    st.force_scale = Some(sys.force_scale());
     phi.resize(sys.n_edge_angles(), 0.0);
     let t0 = Instant::now();
     let r = st.solve_with_angles(sys, x, phi);
@@ -438,7 +428,6 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
     let target = case.equilibrium(&x0);
     let start = case.seed_start(&x0);
     let material = Material::paper();
-    let fs = membrane_force_scale(&mesh, &material);
     let faces = mesh.n_faces();
     let mut sys = shell(
         mesh,
@@ -456,7 +445,6 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
         &mut x_eq,
         &mut Vec::new(),
         Knobs::tight(),
-        fs,
         STATIC_MAX_ITERATIONS,
     )
     .ok
@@ -480,7 +468,7 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
                 };
                 let mut x = start.clone();
                 let mut phi = Vec::new();
-                let c = static_solve(&mut sys, &mut x, &mut phi, k, fs, STATIC_MAX_ITERATIONS);
+                let c = static_solve(&mut sys, &mut x, &mut phi, k, STATIC_MAX_ITERATIONS);
                 out.runs.push(Run {
                     family: format!(
                         "static, {} Hessian, line search {}",
@@ -514,7 +502,7 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
     sys.hessian_mode = HessianMode::Exact;
     for &dt in dts {
         let mut ie = ImplicitEuler::new(dt);
-        ie.force_scale = Some(fs);
+        ie.force_scale = Some(sys.force_scale());
         let mut state = State::at_rest(start.clone());
         integrate(&mut sys, &mut ie, &mut state, checkpoints, |s, c| {
             out.runs.push(Run {
@@ -539,7 +527,7 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
     if !quick {
         let dt = 5e-6;
         let mut ie = ImplicitEuler::new(dt);
-        ie.force_scale = Some(fs);
+        ie.force_scale = Some(sys.force_scale());
         ie.newton.line_search = false;
         let mut state = State::at_rest(start.clone());
         integrate(&mut sys, &mut ie, &mut state, &[10, 100, 1000], |s, c| {
@@ -643,7 +631,6 @@ fn cylinder_refinement(sff: SffKind, quick: bool) -> Result<Case> {
             let target = wrap_cylinder(&x0, 1.0, 0.5);
             let start = wrap_cylinder(&x0, 2.0, 0.5);
             let material = paper(thickness);
-            let fs = membrane_force_scale(&mesh, &material);
             let faces = mesh.n_faces();
             let mut sys = shell(
                 mesh,
@@ -660,7 +647,7 @@ fn cylinder_refinement(sff: SffKind, quick: bool) -> Result<Case> {
                 };
                 let mut x = start.clone();
                 let mut phi = Vec::new();
-                let c = static_solve(&mut sys, &mut x, &mut phi, k, fs, STATIC_MAX_ITERATIONS);
+                let c = static_solve(&mut sys, &mut x, &mut phi, k, STATIC_MAX_ITERATIONS);
                 let error = rms_rigid(&x, &target)?;
                 out.runs.push(Run {
                     family: format!(
@@ -748,7 +735,6 @@ fn cap_refinement(sff: SffKind, quick: bool) -> Result<Case> {
         // compression and wrinkles into other local minima on the way.
         let start: Vec<V3> = target.iter().map(|p| p * 0.9).collect();
         let material = Material::paper();
-        let fs = membrane_force_scale(&mesh, &material);
         let faces = mesh.n_faces();
         let mut sys = shell(
             mesh,
@@ -765,7 +751,7 @@ fn cap_refinement(sff: SffKind, quick: bool) -> Result<Case> {
             };
             let mut x = start.clone();
             let mut phi = Vec::new();
-            let c = static_solve(&mut sys, &mut x, &mut phi, k, fs, STATIC_MAX_ITERATIONS);
+            let c = static_solve(&mut sys, &mut x, &mut phi, k, STATIC_MAX_ITERATIONS);
             let error = rms_rigid(&x, &target)?;
             out.runs.push(Run {
                 family: format!("{} Hessian", k.hessian_name()),
@@ -892,7 +878,6 @@ fn strip(bilayer: bool, sff: SffKind, quick: bool) -> Result<Case> {
         let x0 = mesh.positions().to_vec();
         let initial = RestState::from_mesh(&mesh, &x0, sff)?;
         let material = paper(STRIP_THICKNESS);
-        let fs = membrane_force_scale(&mesh, &material);
         let faces = mesh.n_faces();
         let mesh_copy = mesh.clone();
         let mut sys = shell(
@@ -928,7 +913,7 @@ fn strip(bilayer: bool, sff: SffKind, quick: bool) -> Result<Case> {
                     STRIP_THICKNESS,
                 )?;
                 growth.update_rest(&mut sys.rest)?;
-                let c = static_solve(&mut sys, &mut x, &mut phi, k, fs, STRIP_MAX_ITERATIONS);
+                let c = static_solve(&mut sys, &mut x, &mut phi, k, STRIP_MAX_ITERATIONS);
                 cost.wall_s += c.wall_s;
                 cost.iterations += c.iterations;
                 cost.steps += 1;

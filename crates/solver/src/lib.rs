@@ -2,10 +2,12 @@
 //!
 //! - [`Objective`]: a scalar function of `n` unknowns with gradient and sparse Hessian (lower
 //!   triangle, faer `SparseColMat`), e.g. the incremental potential of implicit Euler;
-//! - [`newton_solve`]: Newton's method with backtracking Armijo line search, diagonal
-//!   regularisation when the Hessian is not positive definite, and convergence on the gradient
-//!   (relative to the objective's force scale) or the step size; failures are typed
-//!   ([`SolverError`]) and carry the residual history and the last accepted iterate;
+//! - [`newton_solve`]: Newton's method with backtracking Armijo line search, an adaptive
+//!   Hessian ([`HessianPolicy`]: exact where positive definite, the objective's PSD Hessian
+//!   elsewhere, each iteration's choice reported), diagonal regularisation, and scale-free
+//!   convergence on the Newton correction (plus a gradient test where the objective's force
+//!   scale is meaningful); failures are typed ([`SolverError`]) and carry the residual history
+//!   and the last accepted iterate;
 //! - [`linear::SparseCholesky`]: faer's supernodal LLᵀ with the symbolic analysis done once per
 //!   pattern and all memory reused;
 //! - [`ordering`]: AMD or a geometric nested dissection ([`Ordering`]);
@@ -105,8 +107,8 @@ pub mod shell;
 pub use error::SolverError;
 pub use linear::{FactorStats, RegularizationKind, SparseCholesky};
 pub use newton::{
-    Convergence, NewtonReport, NewtonSettings, NewtonTimings, NewtonWorkspace, RegularizationEvent,
-    newton_solve,
+    Convergence, HessianPolicy, IterationHessian, NewtonReport, NewtonSettings, NewtonTimings,
+    NewtonWorkspace, RegularizationEvent, newton_solve,
 };
 pub use objective::Objective;
 pub use ordering::Ordering;

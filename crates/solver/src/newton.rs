@@ -1,12 +1,45 @@
-//! Newton's method with backtracking line search and regularisation.
+//! Newton's method with an adaptive Hessian, backtracking line search and regularisation.
 //!
 //! Each iteration solves `H dx = −∇f` with the sparse Cholesky factorisation of
-//! [`linear`](crate::linear) (symbolic analysis done once in [`NewtonWorkspace::new`]), shifting
-//! the diagonal when H is not positive definite, then backtracks along `dx` until the Armijo
-//! condition `f(x + α dx) ≤ f(x) + c₁ α ∇fᵀdx` holds. It stops when
-//! `‖∇f‖∞ ≤ gradient_tolerance · force_scale` or when the unshifted Newton correction is
-//! shorter than `step_tolerance · length_scale` (‖dx‖∞; the gradient has then usually hit its
-//! round-off floor, e.g. under a large inertia term Λ/Δt²).
+//! [`linear`](crate::linear) (symbolic analysis done once in [`NewtonWorkspace::new`]), then
+//! backtracks along `dx` until the Armijo condition `f(x + α dx) ≤ f(x) + c₁ α ∇fᵀdx` holds.
+//!
+//! **Which H** ([`HessianPolicy`]): by default ([`HessianPolicy::Adaptive`]) the objective's own
+//! (exact) Hessian while it factorises with at most a tiny shift (≤ 1e-8 of the mean |H_dd|,
+//! far below bending stiffness) and its full steps pass the Armijo test, and the objective's
+//! positive semi-definite Hessian ([`Objective::psd_hessian`], Gauss–Newton for shells)
+//! otherwise:
+//! - an own Hessian that does not factorise switches to the PSD one in the same iteration (the
+//!   wasted factorisation is counted in [`NewtonReport::failed_factorizations`]);
+//! - an own step whose full length fails the Armijo test is discarded and the iteration redone
+//!   with the PSD Hessian ([`NewtonReport::rejected_steps`]): a short step along the direction
+//!   of a quadratic model that does not hold may lead towards a saddle or a poor minimum;
+//! - after a full PSD step whose actual decrease is at least half the predicted one (the
+//!   iterate is where a quadratic model holds), and after a PSD step that backtracked (its model
+//!   overshoots too, e.g. a membrane sagging from flat), the own Hessian is tried again — after
+//!   1, 2, 4, … such steps once it has failed or been rejected;
+//! - PSD steps that need ≥ 3 backtracks raise a Levenberg–Marquardt damping `λ·mean|H_dd|` on
+//!   the diagonal (from 1e-6, ×10), good full steps lower it (÷100): a Gauss–Newton model sees
+//!   no membrane cost of bending a flat or folded sheet out of plane and overshoots there.
+//!
+//! Far from a solution the PSD Hessian keeps the curvature of the forms without the shift a
+//! regularised indefinite Hessian needs (which turns Newton into a slow gradient method and can
+//! lead into a wrong local minimum); close to it the exact Hessian gives quadratic convergence.
+//! Every iteration records which one it used ([`NewtonReport::hessians`]).
+//! [`HessianPolicy::Fixed`] always uses the objective's own Hessian, shifted as much as needed
+//! when it is not positive definite (as is the PSD Hessian, should it be singular).
+//!
+//! **When converged** (one definition, scale-free): the unshifted Newton correction is short,
+//! `‖dx‖∞ ≤ step_tolerance · length_scale` ([`Convergence::Step`]; after a full step it is
+//! estimated from the current factorisation, `‖H⁻¹∇f(x + dx)‖∞`, which costs one triangular
+//! solve instead of a factorisation); or its predicted decrease `−½∇fᵀdx` is below the
+//! round-off of f, `16 ε |f|`, and the last step did not halve the gradient
+//! ([`Convergence::RoundOff`]: neither f nor ∇f shows further progress); or,
+//! only for objectives whose force scale is a meaningful size of their forces
+//! ([`Objective::gradient_test`]), `‖∇f‖∞ ≤ gradient_tolerance · force_scale`
+//! ([`Convergence::Gradient`]). The correction measures the distance to the equilibrium in the
+//! unknowns' own units whatever the stiffness (membrane, bending or edge-director angles), so no
+//! force scale can declare an unoptimised configuration converged.
 
 use std::time::{Duration, Instant};
 
@@ -15,18 +48,42 @@ use faer::sparse::SparseColMat;
 
 use crate::SolverError;
 use crate::linear::{
-    FactorError, FactorOutcome, FactorStats, RegularizationKind, RegularizationParams,
-    SparseCholesky,
+    FactorError, FactorStats, RegularizationKind, RegularizationParams, SparseCholesky,
 };
 use crate::objective::Objective;
 use crate::ordering::Ordering;
+
+/// Which Hessian each Newton iteration factorises.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum HessianPolicy {
+    /// The objective's own Hessian ([`Objective::hessian`]) where it is positive definite and
+    /// its steps are taken in full, the PSD one ([`Objective::psd_hessian`]) elsewhere (see the
+    /// [module docs](self)). Objectives without a PSD Hessian behave as with `Fixed`.
+    #[default]
+    Adaptive,
+    /// Always the objective's own Hessian, diagonally shifted when not positive definite.
+    Fixed,
+}
+
+/// The Hessian a Newton iteration used.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum IterationHessian {
+    /// The objective's own Hessian ([`Objective::hessian`]; exact for shells unless the system
+    /// is set to another mode).
+    Own,
+    /// The positive semi-definite Hessian ([`Objective::psd_hessian`]; Gauss–Newton for shells).
+    Psd,
+}
 
 /// All parameters of a Newton solve (one plain struct; [`Default`] gives robust values).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NewtonSettings {
     /// Maximum number of Newton iterations (≥ 1).
     pub max_iterations: usize,
-    /// Converged when `‖∇f‖∞ ≤ gradient_tolerance · force_scale` (dimensionless, > 0).
+    /// Which Hessian each iteration uses.
+    pub hessian: HessianPolicy,
+    /// Converged when `‖∇f‖∞ ≤ gradient_tolerance · force_scale` (dimensionless, > 0), for
+    /// objectives with [`Objective::gradient_test`] only.
     pub gradient_tolerance: f64,
     /// Converged when the unshifted Newton correction has `‖dx‖∞ ≤ step_tolerance ·
     /// length_scale` (dimensionless, ≥ 0; 0 disables the criterion).
@@ -62,8 +119,12 @@ impl Default for NewtonSettings {
     fn default() -> Self {
         let reg = RegularizationParams::default();
         Self {
-            max_iterations: 50,
+            max_iterations: 100,
+            hessian: HessianPolicy::Adaptive,
             gradient_tolerance: 1e-8,
+            // Positions to 1e-12 of the body's size (angles to about 1e-12 × its size in edge
+            // lengths): far below discretisation error; where round-off is above it, the
+            // round-off criterion ends the solve.
             step_tolerance: 1e-12,
             line_search: true,
             armijo_c1: 1e-4,
@@ -178,8 +239,11 @@ impl NewtonSettings {
 pub enum Convergence {
     /// `‖∇f‖∞ ≤ gradient_tolerance · force_scale`.
     Gradient,
-    /// An unshifted Newton correction shorter than `step_tolerance · length_scale` (not taken).
+    /// An unshifted Newton correction (computed, or estimated from the last factorisation after
+    /// a full step) shorter than `step_tolerance · length_scale`; a computed one is not taken.
     Step,
+    /// The predicted decrease of the unshifted Newton step below the round-off of f (not taken).
+    RoundOff,
 }
 
 /// A factorisation that needed a diagonal shift.
@@ -211,6 +275,18 @@ pub struct NewtonTimings {
 pub struct NewtonReport {
     /// Newton iterations (Hessian factorisations with a step taken).
     pub iterations: usize,
+    /// The Hessian of every iteration (length `iterations`).
+    pub hessians: Vec<IterationHessian>,
+    /// `‖dx‖∞ / length_scale` of every unshifted Newton correction, in order (one per
+    /// unshifted iteration, plus the estimate or the untaken correction that ended the solve);
+    /// quadratic convergence shows as each entry about the square of the previous one.
+    pub corrections: Vec<f64>,
+    /// Unshifted factorisations of the objective's own Hessian that failed and made the
+    /// adaptive policy switch to the PSD Hessian.
+    pub failed_factorizations: usize,
+    /// Steps of the own Hessian that failed the Armijo test at full length and were redone
+    /// with the PSD Hessian (adaptive policy; not counted in `iterations`).
+    pub rejected_steps: usize,
     /// The criterion that stopped the solve.
     pub convergence: Convergence,
     /// Relative residual `‖∇f‖∞ / force_scale` of every accepted iterate (first = initial).
@@ -304,6 +380,124 @@ fn first_non_finite(v: &[f64]) -> Option<usize> {
     v.iter().position(|x| !x.is_finite())
 }
 
+/// Everything a solve has recorded so far, turned into a report.
+struct Record {
+    residuals: Vec<f64>,
+    values: Vec<f64>,
+    hessians: Vec<IterationHessian>,
+    corrections: Vec<f64>,
+    failed_factorizations: usize,
+    rejected_steps: usize,
+    backtracks: usize,
+    regularizations: Vec<RegularizationEvent>,
+    timings: NewtonTimings,
+}
+
+impl Record {
+    fn report(self, iterations: usize, convergence: Convergence) -> NewtonReport {
+        NewtonReport {
+            iterations,
+            hessians: self.hessians,
+            corrections: self.corrections,
+            failed_factorizations: self.failed_factorizations,
+            rejected_steps: self.rejected_steps,
+            convergence,
+            residuals: self.residuals,
+            values: self.values,
+            backtracks: self.backtracks,
+            regularizations: self.regularizations,
+            timings: self.timings,
+        }
+    }
+}
+
+/// Largest relative shift (of the mean |H_dd|) the adaptive policy applies to the own Hessian
+/// before it switches to the PSD one; also the largest shift with which a Newton correction
+/// still counts for the convergence test.
+const SMALL_SHIFT: f64 = 1e-8;
+
+/// First Levenberg–Marquardt damping of PSD steps (relative to the mean |H_dd|) after a
+/// backtracked PSD step; below it the damping is switched off.
+const DAMPING_MIN: f64 = 1e-6;
+/// Backtracks of a PSD step (its full step was at least 2³ times too long) that raise the
+/// damping.
+const DAMPING_BACKTRACKS: usize = 3;
+/// Factor the damping grows by after a backtracked PSD step and shrinks by after a good one.
+const DAMPING_GROWTH: f64 = 10.0;
+
+/// Shifted attempts of `params` that stay at or below [`SMALL_SHIFT`].
+fn small_shift_attempts(params: &RegularizationParams) -> usize {
+    if params.max_attempts == 0 || params.initial > SMALL_SHIFT {
+        return 0;
+    }
+    let mut attempts = 1;
+    let mut mu = params.initial;
+    while mu * params.growth <= SMALL_SHIFT * (1.0 + 1e-12) && attempts < params.max_attempts {
+        mu *= params.growth;
+        attempts += 1;
+    }
+    attempts
+}
+
+/// Round-off of an objective value f: changes below it are invisible.
+fn value_noise(f: f64) -> f64 {
+    16.0 * f64::EPSILON * f.abs()
+}
+
+/// Assembles the PSD Hessian when `psd`, else the own Hessian.
+fn assemble<O: Objective + ?Sized>(
+    objective: &mut O,
+    x: &[f64],
+    h: &mut SparseColMat<usize, f64>,
+    psd: bool,
+    iteration: usize,
+    timings: &mut NewtonTimings,
+) -> Result<IterationHessian, SolverError> {
+    let t = Instant::now();
+    let kind = if psd {
+        objective.psd_hessian(x, h)?;
+        IterationHessian::Psd
+    } else {
+        objective.hessian(x, h)?;
+        IterationHessian::Own
+    };
+    timings.assembly += t.elapsed();
+    if h.val().iter().any(|v| !v.is_finite()) {
+        return Err(SolverError::NonFinite {
+            what: "Hessian",
+            iteration,
+            dof: None,
+        });
+    }
+    Ok(kind)
+}
+
+impl NewtonWorkspace {
+    /// Whether the objective's own Hessian at `x` is positive definite: its unshifted Cholesky
+    /// factorisation succeeds (e.g. the stability test of an equilibrium; a shift the objective
+    /// itself adds, like a static solve's `hessian_shift`, is part of its Hessian).
+    pub fn is_positive_definite<O: Objective + ?Sized>(
+        &mut self,
+        objective: &mut O,
+        x: &[f64],
+    ) -> Result<bool, SolverError> {
+        if x.len() != self.n_dofs() || objective.n_dofs() != self.n_dofs() {
+            return Err(SolverError::DimensionMismatch {
+                what: "x",
+                expected: self.n_dofs(),
+                found: x.len(),
+            });
+        }
+        let mut timings = NewtonTimings::default();
+        assemble(objective, x, &mut self.hessian, false, 0, &mut timings)?;
+        match self.cholesky.factorize(self.hessian.as_ref()) {
+            Ok(()) => Ok(true),
+            Err(FactorError::NotPositiveDefinite { .. }) => Ok(false),
+            Err(FactorError::Other(e)) => Err(e),
+        }
+    }
+}
+
 /// Minimises `objective` from `x` (overwritten with the result).
 ///
 /// On success `x` is the converged iterate. On failure `x` holds the last accepted iterate
@@ -338,18 +532,28 @@ pub fn newton_solve<O: Objective + ?Sized>(
     if !(length_scale.is_finite() && length_scale > 0.0) {
         return Err(SolverError::InvalidLengthScale(length_scale));
     }
+    let gradient_test = objective.gradient_test();
+    let step_limit = settings.step_tolerance * length_scale;
     let reg_params = settings.regularization_params();
     if !settings.regularization {
         // A shift remembered from an earlier solve must not leak into an unregularised one.
         ws.mu = 0.0;
     }
-    let mut timings = NewtonTimings::default();
-    let mut report_regs = Vec::new();
-    let mut backtracks_total = 0;
+    let mut rec = Record {
+        residuals: Vec::new(),
+        values: Vec::new(),
+        hessians: Vec::new(),
+        corrections: Vec::new(),
+        failed_factorizations: 0,
+        rejected_steps: 0,
+        backtracks: 0,
+        regularizations: Vec::new(),
+        timings: NewtonTimings::default(),
+    };
 
     let t = Instant::now();
     let mut f = objective.gradient(x, &mut ws.g)?;
-    timings.assembly += t.elapsed();
+    rec.timings.assembly += t.elapsed();
     if !f.is_finite() {
         return Err(SolverError::NonFinite {
             what: "value",
@@ -364,65 +568,115 @@ pub fn newton_solve<O: Objective + ?Sized>(
             dof: Some(dof),
         });
     }
-    let mut residuals = vec![norm_inf(&ws.g) / force_scale];
-    let mut values = vec![f];
+    rec.residuals.push(norm_inf(&ws.g) / force_scale);
+    rec.values.push(f);
     let mut iteration = 0;
 
+    // Adaptive policy state: whether the next iteration tries the own Hessian, how many good
+    // PSD steps to wait before trying it again, and that wait after the next failure.
+    let adaptive = settings.hessian == HessianPolicy::Adaptive && objective.has_psd_hessian();
+    let mut try_own = true;
+    // Levenberg–Marquardt damping of PSD iterations (relative to the mean |H_dd|).
+    let mut damping = 0.0f64;
+    let mut wait = 0usize;
+    let mut backoff = 1usize;
+
     loop {
-        let residual = residuals[residuals.len() - 1];
-        if residual <= settings.gradient_tolerance {
-            return Ok(NewtonReport {
-                iterations: iteration,
-                convergence: Convergence::Gradient,
-                residuals,
-                values,
-                backtracks: backtracks_total,
-                regularizations: report_regs,
-                timings,
-            });
+        if gradient_test && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance {
+            return Ok(rec.report(iteration, Convergence::Gradient));
         }
         if iteration >= settings.max_iterations {
             return Err(SolverError::NewtonDidNotConverge {
-                residuals,
+                residuals: rec.residuals,
                 iterations: iteration,
                 tolerance: settings.gradient_tolerance,
                 last_good: x.to_vec(),
             });
         }
 
-        // Hessian and (regularised) factorisation.
-        let t = Instant::now();
-        objective.hessian(x, &mut ws.hessian)?;
-        timings.assembly += t.elapsed();
-        if ws.hessian.val().iter().any(|v| !v.is_finite()) {
-            return Err(SolverError::NonFinite {
-                what: "Hessian",
-                iteration,
-                dof: None,
-            });
-        }
-        let t = Instant::now();
-        let outcome = ws
-            .cholesky
-            .factorize_regularized(&mut ws.hessian, &reg_params, &mut ws.mu);
-        timings.factorization += t.elapsed();
-        let outcome: FactorOutcome = match outcome {
-            Ok(o) => o,
-            Err(FactorError::NotPositiveDefinite { pivot }) => {
-                return Err(if settings.regularization {
-                    SolverError::RegularizationFailed {
+        // Hessian and factorisation.
+        let mut kind = assemble(
+            objective,
+            x,
+            &mut ws.hessian,
+            adaptive && !try_own,
+            iteration,
+            &mut rec.timings,
+        )?;
+        let mut plain = None;
+        if adaptive && kind == IterationHessian::Own && try_own {
+            // The own Hessian, shifted by at most SMALL_SHIFT (far below bending stiffness:
+            // it only lifts the tiny negative eigenvalues of a nearly converged, slightly
+            // compressed shell); anything more indefinite switches to the PSD Hessian.
+            let small = RegularizationParams {
+                max_attempts: small_shift_attempts(&reg_params),
+                ..reg_params
+            };
+            let t = Instant::now();
+            let r = ws
+                .cholesky
+                .factorize_regularized(&mut ws.hessian, &small, &mut ws.mu);
+            rec.timings.factorization += t.elapsed();
+            match r {
+                Ok(o) => plain = Some(o),
+                Err(FactorError::NotPositiveDefinite { .. }) => {
+                    rec.failed_factorizations += 1;
+                    ws.mu = 0.0;
+                    try_own = false;
+                    wait = backoff;
+                    backoff = backoff.saturating_mul(2);
+                    kind = assemble(
+                        objective,
+                        x,
+                        &mut ws.hessian,
+                        true,
                         iteration,
-                        mu: ws.mu,
-                        attempts: reg_params.max_attempts + 1,
-                    }
-                } else {
-                    SolverError::NotPositiveDefinite { iteration, pivot }
-                });
+                        &mut rec.timings,
+                    )?;
+                }
+                Err(FactorError::Other(e)) => return Err(e),
             }
-            Err(FactorError::Other(e)) => return Err(e),
+        }
+        if kind == IterationHessian::Psd && damping > 0.0 {
+            // Levenberg–Marquardt damping of the PSD Hessian: shortens and turns the step
+            // towards the gradient where the quadratic model overshoots (large rotations of a
+            // thin shell, whose Gauss–Newton model sees no membrane cost of bending out of
+            // plane from flat).
+            let offsets = ws.cholesky.diagonal_offsets();
+            let val = ws.hessian.val_mut();
+            let mean =
+                offsets.iter().map(|&o| val[o].abs()).sum::<f64>() / offsets.len().max(1) as f64;
+            for &o in offsets {
+                val[o] += damping * mean;
+            }
+        }
+        let outcome = match plain {
+            Some(o) => o,
+            None => {
+                let t = Instant::now();
+                let outcome =
+                    ws.cholesky
+                        .factorize_regularized(&mut ws.hessian, &reg_params, &mut ws.mu);
+                rec.timings.factorization += t.elapsed();
+                match outcome {
+                    Ok(o) => o,
+                    Err(FactorError::NotPositiveDefinite { pivot }) => {
+                        return Err(if settings.regularization {
+                            SolverError::RegularizationFailed {
+                                iteration,
+                                mu: ws.mu,
+                                attempts: reg_params.max_attempts + 1,
+                            }
+                        } else {
+                            SolverError::NotPositiveDefinite { iteration, pivot }
+                        });
+                    }
+                    Err(FactorError::Other(e)) => return Err(e),
+                }
+            }
         };
         if outcome.mu > 0.0 {
-            report_regs.push(RegularizationEvent {
+            rec.regularizations.push(RegularizationEvent {
                 iteration,
                 mu: outcome.mu,
                 max_shift: outcome.max_shift,
@@ -436,7 +690,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
         }
         let t = Instant::now();
         ws.cholesky.solve_in_place(&mut ws.dx)?;
-        timings.solve += t.elapsed();
+        rec.timings.solve += t.elapsed();
         if let Some(dof) = first_non_finite(&ws.dx) {
             return Err(SolverError::NonFinite {
                 what: "Newton direction",
@@ -446,18 +700,23 @@ pub fn newton_solve<O: Objective + ?Sized>(
         }
         let slope: f64 = ws.dx.iter().zip(&ws.g).map(|(d, g)| d * g).sum();
 
-        // An unshifted Newton correction below the step tolerance: x is converged (typically
-        // the gradient has reached its round-off floor). The step is not taken.
-        if outcome.mu == 0.0 && norm_inf(&ws.dx) <= settings.step_tolerance * length_scale {
-            return Ok(NewtonReport {
-                iterations: iteration,
-                convergence: Convergence::Step,
-                residuals,
-                values,
-                backtracks: backtracks_total,
-                regularizations: report_regs,
-                timings,
-            });
+        // An unshifted Newton correction below the step tolerance, or one whose predicted
+        // decrease f cannot resolve: x is converged. The step is not taken.
+        if outcome.mu <= SMALL_SHIFT {
+            let dx_max = norm_inf(&ws.dx);
+            rec.corrections.push(dx_max / length_scale);
+            if dx_max <= step_limit {
+                return Ok(rec.report(iteration, Convergence::Step));
+            }
+            // Round-off: f cannot resolve the predicted decrease and the last step no longer
+            // halved the gradient (while it does, Newton still makes progress on it).
+            let n = rec.residuals.len();
+            if -0.5 * slope <= value_noise(f)
+                && n >= 2
+                && rec.residuals[n - 1] > 0.5 * rec.residuals[n - 2]
+            {
+                return Ok(rec.report(iteration, Convergence::RoundOff));
+            }
         }
 
         // Backtracking line search. The first trial evaluates the gradient too (it is usually
@@ -477,7 +736,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 trial_has_gradient = false;
                 objective.value(&ws.x_trial)?
             };
-            timings.assembly += t.elapsed();
+            rec.timings.assembly += t.elapsed();
             if !settings.line_search {
                 if !f_t.is_finite() {
                     return Err(SolverError::NonFinite {
@@ -495,7 +754,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 // Once the predicted decrease is below the round-off of f, values cannot
                 // discriminate: accept a full step that does not raise f beyond round-off
                 // and reduces the gradient.
-                let noise = 16.0 * f64::EPSILON * f.abs().max(f_t.abs());
+                let noise = value_noise(f.abs().max(f_t.abs()));
                 if trial_has_gradient
                     && -slope <= noise
                     && f_t <= f + noise
@@ -504,20 +763,34 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     break f_t;
                 }
             }
+            if adaptive && kind == IterationHessian::Own {
+                // The own Hessian's quadratic model does not hold here (its full step fails
+                // the Armijo test): redo the iteration with the PSD Hessian rather than take a
+                // short step along a direction that may lead towards a saddle or a poor minimum.
+                break f64::NAN;
+            }
             if backtracks >= settings.max_backtracks || slope >= 0.0 {
                 return Err(SolverError::LineSearchFailed {
                     iteration,
                     backtracks,
-                    residuals,
+                    residuals: rec.residuals,
                     last_good: x.to_vec(),
                 });
             }
             backtracks += 1;
             alpha *= settings.backtrack_factor;
         };
-        backtracks_total += backtracks;
+        rec.backtracks += backtracks;
+        if f_trial.is_nan() {
+            rec.rejected_steps += 1;
+            try_own = false;
+            wait = backoff;
+            backoff = backoff.saturating_mul(2);
+            continue;
+        }
 
         // Accept the trial point.
+        let f_old = f;
         x.copy_from_slice(&ws.x_trial);
         if trial_has_gradient {
             std::mem::swap(&mut ws.g, &mut ws.g_trial);
@@ -525,9 +798,10 @@ pub fn newton_solve<O: Objective + ?Sized>(
         } else {
             let t = Instant::now();
             f = objective.gradient(x, &mut ws.g)?;
-            timings.assembly += t.elapsed();
+            rec.timings.assembly += t.elapsed();
         }
         iteration += 1;
+        rec.hessians.push(kind);
         if !f.is_finite() {
             return Err(SolverError::NonFinite {
                 what: "value",
@@ -542,7 +816,65 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 dof: Some(dof),
             });
         }
-        residuals.push(norm_inf(&ws.g) / force_scale);
-        values.push(f);
+        rec.residuals.push(norm_inf(&ws.g) / force_scale);
+        rec.values.push(f);
+
+        // Adaptive policy: a backtracked step of the own Hessian means its quadratic model is
+        // poor here; a full PSD step that achieved at least half the predicted decrease
+        // (ratio ρ = Δf / (½ ∇fᵀdx), the PSD model's prediction) means the iterate is where
+        // the quadratic model holds, so the own Hessian is worth another try.
+        if adaptive {
+            match kind {
+                IterationHessian::Own if backtracks > 0 => try_own = false,
+                IterationHessian::Psd if backtracks > 0 => {
+                    if backtracks >= DAMPING_BACKTRACKS {
+                        damping = (damping * DAMPING_GROWTH).max(DAMPING_MIN);
+                    }
+                    // The PSD model overshoots too: the own Hessian may do better here (a
+                    // membrane sagging from flat). Rejections make it wait 1, 2, 4, … steps.
+                    if wait == 0 {
+                        try_own = true;
+                    } else {
+                        wait -= 1;
+                    }
+                }
+                IterationHessian::Psd if backtracks == 0 && slope < 0.0 => {
+                    let rho = (f - f_old) / (0.5 * slope);
+                    if rho >= 0.5 {
+                        damping /= DAMPING_GROWTH * DAMPING_GROWTH;
+                        if damping < DAMPING_MIN {
+                            damping = 0.0;
+                        }
+                        if wait == 0 {
+                            try_own = true;
+                        } else {
+                            wait -= 1;
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+
+        // After a full unshifted step, estimate the next correction with the same
+        // factorisation (one triangular solve): a short one ends the solve here.
+        if outcome.mu <= SMALL_SHIFT && backtracks == 0 {
+            if gradient_test
+                && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
+            {
+                return Ok(rec.report(iteration, Convergence::Gradient));
+            }
+            for (d, g) in ws.dx.iter_mut().zip(&ws.g) {
+                *d = -g;
+            }
+            let t = Instant::now();
+            ws.cholesky.solve_in_place(&mut ws.dx)?;
+            rec.timings.solve += t.elapsed();
+            let est = norm_inf(&ws.dx);
+            if est.is_finite() && est <= step_limit {
+                rec.corrections.push(est / length_scale);
+                return Ok(rec.report(iteration, Convergence::Step));
+            }
+        }
     }
 }

@@ -33,14 +33,41 @@ pub trait Objective {
     /// triangle.
     fn hessian(&mut self, x: &[f64], h: &mut SparseColMat<usize, f64>) -> Result<(), SolverError>;
 
+    /// Whether [`psd_hessian`](Objective::psd_hessian) is a distinct positive semi-definite
+    /// approximation (default `false`: the adaptive Newton of
+    /// [`HessianPolicy::Adaptive`](crate::HessianPolicy::Adaptive) then behaves like
+    /// [`HessianPolicy::Fixed`](crate::HessianPolicy::Fixed)).
+    fn has_psd_hessian(&self) -> bool {
+        false
+    }
+
+    /// Overwrites the values of `h` with a positive semi-definite approximation of ∇²f(x) (e.g.
+    /// Gauss–Newton), lower triangle, same pattern. Default: [`hessian`](Objective::hessian).
+    fn psd_hessian(
+        &mut self,
+        x: &[f64],
+        h: &mut SparseColMat<usize, f64>,
+    ) -> Result<(), SolverError> {
+        self.hessian(x, h)
+    }
+
     /// The Hessian's sparsity pattern (lower triangle, every diagonal present); values ignored.
     fn hessian_template(&self) -> SparseColMat<usize, f64>;
 
-    /// Typical magnitude of a gradient entry (N for energies); the gradient tolerance is relative
-    /// to it. Must be positive and finite.
+    /// Typical magnitude of a gradient entry (N for energies): reported residuals are relative to
+    /// it, and so is the gradient tolerance when [`gradient_test`](Objective::gradient_test)
+    /// holds. Must be positive and finite.
     fn force_scale(&self) -> f64;
 
-    /// Typical length (m) the step tolerance is relative to. Default 1.
+    /// Whether `‖∇f‖∞ ≤ gradient_tolerance · force_scale` may end a solve (default `true`). An
+    /// objective whose force scale is only a reporting unit (not a meaningful size of its
+    /// forces) returns `false`: it then converges on the Newton correction or at round-off only
+    /// (see [`newton_solve`](crate::newton_solve)).
+    fn gradient_test(&self) -> bool {
+        true
+    }
+
+    /// Typical length (m) the step tolerance is relative to (e.g. the size of the body). Default 1.
     fn length_scale(&self) -> f64 {
         1.0
     }

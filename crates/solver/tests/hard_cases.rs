@@ -15,8 +15,8 @@ use thinshell_energy::{HessianMode, Material, RestState, SffKind, ShellModel, Te
 use thinshell_growth::{DirectedHeat, FaceStimulus, Growth, Isotropic, Prescribed, Region};
 use thinshell_mesh::{Mesh, generators};
 use thinshell_solver::{
-    Boundary, ImplicitEuler, Integrator, Loads, NewtonReport, ShellSystem, SolverError, State,
-    Static, StepReport,
+    Boundary, HessianPolicy, ImplicitEuler, Integrator, Loads, NewtonReport, ShellSystem,
+    SolverError, State, Static, StepReport,
 };
 
 const SFF: SffKind = SffKind::MidEdgeAverage;
@@ -791,10 +791,17 @@ fn crumpled() -> (ShellSystem, Vec<Vector3<f64>>) {
 
 #[test]
 fn crumpled_start_needs_regularisation() {
-    // Without regularisation: an explicit "not positive definite" at the first iteration.
+    // The exact Hessian throughout (`HessianPolicy::Fixed`; the default adaptive policy is
+    // checked at the end). Without regularisation: an explicit "not positive definite" at
+    // the first iteration.
     let (mut sys, x0) = crumpled();
     let e0 = sys.energy(&x0).unwrap().total();
+    let exact = |st: &mut Static| {
+        st.newton.hessian = HessianPolicy::Fixed;
+        st.newton.regularization_initial = 1e-6;
+    };
     let mut st = Static::default();
+    exact(&mut st);
     st.newton.regularization = false;
     let mut x = x0.clone();
     let e = st.solve(&mut sys, &mut x).unwrap_err();
@@ -807,16 +814,25 @@ fn crumpled_start_needs_regularisation() {
     // then convergence.
     let mut dyn_sys = with_damping(&sys);
     let mut state = State::at_rest(x0.clone());
-    let out = drive(&mut ImplicitEuler::new(1e-3), &mut dyn_sys, &mut state, 1);
+    let mut ie = ImplicitEuler::new(1e-3);
+    ie.newton.hessian = HessianPolicy::Fixed;
+    ie.newton.regularization_initial = 1e-6;
+    let out = drive(&mut ie, &mut dyn_sys, &mut state, 1);
     println!(
         "{}",
         out.line("crumpled start, implicit 1e-3 s, regularised")
     );
     assert!(out.failure.is_none() && out.regularized_steps == 1);
+    // The default (adaptive) implicit step needs no shift.
+    let mut state = State::at_rest(x0.clone());
+    let out = drive(&mut ImplicitEuler::new(1e-3), &mut dyn_sys, &mut state, 1);
+    println!("{}", out.line("crumpled start, implicit 1e-3 s, default"));
+    assert!(out.failure.is_none());
     // The static solve with regularisation crawls: the shift that makes the compressed
     // membrane's Hessian positive definite is far above the bending stiffness, so Newton
     // becomes a slow gradient method on the bending modes. It ends in an explicit failure...
     let mut st = Static::default();
+    exact(&mut st);
     st.newton.max_iterations = 200;
     let mut state = State::at_rest(x0.clone());
     let out = drive(&mut st, &mut sys, &mut state, 1);
@@ -831,6 +847,7 @@ fn crumpled_start_needs_regularisation() {
     // ... which the Gauss–Newton fallback repairs (regularisation on or off).
     for regularization in [true, false] {
         let mut st = Static::default();
+        exact(&mut st);
         st.newton.regularization = regularization;
         st.fallback_hessian = Some(HessianMode::GaussNewton);
         let mut state = State::at_rest(x0.clone());
@@ -844,6 +861,16 @@ fn crumpled_start_needs_regularisation() {
         println!("  energy {e0:.3e} -> {e2:.3e} J");
         assert!(e2 < 1e-12 * e0, "{e0} -> {e2}");
     }
+    // The default adaptive Newton (Gauss–Newton while the exact Hessian is indefinite) needs
+    // neither the fallback nor a shift.
+    let mut st = Static::default();
+    let mut state = State::at_rest(x0.clone());
+    let out = drive(&mut st, &mut sys, &mut state, 1);
+    println!("{}", out.line("crumpled start, static, default (adaptive)"));
+    assert!(out.failure.is_none() && out.fallback_steps == 0 && out.iterations <= 30);
+    let e2 = sys.energy(&state.x).unwrap().total();
+    println!("  energy {e0:.3e} -> {e2:.3e} J");
+    assert!(e2 < 1e-12 * e0, "{e0} -> {e2}");
 }
 
 #[test]
@@ -853,6 +880,7 @@ fn implicit_fallbacks_in_order() {
     let (sys, x0) = crumpled();
     let mut dyn_sys = with_damping(&sys);
     let mut ie = ImplicitEuler::new(1e-2);
+    ie.newton.hessian = HessianPolicy::Fixed;
     ie.newton.regularization = false;
     ie.fallback_hessian = Some(HessianMode::GaussNewton);
     ie.max_halvings = 4;
@@ -940,23 +968,41 @@ fn extreme_parameters() {
         let (mut sys, x0) = extreme_sheet(material, false);
         let e0 = sys.energy(&x0).unwrap().total();
         let p = sys.mesh.positions().to_vec();
-        let (_, fb, st) = static_plain_then_fallback(&name, &mut sys, &x0, &|_| {});
-        assert!(fb.is_none_or(|o| o.failure.is_none()), "{name}");
-        let worst = (0..p.len())
-            .flat_map(|i| (i + 1..p.len()).map(move |j| (i, j)))
-            .map(|(i, j)| {
-                let target = 1.21 * (p[j] - p[i]).norm_squared();
-                ((st.x[j] - st.x[i]).norm_squared() - target).abs() / target
-            })
-            .fold(0.0f64, f64::max);
-        let e1 = sys.energy(&st.x).unwrap().total();
-        println!("  energy {e0:.3e} -> {e1:.3e} J, metric error {worst:.2e}");
-        // The flat square of side 1.1 has zero energy. With h = 1e-6 m, bending is 1e-12 of
-        // stretching and near-isometric wrinkled states are equilibria too: the metric error
-        // is then only printed, the energy must have dropped by 8 orders either way.
-        assert!(e1 < 1e-8 * e0, "{name}: energy {e0} -> {e1}");
-        if material.thickness > 1e-6 {
-            assert!(worst < 1e-6, "{name}: metric error {worst}");
+        // h = 1e-6 m on a 1 m sheet is a membrane: its out-of-plane modes are 1e-12 as stiff
+        // as the in-plane ones, and Newton converges on them only linearly. The former gradient
+        // test stopped it after 29 iterations with the metric 7.7e-3 off; the scale-free test
+        // needs more iterations to reach the equilibrium.
+        let tune = |s: &mut Static| s.newton.max_iterations = 400;
+        let (plain, fb, st) = static_plain_then_fallback(&name, &mut sys, &x0, &tune);
+        // Linear convergence on the membrane's floppy modes (h = 1e-6 m): an explicit failure
+        // (with its history and a finite last iterate) is an admissible outcome there; a claim
+        // of convergence away from equilibrium is not.
+        let admissible_failure = material.thickness < 1e-5
+            && fb
+                .as_ref()
+                .and_then(|o| o.failure.as_ref())
+                .inspect(|e| check_failure(e))
+                .is_some();
+        if admissible_failure {
+            assert!(plain.failure.is_some());
+        } else {
+            assert!(fb.is_none_or(|o| o.failure.is_none()), "{name}");
+            let worst = (0..p.len())
+                .flat_map(|i| (i + 1..p.len()).map(move |j| (i, j)))
+                .map(|(i, j)| {
+                    let target = 1.21 * (p[j] - p[i]).norm_squared();
+                    ((st.x[j] - st.x[i]).norm_squared() - target).abs() / target
+                })
+                .fold(0.0f64, f64::max);
+            let e1 = sys.energy(&st.x).unwrap().total();
+            println!("  energy {e0:.3e} -> {e1:.3e} J, metric error {worst:.2e}");
+            // The flat square of side 1.1 has zero energy. With h = 1e-6 m, bending is 1e-12 of
+            // stretching and near-isometric wrinkled states are equilibria too: the metric
+            // error is then only printed, the energy must have dropped by 8 orders either way.
+            assert!(e1 < 1e-8 * e0, "{name}: energy {e0} -> {e1}");
+            if material.thickness > 1e-6 {
+                assert!(worst < 1e-6, "{name}: metric error {worst}");
+            }
         }
         // Dynamic, with η/E = 1 ms: 10 steps of 1e-3 s.
         let m = Material {
@@ -1110,8 +1156,17 @@ fn swelling_strip(tune: &dyn Fn(&mut Static)) -> (usize, Vec<usize>, Option<Solv
 
 #[test]
 fn thin_strip_with_aspect_16_triangles() {
-    // The default: exact Hessian, regularisation from μ = 1e-6 (relative to mean |H_dd|).
+    // The default adaptive Newton: every ramp step in a few iterations.
     let (done, its, failure) = swelling_strip(&|_| {});
+    println!("strip, default (adaptive): {done} steps, iterations {its:?}");
+    assert!(failure.is_none() && its.iter().all(|&i| i <= 20), "{its:?}");
+    // The former default: exact Hessian, regularisation from μ = 1e-6 (relative to mean
+    // |H_dd|).
+    let exact = |s: &mut Static| {
+        s.newton.hessian = HessianPolicy::Fixed;
+        s.newton.regularization_initial = 1e-6;
+    };
+    let (done, its, failure) = swelling_strip(&exact);
     println!("strip, exact Hessian: {done} steps ({its:?} iterations), then {failure:?}");
     let Some(SolverError::NewtonDidNotConverge { residuals, .. }) = failure else {
         panic!("the strip was expected to crawl: {failure:?}");
@@ -1127,12 +1182,15 @@ fn thin_strip_with_aspect_16_triangles() {
     // The smallest shift regularisation tries, 1e-6 · mean |H_dd|, then dwarfs the curling
     // mode's stiffness and every step moves it by a small fraction. Allowing shifts down to
     // 1e-9 · mean |H_dd| restores Newton's convergence...
-    let (done, its, failure) =
-        swelling_strip(&|s: &mut Static| s.newton.regularization_initial = 1e-9);
+    let (done, its, failure) = swelling_strip(&|s: &mut Static| {
+        s.newton.hessian = HessianPolicy::Fixed;
+        s.newton.regularization_initial = 1e-9;
+    });
     println!("strip, regularisation from 1e-9: {done} steps, iterations {its:?}");
     assert!(failure.is_none() && its.iter().all(|&i| i <= 20), "{its:?}");
     // ... and so does the Gauss–Newton fallback, which needs no shift.
     let (done, its, failure) = swelling_strip(&|s: &mut Static| {
+        exact(s);
         s.fallback_hessian = Some(HessianMode::GaussNewton);
     });
     println!("strip, Gauss-Newton fallback: {done} steps, iterations {its:?}");

@@ -5,7 +5,8 @@ mod common;
 
 use common::{Lcg, chain, chain_equilibrium_z, crumpled_start, rigid_lattice};
 use thinshell_solver::{
-    Convergence, NewtonSettings, NewtonWorkspace, Objective, Ordering, SolverError, newton_solve,
+    Convergence, HessianPolicy, IterationHessian, NewtonSettings, NewtonWorkspace, Objective,
+    Ordering, SolverError, newton_solve,
 };
 
 const N: usize = 20;
@@ -410,4 +411,33 @@ fn unreachable_gradient_tolerance_stops_on_the_step_criterion() {
         "error {}",
         chain_error(&net, &x)
     );
+}
+
+#[test]
+fn adaptive_policy_without_a_psd_hessian_is_the_fixed_one() {
+    let start = crumpled_start(N, 0.3, 7);
+    let settings = NewtonSettings {
+        max_iterations: 200,
+        gradient_tolerance: 1e-10,
+        ..Default::default()
+    };
+    assert_eq!(settings.hessian, HessianPolicy::Adaptive);
+    // Without a PSD Hessian the adaptive policy is the fixed one, step for step.
+    let mut net = chain(N, M, K, L, G, start.clone());
+    let mut ws = NewtonWorkspace::new(&net, &settings).unwrap();
+    let mut xa = net.unknowns(&start);
+    let ra = newton_solve(&mut net, &mut xa, &settings, &mut ws).unwrap();
+    let fixed = NewtonSettings {
+        hessian: HessianPolicy::Fixed,
+        ..settings
+    };
+    let mut xf = net.unknowns(&start);
+    let mut ws = NewtonWorkspace::new(&net, &fixed).unwrap();
+    let rf = newton_solve(&mut net, &mut xf, &fixed, &mut ws).unwrap();
+    assert_eq!(xa, xf);
+    assert_eq!(ra.iterations, rf.iterations);
+    assert!(ra.hessians.iter().all(|h| *h == IterationHessian::Own));
+    assert_eq!(ra.failed_factorizations, 0);
+    assert_eq!(ra.hessians.len(), ra.iterations);
+    assert!(chain_error(&net, &xa) < 1e-8, "{}", chain_error(&net, &xa));
 }

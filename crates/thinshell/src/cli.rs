@@ -214,6 +214,17 @@ impl Observer for Writer {
         {
             self.error.get_or_insert(format!("steps.csv: {e}"));
         }
+        if r.stable == Some(false) {
+            let warning = format!(
+                "warning: step {}: the equilibrium is not a minimum (the exact Hessian is not \
+                 positive definite: a saddle, unstable under perturbation)",
+                r.step
+            );
+            match &self.bar {
+                Some(bar) => bar.println(warning),
+                None => eprintln!("{warning}"),
+            }
+        }
         if let Some(bar) = &self.bar {
             bar.set_position(sim.steps_done() as u64);
             bar.set_message(format!("E = {:.4e} J", r.energy.elastic()));
@@ -293,6 +304,9 @@ pub fn run(
         "wall_s": result.as_ref().map(|s| s.wall_s).ok(),
         "newton_iterations": result.as_ref().map(|s| s.newton_iterations).ok(),
         "load_factor": sim.load_factor(),
+        "gauss_newton_iterations": result.as_ref().map(|s| s.gauss_newton_iterations).ok(),
+        "stable": result.as_ref().ok().and_then(|s| s.stable),
+        "unstable_steps": result.as_ref().map(|s| s.unstable_steps.clone()).ok(),
     });
     let summary_path = dir.join("summary.json");
     let text = serde_json::to_string_pretty(&summary)
@@ -304,8 +318,13 @@ pub fn run(
     match (result, quiet) {
         (Err(e), _) => Err(Failure::Simulation(e.to_string())),
         (Ok(s), false) => {
+            let stability = match s.stable {
+                Some(true) => ", a stable equilibrium",
+                Some(false) => ", an UNSTABLE equilibrium (saddle)",
+                None => "",
+            };
             println!(
-                "{}: {} {} of {} steps in {:.3} s, elastic energy {:.6e} J; output in {}",
+                "{}: {} {} of {} steps in {:.3} s, elastic energy {:.6e} J{stability}; output in {}",
                 sim.name(),
                 status,
                 s.steps,

@@ -43,6 +43,11 @@ pub struct StepReport {
     pub hessian: HessianMode,
     /// Energy terms (J) at the end of the step (implicit, static) or its start (explicit).
     pub energies: EnergyTerms,
+    /// Static steps: whether the equilibrium is a minimum, i.e. the exact Hessian there (with
+    /// the static solver's tiny `hessian_shift` against rigid motions) factorises without a
+    /// shift; `Some(false)` is a saddle or maximum (unstable: a perturbation leaves it).
+    /// `None` for dynamic steps.
+    pub stable: Option<bool>,
 }
 
 /// Advances a [`State`] of a [`ShellSystem`] by one step.
@@ -118,7 +123,10 @@ pub struct Static {
     pub newton: NewtonSettings,
     /// Relative Hessian diagonal shift κ against rigid-motion null spaces (≥ 0).
     pub hessian_shift: f64,
-    /// Force scale (N) for the gradient tolerance; `None`: [`ShellSystem::force_scale`].
+    /// `Some(F)`: also stop when `‖∇‖∞ ≤ gradient_tolerance · F` (N; trust it only when F is
+    /// the size of the forces that matter). `None` (default): converge on the Newton correction
+    /// or at round-off only (scale-free, see [`newton_solve`]); residuals are reported relative
+    /// to [`ShellSystem::force_scale`].
     pub force_scale: Option<f64>,
     /// Hessian mode [`Integrator::step`] retries with, from the last good iterate, when the
     /// solve with the system's mode fails (`None`: no retry).
@@ -211,10 +219,29 @@ impl Static {
                 requirement: "must be non-negative and finite",
             });
         }
-        let force_scale = self.force_scale.unwrap_or_else(|| system.force_scale());
         let mut u = system.gather(x, phi);
+        let mut obj = self.objective(system, x, phi);
+        let ws = match &mut self.workspace {
+            Some(ws) if ws.n_dofs() == u.len() => ws,
+            slot => slot.insert(NewtonWorkspace::new(&obj, &self.newton)?),
+        };
+        let result = newton_solve(&mut obj, &mut u, &self.newton, ws);
+        let sys = obj.sys;
+        sys.scatter(&u, x, phi);
+        result
+    }
+}
+
+impl Static {
+    fn objective<'a>(
+        &self,
+        system: &'a mut ShellSystem,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+    ) -> ShellObjective<'a> {
+        let force_scale = self.force_scale.unwrap_or_else(|| system.force_scale());
         let n_coords = system.dofs.n_coordinates();
-        let mut obj = ShellObjective {
+        ShellObjective {
             sys: system,
             x_full: x.to_vec(),
             phi_full: phi.to_vec(),
@@ -223,15 +250,34 @@ impl Static {
             damping: None,
             hessian_shift: self.hessian_shift,
             force_scale,
+            gradient_test: self.force_scale.is_some(),
             last_terms: EnergyTerms::default(),
+        }
+    }
+
+    /// Whether positions `x` and edge angles `phi` (rad, one per edge; empty without edge
+    /// unknowns) are a stable equilibrium candidate: the **exact** Hessian of the static
+    /// potential there, plus the shift `hessian_shift · mean|H_dd|` that makes rigid motions of
+    /// an unheld shell invertible, factorises without further shift. Negative eigenvalues
+    /// smaller in magnitude than that shift (1e-10 of the mean diagonal by default, far below
+    /// bending stiffness) go unnoticed. Costs one Hessian assembly and factorisation.
+    pub fn is_stable(
+        &mut self,
+        system: &mut ShellSystem,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+    ) -> Result<bool, SolverError> {
+        let u = system.gather(x, phi);
+        let own = std::mem::replace(&mut system.hessian_mode, HessianMode::Exact);
+        let mut obj = self.objective(system, x, phi);
+        let result = match &mut self.workspace {
+            Some(ws) if ws.n_dofs() == u.len() => ws.is_positive_definite(&mut obj, &u),
+            slot => match NewtonWorkspace::new(&obj, &self.newton) {
+                Ok(ws) => slot.insert(ws).is_positive_definite(&mut obj, &u),
+                Err(e) => Err(e),
+            },
         };
-        let ws = match &mut self.workspace {
-            Some(ws) if ws.n_dofs() == u.len() => ws,
-            slot => slot.insert(NewtonWorkspace::new(&obj, &self.newton)?),
-        };
-        let result = newton_solve(&mut obj, &mut u, &self.newton, ws);
-        let sys = obj.sys;
-        sys.scatter(&u, x, phi);
+        system.hessian_mode = own;
         result
     }
 }
@@ -277,6 +323,7 @@ impl Integrator for Static {
             },
         };
         let energies = system.energy_at(&x, &phi)?;
+        let stable = self.is_stable(system, &x, &phi)?;
         state.x = x;
         state.phi = phi;
         state.v.iter_mut().for_each(|v| *v = Vector3::zeros());
@@ -287,6 +334,7 @@ impl Integrator for Static {
             halvings: 0,
             hessian,
             energies,
+            stable: Some(stable),
         })
     }
 }
@@ -298,7 +346,8 @@ pub struct ImplicitEuler {
     pub dt: f64,
     /// Newton parameters.
     pub newton: NewtonSettings,
-    /// Force scale (N) for the gradient tolerance; `None`: [`ShellSystem::force_scale`].
+    /// `Some(F)`: also stop when `‖∇‖∞ ≤ gradient_tolerance · F` (N). `None` (default):
+    /// converge on the Newton correction or at round-off only (see [`Static::force_scale`]).
     pub force_scale: Option<f64>,
     /// Times Δt may be halved when Newton fails (0: no adaptivity).
     pub max_halvings: usize,
@@ -386,6 +435,7 @@ impl ImplicitEuler {
             damping,
             hessian_shift: 0.0,
             force_scale,
+            gradient_test: self.force_scale.is_some(),
             last_terms: EnergyTerms::default(),
         };
         // Start from the given point (a retry), else the inertial prediction x̃ unless it is an
@@ -453,6 +503,7 @@ impl Integrator for ImplicitEuler {
                         halvings,
                         hessian,
                         energies,
+                        stable: None,
                     });
                 }
                 Err(e) if halvings < self.max_halvings && retryable(&e) => {
@@ -582,6 +633,7 @@ impl Integrator for ExplicitEuler {
             halvings: 0,
             hessian: system.hessian_mode,
             energies,
+            stable: None,
         })
     }
 }

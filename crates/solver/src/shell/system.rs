@@ -219,8 +219,13 @@ impl ShellSystem {
         &self.f_ext
     }
 
-    /// Force scale (N) for convergence tests: `E·h·L` (stretching force of a unit strain over
-    /// the bounding-box diagonal L), or the total external load if larger.
+    /// The force scale (N) of this system — the one definition used by the integrators, the
+    /// scene runner and the xtasks: `E·h·L` (stretching force of a unit strain over the
+    /// bounding-box diagonal L), or the total external load if larger. Reported residuals are
+    /// relative to it. It does **not** decide convergence unless an integrator is given an
+    /// explicit force scale: Newton converges on its correction (distance to the equilibrium in
+    /// metres, scale-free; see [`newton_solve`](crate::newton_solve)), because bending forces
+    /// and edge-director moments are orders of magnitude below any membrane force scale.
     pub fn force_scale(&self) -> f64 {
         let m = &self.model.material;
         let load: f64 = self.f_ext.iter().map(|f| f.abs()).sum();
@@ -392,7 +397,10 @@ pub(crate) struct ShellObjective<'a> {
     /// Static solves: shift κ·mean|H_dd| added to the Hessian diagonal only (the gradient is
     /// exact, so the minimiser is unchanged); it makes rigid-motion null spaces invertible.
     pub hessian_shift: f64,
+    /// Unit of the reported residuals (N).
     pub force_scale: f64,
+    /// Whether `‖∇‖∞ ≤ tol · force_scale` may end a solve (the caller gave the scale).
+    pub gradient_test: bool,
     pub last_terms: EnergyTerms,
 }
 
@@ -440,8 +448,18 @@ impl ShellObjective<'_> {
         gradient: bool,
         hessian: Option<&mut SparseColMat<usize, f64>>,
     ) -> Result<EnergyTerms, EnergyError> {
-        self.sys.scatter(u, &mut self.x_full, &mut self.phi_full);
         let mode = self.sys.hessian_mode;
+        self.eval_mode(u, gradient, hessian, mode)
+    }
+
+    fn eval_mode(
+        &mut self,
+        u: &[f64],
+        gradient: bool,
+        hessian: Option<&mut SparseColMat<usize, f64>>,
+        mode: HessianMode,
+    ) -> Result<EnergyTerms, EnergyError> {
+        self.sys.scatter(u, &mut self.x_full, &mut self.phi_full);
         let out = EvalOutput {
             gradient: if gradient {
                 Some(&mut self.grad_full)
@@ -517,7 +535,74 @@ impl Objective for ShellObjective<'_> {
     }
 
     fn hessian(&mut self, u: &[f64], h: &mut SparseColMat<usize, f64>) -> Result<(), SolverError> {
-        self.eval(u, false, Some(h)).map_err(energy_error)?;
+        let mode = self.sys.hessian_mode;
+        self.hessian_in_mode(u, h, mode)
+    }
+
+    /// The Gauss–Newton Hessian (PSD by construction; the pressure and inertia terms are added
+    /// as in [`hessian`](Objective::hessian)).
+    fn psd_hessian(
+        &mut self,
+        u: &[f64],
+        h: &mut SparseColMat<usize, f64>,
+    ) -> Result<(), SolverError> {
+        self.hessian_in_mode(u, h, HessianMode::GaussNewton)
+    }
+
+    fn has_psd_hessian(&self) -> bool {
+        true
+    }
+
+    fn hessian_template(&self) -> SparseColMat<usize, f64> {
+        self.sys.assembler.hessian_template()
+    }
+
+    fn force_scale(&self) -> f64 {
+        self.force_scale
+    }
+
+    fn gradient_test(&self) -> bool {
+        self.gradient_test
+    }
+
+    fn length_scale(&self) -> f64 {
+        self.sys.length_scale()
+    }
+
+    fn dof_coordinates(&self) -> Option<Vec<[f64; 3]>> {
+        let p = self.sys.mesh.positions();
+        let n3 = 3 * p.len();
+        let edges = self.sys.mesh.topology().edges();
+        Some(
+            self.sys
+                .dofs
+                .free_coordinates()
+                .iter()
+                .map(|&c| {
+                    // An edge angle sits at its edge's midpoint.
+                    let q = if c < n3 {
+                        p[c / 3]
+                    } else {
+                        let e = &edges[c - n3];
+                        (p[e.vertices[0].idx()] + p[e.vertices[1].idx()]) * 0.5
+                    };
+                    [q.x, q.y, q.z]
+                })
+                .collect(),
+        )
+    }
+}
+
+impl ShellObjective<'_> {
+    /// The Hessian in `mode` plus pressure, angle scaling, inertia and the static shift.
+    fn hessian_in_mode(
+        &mut self,
+        u: &[f64],
+        h: &mut SparseColMat<usize, f64>,
+        mode: HessianMode,
+    ) -> Result<(), SolverError> {
+        self.eval_mode(u, false, Some(h), mode)
+            .map_err(energy_error)?;
         let p = self.sys.pressure();
         if p != 0.0 {
             for f in 0..self.sys.mesh.n_faces() {
@@ -561,41 +646,6 @@ impl Objective for ShellObjective<'_> {
             }
         }
         Ok(())
-    }
-
-    fn hessian_template(&self) -> SparseColMat<usize, f64> {
-        self.sys.assembler.hessian_template()
-    }
-
-    fn force_scale(&self) -> f64 {
-        self.force_scale
-    }
-
-    fn length_scale(&self) -> f64 {
-        self.sys.length_scale()
-    }
-
-    fn dof_coordinates(&self) -> Option<Vec<[f64; 3]>> {
-        let p = self.sys.mesh.positions();
-        let n3 = 3 * p.len();
-        let edges = self.sys.mesh.topology().edges();
-        Some(
-            self.sys
-                .dofs
-                .free_coordinates()
-                .iter()
-                .map(|&c| {
-                    // An edge angle sits at its edge's midpoint.
-                    let q = if c < n3 {
-                        p[c / 3]
-                    } else {
-                        let e = &edges[c - n3];
-                        (p[e.vertices[0].idx()] + p[e.vertices[1].idx()]) * 0.5
-                    };
-                    [q.x, q.y, q.z]
-                })
-                .collect(),
-        )
     }
 }
 
@@ -664,6 +714,7 @@ mod tests {
                 damping: None,
                 hessian_shift: 0.0,
                 force_scale: 1.0,
+                gradient_test: true,
                 last_terms: EnergyTerms::default(),
             };
             let mut g = vec![0.0; n];

@@ -550,8 +550,11 @@ impl LoadRamp {
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum HessianSpec {
-    /// Exact second derivatives.
+    /// Exact second derivatives where they are positive definite, Gauss–Newton elsewhere
+    /// (`thinshell_solver::HessianPolicy::Adaptive`).
     #[default]
+    Adaptive,
+    /// Exact second derivatives throughout (regularised when not positive definite).
     Exact,
     /// Gauss–Newton (positive semidefinite).
     GaussNewton,
@@ -591,10 +594,10 @@ pub struct IntegratorSpec {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct NewtonSpec {
-    /// Stop when ‖∇Φ‖ ≤ tolerance × force scale.
+    /// Also stop when ‖∇Φ‖∞ ≤ tolerance × the system's force scale (opt-in gradient test).
     #[serde(default)]
     pub tolerance: Option<f64>,
-    /// Stop when the step is smaller than this (relative to the mesh size).
+    /// Stop when the Newton correction is smaller than this × the shell's size.
     #[serde(default)]
     pub step_tolerance: Option<f64>,
     /// Iteration limit per solve.
@@ -606,7 +609,7 @@ pub struct NewtonSpec {
     /// Add μI after a failed Cholesky (default true).
     #[serde(default)]
     pub regularization: Option<bool>,
-    /// `exact` (default), `gauss_newton`, `projected`.
+    /// `adaptive` (default), `exact`, `gauss_newton`, `projected`.
     #[serde(default)]
     pub hessian: HessianSpec,
 }

@@ -6,8 +6,8 @@ use thinshell_energy::{
 };
 use thinshell_mesh::{Mesh, MeshError, VertexId, generators, io};
 use thinshell_solver::{
-    Boundary, ExplicitEuler, ImplicitEuler, Integrator, Loads, NewtonSettings, Prescribed,
-    ShellSystem, SolverError, State, Static,
+    Boundary, ExplicitEuler, HessianPolicy, ImplicitEuler, Integrator, Loads, NewtonSettings,
+    Prescribed, ShellSystem, SolverError, State, Static,
 };
 
 use thinshell_growth::{
@@ -348,11 +348,9 @@ impl Simulation {
             (true, None) if on(Effect::Growth) => LoadRamp::None,
             (true, None) => LoadRamp::Linear,
         };
+        // The library's defaults (adaptive Hessian, scale-free convergence), for static and
+        // implicit solves alike; the scene may override them.
         let mut settings = NewtonSettings::default();
-        if static_solve {
-            settings.max_iterations = 500;
-            settings.gradient_tolerance = 1e-11;
-        }
         let nw = &it.newton;
         if let Some(v) = nw.tolerance {
             settings.gradient_tolerance = v;
@@ -373,23 +371,14 @@ impl Simulation {
             origin: origin.clone(),
             source,
         })?;
-        let hessian_mode = match nw.hessian {
-            HessianSpec::Exact => HessianMode::Exact,
-            HessianSpec::GaussNewton => HessianMode::GaussNewton,
-            HessianSpec::Projected => HessianMode::ProjectedPsd,
+        let (hessian_mode, policy) = match nw.hessian {
+            HessianSpec::Adaptive => (HessianMode::Exact, HessianPolicy::Adaptive),
+            HessianSpec::Exact => (HessianMode::Exact, HessianPolicy::Fixed),
+            HessianSpec::GaussNewton => (HessianMode::GaussNewton, HessianPolicy::Fixed),
+            HessianSpec::Projected => (HessianMode::ProjectedPsd, HessianPolicy::Fixed),
         };
+        settings.hessian = policy;
 
-        // Force scale of the gradient test: the membrane force E·h·ℓ with ℓ the mean edge length
-        // (N), or the largest external load if larger. Bending-dominated problems (the cylinder)
-        // have forces many orders below E·h·diameter, so the static tolerance is tight too.
-        let mut lo = Vector3::repeat(f64::INFINITY);
-        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-        for p in &x_ref {
-            lo = lo.inf(p);
-            hi = hi.sup(p);
-        }
-        let diameter = (hi - lo).norm().max(f64::MIN_POSITIVE);
-        let edge = diameter / (mesh.n_faces() as f64).sqrt().max(1.0);
         let (growth, grown_rest) = match s.growth.as_ref().filter(|_| on(Effect::Growth)) {
             Some(g) => {
                 let (growth, grown) = build_growth(g, &mesh, &x_ref, &rest, material.thickness)
@@ -409,13 +398,11 @@ impl Simulation {
         let mut system =
             ShellSystem::new(mesh, model, rest, boundary, loads).map_err(solver_err)?;
         system.hessian_mode = hessian_mode;
-        let load = system
-            .external_forces()
-            .iter()
-            .fold(0.0f64, |m, f| m.max(f.abs()));
-        let force_scale = Some((material.young * material.thickness * edge).max(load));
-        // A failed exact-Hessian solve is retried with the Gauss–Newton Hessian (docs/robustness.md:
-        // the regularised exact Hessian crawls on compressed or crumpled shells).
+        // Convergence is the solver's scale-free test (Newton correction, round-off); an
+        // explicit `tolerance` adds the gradient test against the system's one force scale.
+        let force_scale = nw.tolerance.map(|_| system.force_scale());
+        // A failed exact or adaptive solve is retried with the Gauss–Newton Hessian
+        // (docs/robustness.md), a safety net the adaptive Newton rarely needs.
         let fallback = (hessian_mode == HessianMode::Exact).then_some(HessianMode::GaussNewton);
         let integrator: Box<dyn Integrator + Send> = match it.kind {
             IntegratorKind::Static => {

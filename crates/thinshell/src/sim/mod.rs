@@ -23,7 +23,7 @@ use serde::Serialize;
 use thinshell_energy::{EnergyTerms, ShellModel};
 use thinshell_growth::{Growth, GrowthError, blend_rest};
 use thinshell_mesh::Mesh;
-use thinshell_solver::{Integrator, ShellSystem, SolverError, State};
+use thinshell_solver::{Integrator, IterationHessian, ShellSystem, SolverError, State};
 
 pub use build::BuildError;
 
@@ -78,6 +78,11 @@ pub struct StepRecord {
     pub residual: f64,
     /// Load factor λ of the step (static load ramps; 1 for dynamic integrators).
     pub load_factor: f64,
+    /// Newton iterations that used the Gauss–Newton (PSD) Hessian instead of the exact one.
+    pub gauss_newton_iterations: usize,
+    /// Static steps: whether the equilibrium is a minimum (exact Hessian positive definite);
+    /// `false` is a saddle or maximum. `None` for dynamic steps.
+    pub stable: Option<bool>,
     /// Wall time of the step, s.
     pub wall_s: f64,
     /// Of which: energy assembly, s.
@@ -115,6 +120,13 @@ pub struct RunSummary {
     pub final_energy: Energies,
     /// Newton iterations over the run.
     pub newton_iterations: usize,
+    /// Of which with the Gauss–Newton (PSD) Hessian.
+    pub gauss_newton_iterations: usize,
+    /// Static runs: whether the last equilibrium is a minimum (`None` for dynamic runs or no
+    /// step).
+    pub stable: Option<bool>,
+    /// Static steps (numbers) whose equilibrium is not a minimum.
+    pub unstable_steps: Vec<usize>,
     /// Wall time of the run, s.
     pub wall_s: f64,
 }
@@ -299,6 +311,9 @@ impl Simulation {
         let t0 = Instant::now();
         observer.start(self);
         let mut iterations = 0;
+        let mut gauss_newton = 0;
+        let mut stable = None;
+        let mut unstable_steps = Vec::new();
         let mut interrupted = false;
         while self.steps_done < self.steps_total {
             if stop.load(Ordering::SeqCst) {
@@ -307,6 +322,11 @@ impl Simulation {
             }
             let record = self.step()?;
             iterations += record.newton_iterations;
+            gauss_newton += record.gauss_newton_iterations;
+            stable = record.stable;
+            if record.stable == Some(false) {
+                unstable_steps.push(record.step);
+            }
             observer.step(self, &record);
         }
         Ok(RunSummary {
@@ -316,6 +336,9 @@ impl Simulation {
             time: self.state.t,
             final_energy: self.energy.into(),
             newton_iterations: iterations,
+            gauss_newton_iterations: gauss_newton,
+            stable,
+            unstable_steps,
             wall_s: t0.elapsed().as_secs_f64(),
         })
     }
@@ -405,10 +428,16 @@ impl Simulation {
             record.backtracks = n.backtracks;
             record.regularizations = n.regularizations.len();
             record.residual = n.residuals.last().copied().unwrap_or(0.0);
+            record.gauss_newton_iterations = n
+                .hessians
+                .iter()
+                .filter(|h| **h == IterationHessian::Psd)
+                .count();
             record.assembly_s = secs(n.timings.assembly);
             record.factorization_s = secs(n.timings.factorization);
             record.solve_s = secs(n.timings.solve);
         }
+        record.stable = report.stable;
         record.wall_s = secs(start.elapsed());
         Ok(record)
     }
