@@ -4,6 +4,15 @@
 //! [`linear`](crate::linear) (symbolic analysis done once in [`NewtonWorkspace::new`]), then
 //! backtracks along `dx` until the Armijo condition `f(x + α dx) ≤ f(x) + c₁ α ∇fᵀdx` holds.
 //!
+//! **Watchdog** ([`NewtonSettings::watchdog`], a non-monotone line search): a full step that
+//! fails the Armijo test is taken anyway, and the next few iterations (with the usual line
+//! search) must bring f below that step's Armijo bound; if they do not, the solve returns to
+//! the point before it and backtracks from there. Thin shells need it: from flat, a full
+//! Newton step bends the sheet with about the right curvature but stretches its membrane
+//! (second order in the deflection, invisible to the linearisation), and the next step relaxes
+//! the membrane; a monotone line search instead cuts every such step to a sliver (a paper
+//! sheet rolling into a cylinder: 258 iterations with it, 11 without).
+//!
 //! **Which H** ([`HessianPolicy`]): by default ([`HessianPolicy::Adaptive`]) the objective's own
 //! (exact) Hessian while it factorises with at most a tiny shift (≤ 1e-8 of the mean |H_dd|,
 //! far below bending stiffness) and its full steps pass the Armijo test, and the objective's
@@ -96,6 +105,11 @@ pub struct NewtonSettings {
     pub backtrack_factor: f64,
     /// Maximum number of backtracks per iteration.
     pub max_backtracks: usize,
+    /// Watchdog (non-monotone line search): a full step that fails the Armijo test is taken
+    /// anyway, and the solve returns to the point before it, to backtrack as usual, unless
+    /// one of the next `watchdog` iterates satisfies the Armijo test of that step (0: off).
+    /// See the [module docs](self).
+    pub watchdog: usize,
     /// Shift the Hessian's diagonal when it is not positive definite (otherwise a typed error).
     pub regularization: bool,
     /// Shape of the shift.
@@ -130,6 +144,7 @@ impl Default for NewtonSettings {
             armijo_c1: 1e-4,
             backtrack_factor: 0.5,
             max_backtracks: 40,
+            watchdog: 4,
             regularization: true,
             regularization_kind: reg.kind,
             regularization_initial: reg.initial,
@@ -287,12 +302,21 @@ pub struct NewtonReport {
     /// Steps of the own Hessian that failed the Armijo test at full length and were redone
     /// with the PSD Hessian (adaptive policy; not counted in `iterations`).
     pub rejected_steps: usize,
+    /// Full steps taken by the watchdog although they failed the Armijo test.
+    pub watchdog_steps: usize,
+    /// Watchdog steps whose iterates never came below the Armijo bound of the step: the solve
+    /// returned to the point before them.
+    pub watchdog_returns: usize,
+    /// Newton iterations undone by those returns (not in `iterations`, which counts the
+    /// accepted path, but counted against `max_iterations`).
+    pub watchdog_undone: usize,
     /// The criterion that stopped the solve.
     pub convergence: Convergence,
     /// Relative residual `‖∇f‖∞ / force_scale` of every accepted iterate (first = initial).
     pub residuals: Vec<f64>,
-    /// Objective value of every accepted iterate (first = initial); non-increasing with line
-    /// search (up to round-off once the predicted decrease is below it).
+    /// Objective value of every accepted iterate (first = initial); with line search
+    /// non-increasing except right after a watchdog step ([`NewtonReport::descent_violation`]
+    /// checks it), up to round-off once the predicted decrease is below it.
     pub values: Vec<f64>,
     /// Line-search backtracks over the whole solve.
     pub backtracks: usize,
@@ -300,6 +324,31 @@ pub struct NewtonReport {
     pub regularizations: Vec<RegularizationEvent>,
     /// Time per stage.
     pub timings: NewtonTimings,
+}
+
+impl NewtonReport {
+    /// Checks the line search's contract on [`values`](Self::values): f never rises, except
+    /// after a watchdog step ([`NewtonSettings::watchdog`] = `window`), and then an iterate at
+    /// most `window + 1` iterations later is back at or below the value before the rise (the
+    /// iterate after a return to the point before the step is); the last value is not above
+    /// the first. Comparisons allow 64 ε of round-off. Returns the index of the first value
+    /// that breaks the contract.
+    pub fn descent_violation(&self, window: usize) -> Option<usize> {
+        let v = &self.values;
+        let close = |a: f64, b: f64| b <= a + 64.0 * f64::EPSILON * a.abs().max(b.abs());
+        for i in 0..v.len().saturating_sub(1) {
+            if !close(v[i], v[i + 1]) {
+                let end = (i + window + 3).min(v.len());
+                if !v[i + 1..end].iter().any(|&u| close(v[i], u)) {
+                    return Some(i);
+                }
+            }
+        }
+        match (v.first(), v.last()) {
+            (Some(&a), Some(&b)) if !close(a, b) => Some(v.len() - 1),
+            _ => None,
+        }
+    }
 }
 
 /// Reusable state of Newton solves on objectives with one Hessian pattern: the symbolic
@@ -388,6 +437,9 @@ struct Record {
     corrections: Vec<f64>,
     failed_factorizations: usize,
     rejected_steps: usize,
+    watchdog_steps: usize,
+    watchdog_returns: usize,
+    watchdog_undone: usize,
     backtracks: usize,
     regularizations: Vec<RegularizationEvent>,
     timings: NewtonTimings,
@@ -401,6 +453,9 @@ impl Record {
             corrections: self.corrections,
             failed_factorizations: self.failed_factorizations,
             rejected_steps: self.rejected_steps,
+            watchdog_steps: self.watchdog_steps,
+            watchdog_returns: self.watchdog_returns,
+            watchdog_undone: self.watchdog_undone,
             convergence,
             residuals: self.residuals,
             values: self.values,
@@ -438,6 +493,23 @@ fn small_shift_attempts(params: &RegularizationParams) -> usize {
     }
     attempts
 }
+
+/// The point before a watchdog step (see [`NewtonSettings::watchdog`]).
+struct Watch {
+    x: Vec<f64>,
+    g: Vec<f64>,
+    f: f64,
+    /// Armijo bound `f + c₁ ∇fᵀdx` of the watched step.
+    bound: f64,
+    /// Length of the value record with the point before the step as its last entry.
+    len: usize,
+    /// Iterations left to come below `bound`.
+    left: usize,
+}
+
+/// A watchdog step needs a predicted decrease this many times the round-off of f: near
+/// round-off, values cannot tell a good step from a bad one and the usual rules apply.
+const WATCHDOG_MIN_DECREASE: f64 = 1e4;
 
 /// Round-off of an objective value f: changes below it are invisible.
 fn value_noise(f: f64) -> f64 {
@@ -546,6 +618,9 @@ pub fn newton_solve<O: Objective + ?Sized>(
         corrections: Vec::new(),
         failed_factorizations: 0,
         rejected_steps: 0,
+        watchdog_steps: 0,
+        watchdog_returns: 0,
+        watchdog_undone: 0,
         backtracks: 0,
         regularizations: Vec::new(),
         timings: NewtonTimings::default(),
@@ -580,15 +655,27 @@ pub fn newton_solve<O: Objective + ?Sized>(
     let mut damping = 0.0f64;
     let mut wait = 0usize;
     let mut backoff = 1usize;
+    // Watchdog state: the point before a non-monotone full step, and whether the next
+    // iteration may take one (not right after a return to such a point).
+    let mut watch: Option<Watch> = None;
+    let mut watch_allowed = true;
 
     loop {
-        if gradient_test && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance {
+        if watch.is_none()
+            && gradient_test
+            && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
+        {
             return Ok(rec.report(iteration, Convergence::Gradient));
         }
-        if iteration >= settings.max_iterations {
+        if iteration + rec.watchdog_undone >= settings.max_iterations {
+            if let Some(w) = watch.take() {
+                // The failure carries the best point: the one before the watched step.
+                x.copy_from_slice(&w.x);
+                rec.residuals.truncate(w.len);
+            }
             return Err(SolverError::NewtonDidNotConverge {
                 residuals: rec.residuals,
-                iterations: iteration,
+                iterations: iteration + rec.watchdog_undone,
                 tolerance: settings.gradient_tolerance,
                 last_good: x.to_vec(),
             });
@@ -702,7 +789,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
 
         // An unshifted Newton correction below the step tolerance, or one whose predicted
         // decrease f cannot resolve: x is converged. The step is not taken.
-        if outcome.mu <= SMALL_SHIFT {
+        if outcome.mu <= SMALL_SHIFT && watch.is_none() {
             let dx_max = norm_inf(&ws.dx);
             rec.corrections.push(dx_max / length_scale);
             if dx_max <= step_limit {
@@ -763,6 +850,30 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     break f_t;
                 }
             }
+            if backtracks == 0
+                && settings.watchdog > 0
+                && watch.is_none()
+                && watch_allowed
+                && -slope > WATCHDOG_MIN_DECREASE * value_noise(f)
+                && f_t.is_finite()
+                && first_non_finite(&ws.g_trial).is_none()
+            {
+                // Watchdog: take the full Newton step although f rose. A thin shell bending
+                // away from flat is the typical case: the full step bends it with the right
+                // curvature but stretches its membrane (which the linearisation cannot see),
+                // and the next Newton step relaxes the membrane; a monotone line search would
+                // instead crawl along the bending mode with tiny steps.
+                watch = Some(Watch {
+                    x: x.to_vec(),
+                    g: ws.g.clone(),
+                    f,
+                    bound: f + settings.armijo_c1 * slope,
+                    len: rec.values.len(),
+                    left: settings.watchdog,
+                });
+                rec.watchdog_steps += 1;
+                break f_t;
+            }
             if adaptive && kind == IterationHessian::Own {
                 // The own Hessian's quadratic model does not hold here (its full step fails
                 // the Armijo test): redo the iteration with the PSD Hessian rather than take a
@@ -818,6 +929,33 @@ pub fn newton_solve<O: Objective + ?Sized>(
         }
         rec.residuals.push(norm_inf(&ws.g) / force_scale);
         rec.values.push(f);
+        watch_allowed = true;
+        let watched_step = matches!(&watch, Some(w) if w.left == settings.watchdog);
+        if let Some(w) = watch.as_mut() {
+            if f <= w.bound {
+                watch = None;
+            } else if w.left == 0 {
+                // The watched iterates never recovered: back to the point before the
+                // non-monotone step, which the next iteration leaves by the usual line search.
+                x.copy_from_slice(&w.x);
+                ws.g.copy_from_slice(&w.g);
+                f = w.f;
+                rec.watchdog_returns += 1;
+                // The undone iterations leave the record (the record is the accepted path);
+                // they still count against the iteration limit.
+                rec.watchdog_undone += iteration - (w.len - 1);
+                iteration = w.len - 1;
+                rec.values.truncate(w.len);
+                rec.residuals.truncate(w.len);
+                rec.hessians.truncate(iteration);
+                rec.regularizations.retain(|e| e.iteration < iteration);
+                watch = None;
+                watch_allowed = false;
+                continue;
+            } else {
+                w.left -= 1;
+            }
+        }
 
         // Adaptive policy: a backtracked step of the own Hessian means its quadratic model is
         // poor here; a full PSD step that achieved at least half the predicted decrease
@@ -858,7 +996,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
 
         // After a full unshifted step, estimate the next correction with the same
         // factorisation (one triangular solve): a short one ends the solve here.
-        if outcome.mu <= SMALL_SHIFT && backtracks == 0 {
+        if outcome.mu <= SMALL_SHIFT && backtracks == 0 && watch.is_none() && !watched_step {
             if gradient_test
                 && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
             {

@@ -65,6 +65,9 @@ fn crumpled_chain_needs_regularisation_and_converges() {
     let settings = NewtonSettings {
         max_iterations: 200,
         gradient_tolerance: 1e-10,
+        // The shift memory is what this test follows; the watchdog's non-monotone steps take
+        // another path to the same minimum (checked at the end).
+        watchdog: 0,
         ..Default::default()
     };
     let mut ws = NewtonWorkspace::new(&net, &settings).unwrap();
@@ -103,6 +106,15 @@ fn crumpled_chain_needs_regularisation_and_converges() {
     }
     // x is untouched: no step was taken.
     assert_eq!(x, net.unknowns(&start));
+    // The default (with the watchdog) reaches the same minimum.
+    let default = NewtonSettings {
+        max_iterations: 200,
+        gradient_tolerance: 1e-10,
+        ..Default::default()
+    };
+    let mut x = net.unknowns(&start);
+    newton_solve(&mut net, &mut x, &default, &mut ws).unwrap();
+    assert!(chain_error(&net, &x) < 1e-8, "{}", chain_error(&net, &x));
 }
 
 #[test]
@@ -121,16 +133,14 @@ fn line_search_never_increases_the_objective() {
             report.backtracks > 0,
             "seed {seed}: line search never backtracked"
         );
-        for w in report.values.windows(2) {
-            // Strictly non-increasing, up to 16 ulp of round-off once the predicted decrease
-            // drops below it (documented acceptance rule).
-            assert!(
-                w[1] <= w[0] + 16.0 * f64::EPSILON * w[0].abs(),
-                "seed {seed}: value increased {} -> {}",
-                w[0],
-                w[1]
-            );
-        }
+        // Non-increasing up to round-off once the predicted decrease drops below it, except
+        // right after a watchdog step, which must be recovered within its window.
+        assert_eq!(
+            report.descent_violation(settings.watchdog),
+            None,
+            "seed {seed}: values {:?}",
+            report.values
+        );
         assert_eq!(report.values.len(), report.iterations + 1);
         assert_eq!(report.residuals.len(), report.iterations + 1);
         // The values are the objective at the iterates: check the last one independently.
