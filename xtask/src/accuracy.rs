@@ -30,6 +30,8 @@ use thinshell_solver::{
 
 use crate::plot::{Chart, Mark, Series, save};
 
+mod layout;
+
 type V3 = Vector3<f64>;
 
 /// Second-fundamental-form discretisations compared by the study. Extend this list (e.g. with
@@ -47,6 +49,9 @@ pub const CASE_NAMES: &[&str] = &[
     "strip, bilayer swelling",
     "falling cantilever (dynamic)",
 ];
+
+/// Name of the mesh layout × orientation × bending form section (for `--only`).
+pub const LAYOUT_STUDY: &str = "mesh layout";
 
 /// Where the study writes.
 pub struct Options {
@@ -1421,6 +1426,7 @@ fn markdown(
     total_s: f64,
     plots: &[(usize, String)],
     conv: &str,
+    layouts: Option<(&layout::LayoutStudy, &str)>,
 ) -> String {
     let (nproc, cpu) = machine();
     let load = std::fs::read_to_string("/proc/loadavg")
@@ -1490,6 +1496,9 @@ fn markdown(
         }
     );
     bending_form_advice(&mut md, cases);
+    if let Some((study, _)) = layouts {
+        let _ = writeln!(md, "{}\n", layout::advice(study));
+    }
     for c in cases {
         for v in &c.verdict {
             let _ = writeln!(md, "- ({}) {v}", sff_name(c.sff));
@@ -1534,9 +1543,11 @@ fn markdown(
                     "\nWhere the mid-edge average stops converging: on irregular meshes its bending \
                      is not consistent (docs/model.md §1.1), so the {} error goes from {:.2e} at {} \
                      faces to {:.2e} at {} faces ({:.1}× for {:.0}× the faces) and then levels \
-                     off: refining such a mesh buys time, not accuracy. On the regular meshes the \
-                     same case converges (table below). Results on a mesh of unknown quality are \
-                     only as good as its coarsest level that already sits on the floor.",
+                     off: refining such a mesh buys time, not accuracy. On the alternating-diagonal \
+                     grids the same case converges only because its curvature runs along the \
+                     grid (table below; at 30° or 45° it does not, see Mesh layout × orientation \
+                     × bending form). Results on a mesh of unknown quality are only as good as \
+                     its coarsest level that already sits on the floor.",
                     s.name,
                     first.1,
                     first.0,
@@ -1550,6 +1561,9 @@ fn markdown(
     }
     forms_compared(&mut md, cases);
     let _ = writeln!(md);
+    if let Some((study, plot)) = layouts {
+        layout::markdown(study, &mut md, plot);
+    }
     let _ = writeln!(md, "## Convergence under mesh refinement\n");
     let _ = writeln!(
         md,
@@ -1855,8 +1869,8 @@ fn bending_form_advice(md: &mut String, cases: &[Case]) {
          of {series} refinement series its *coarsest* mesh is already at least as accurate as the \
          mid-edge average's *finest*, and at the finest level its error is on average {:.0}× \
          smaller (geometric mean), for about 3× the cost per Newton iteration on the same mesh. \
-         Keep `mid_edge_average` for quick looks, for explicit Euler, and on regular meshes, \
-         where it converges too (cylinder, regular meshes).\n",
+         (These series have the curvature along the grid; for other directions and layouts see \
+         the next paragraph.)\n",
         sff_name(director),
         10f64.powf(ratio_sum / series as f64)
     );
@@ -1910,6 +1924,15 @@ pub fn run(opts: &Options) -> Result<()> {
         }
     }
     cases.iter_mut().for_each(summarise_knobs);
+    let layouts = if opts
+        .only
+        .as_ref()
+        .is_none_or(|o| LAYOUT_STUDY.contains(o.as_str()))
+    {
+        Some(layout::run(opts.quick).context("mesh layout study")?)
+    } else {
+        None
+    };
     let total_s = t0.elapsed().as_secs_f64();
 
     let plot_dir = opts.docs_dir.join("accuracy");
@@ -1920,10 +1943,21 @@ pub fn run(opts: &Options) -> Result<()> {
         plots.push((i, plot_case(c, &plot_dir)?));
     }
     let conv = plot_refinement(&cases, &plot_dir)?;
+    let layout_plot = match &layouts {
+        Some(study) => Some(layout::plot(study, &plot_dir)?),
+        None => None,
+    };
     let md_path = opts.docs_dir.join("accuracy.md");
     std::fs::write(
         &md_path,
-        markdown(&cases, opts.quick, total_s, &plots, &conv),
+        markdown(
+            &cases,
+            opts.quick,
+            total_s,
+            &plots,
+            &conv,
+            layouts.as_ref().zip(layout_plot.as_deref()),
+        ),
     )
     .with_context(|| format!("writing {}", md_path.display()))?;
     println!("wrote {} and {}/", md_path.display(), plot_dir.display());
@@ -1935,6 +1969,7 @@ pub fn run(opts: &Options) -> Result<()> {
         "cpu": cpu,
         "total_wall_s": total_s,
         "cases": cases.iter().map(case_json).collect::<Vec<_>>(),
+        "layout_study": layouts.as_ref().map(layout::json),
     });
     if let Some(dir) = opts.json_path.parent() {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
