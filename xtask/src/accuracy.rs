@@ -2017,6 +2017,20 @@ mod tests {
                 }
             }
         }
+        // The mesh layout study: every layout × angle × form, finite numbers.
+        let layouts = doc["layout_study"]["series"]
+            .as_array()
+            .ok_or_else(|| anyhow!("no layout study"))?;
+        assert_eq!(
+            layouts.len(),
+            layout::Layout::ALL.len() * layout::ANGLES_DEG.len() * FORMULATIONS.len()
+        );
+        for s in layouts {
+            for key in ["energy", "shape"] {
+                let points = s[key].as_array().ok_or_else(|| anyhow!("no {key}"))?;
+                assert!(points.len() >= 2, "{key}: {} levels", points.len());
+            }
+        }
         assert!(opts.docs_dir.join("accuracy.md").is_file());
         assert!(
             opts.docs_dir

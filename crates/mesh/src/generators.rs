@@ -160,7 +160,10 @@ pub fn perturbed_rectangle(
         let [a, b, c] = f.map(|v| positions[v]);
         let (e1, e2) = (b - a, c - a);
         let twice_area = e1.x * e2.y - e1.y * e2.x;
-        let l2 = e1.norm_squared().max(e2.norm_squared()).max((c - b).norm_squared());
+        let l2 = e1
+            .norm_squared()
+            .max(e2.norm_squared())
+            .max((c - b).norm_squared());
         if twice_area <= crate::DEGENERATE_TOLERANCE * l2 {
             return Err(MeshError::InvalidParameter {
                 name: "amplitude",
