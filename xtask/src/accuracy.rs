@@ -1869,8 +1869,8 @@ fn bending_form_advice(md: &mut String, cases: &[Case]) {
          of {series} refinement series its *coarsest* mesh is already at least as accurate as the \
          mid-edge average's *finest*, and at the finest level its error is on average {:.0}× \
          smaller (geometric mean), for about 3× the cost per Newton iteration on the same mesh. \
-         (These series have the curvature along the grid; for other directions and layouts see \
-         the next paragraph.)\n",
+         (The cylinder and strip series above bend along the grid lines of their regular \
+         meshes; the next paragraph varies the mesh layout and the direction of the curvature.)\n",
         sff_name(director),
         10f64.powf(ratio_sum / series as f64)
     );
