@@ -259,7 +259,8 @@ fn planar_delaunay(
     Mesh::new(positions, faces)
 }
 
-/// Largest vertex count of [`irregular_rectangle`] (its Delaunay step is quadratic).
+/// Largest vertex count of [`irregular_rectangle`] and [`scattered_rectangle`] (their Delaunay
+/// step is quadratic).
 pub const MAX_DELAUNAY_POINTS: usize = 20_000;
 
 /// Well-shaped irregular triangulation of `[0, width] × [0, height]` (m).
