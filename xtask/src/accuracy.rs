@@ -1544,17 +1544,17 @@ fn markdown(
                      is not consistent (docs/model.md §1.1), so the {} error goes from {:.2e} at {} \
                      faces to {:.2e} at {} faces ({:.1}× for {:.0}× the faces) and then levels \
                      off: refining such a mesh buys time, not accuracy. On the alternating-diagonal \
-                     grids the same case converges only because its curvature runs along the \
-                     grid (table below; at 30° or 45° it does not, see Mesh layout × orientation \
-                     × bending form). Results on a mesh of unknown quality are only as good as \
-                     its coarsest level that already sits on the floor.",
+                     grids the same case converges with its curvature along the grid (table \
+                     below){}. Results on a mesh of unknown quality are only as good as its \
+                     coarsest level that already sits on the floor.",
                     s.name,
                     first.1,
                     first.0,
                     last.1,
                     last.0,
                     first.1 / last.1,
-                    last.0 as f64 / first.0 as f64
+                    last.0 as f64 / first.0 as f64,
+                    layouts.map_or(String::new(), |(study, _)| layout::alternating_note(study))
                 );
             }
         }
@@ -1869,8 +1869,9 @@ fn bending_form_advice(md: &mut String, cases: &[Case]) {
          of {series} refinement series its *coarsest* mesh is already at least as accurate as the \
          mid-edge average's *finest*, and at the finest level its error is on average {:.0}× \
          smaller (geometric mean), for about 3× the cost per Newton iteration on the same mesh. \
-         (The cylinder and strip series above bend along the grid lines of their regular \
-         meshes; the next paragraph varies the mesh layout and the direction of the curvature.)\n",
+         (On the regular meshes of these series — the cylinder's and the strips' — the curvature \
+         runs along the grid lines; the next paragraph varies the mesh layout and the direction \
+         of the curvature.)\n",
         sff_name(director),
         10f64.powf(ratio_sum / series as f64)
     );

@@ -494,6 +494,26 @@ pub(super) fn verdict(study: &LayoutStudy) -> Verdict {
     v
 }
 
+/// A clause for the "where the average stops converging" paragraph: the angles at which the
+/// average's energy does not converge on alternating-diagonal grids (empty if none).
+pub(super) fn alternating_note(study: &LayoutStudy) -> String {
+    let angles: Vec<String> = verdict(study)
+        .average_fails
+        .iter()
+        .filter(|(l, _, _)| *l == Layout::Alternating)
+        .map(|(_, a, e)| format!("{a:.0}° ({:+.0} % bending energy)", 100.0 * e))
+        .collect();
+    if angles.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; with the curvature at {} to the grid it does not (see Mesh layout × orientation × \
+             bending form)",
+            angles.join(" or ")
+        )
+    }
+}
+
 fn pair_list(pairs: &[(Layout, f64)]) -> String {
     pairs
         .iter()
