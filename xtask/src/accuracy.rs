@@ -2030,6 +2030,13 @@ mod tests {
             for key in ["energy", "shape"] {
                 let points = s[key].as_array().ok_or_else(|| anyhow!("no {key}"))?;
                 assert!(points.len() >= 2, "{key}: {} levels", points.len());
+                for p in points {
+                    let e = p["relative_error"]
+                        .as_f64()
+                        .or_else(|| p["error_m"].as_f64())
+                        .unwrap_or(f64::NAN);
+                    assert!(e.is_finite(), "{key}: error {e}");
+                }
             }
         }
         assert!(opts.docs_dir.join("accuracy.md").is_file());
