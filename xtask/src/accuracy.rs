@@ -30,6 +30,8 @@ use thinshell_solver::{
 
 use crate::plot::{Chart, Mark, Series, save};
 
+mod layout;
+
 type V3 = Vector3<f64>;
 
 /// Second-fundamental-form discretisations compared by the study. Extend this list (e.g. with
@@ -47,6 +49,9 @@ pub const CASE_NAMES: &[&str] = &[
     "strip, bilayer swelling",
     "falling cantilever (dynamic)",
 ];
+
+/// Name of the mesh layout × orientation × bending form section (for `--only`).
+pub const LAYOUT_STUDY: &str = "mesh layout";
 
 /// Where the study writes.
 pub struct Options {
@@ -1406,6 +1411,7 @@ fn markdown(
     total_s: f64,
     plots: &[(usize, String)],
     conv: &str,
+    layouts: Option<(&layout::LayoutStudy, &str)>,
 ) -> String {
     let (nproc, cpu) = machine();
     let load = std::fs::read_to_string("/proc/loadavg")
@@ -1475,6 +1481,9 @@ fn markdown(
         }
     );
     bending_form_advice(&mut md, cases);
+    if let Some((study, _)) = layouts {
+        let _ = writeln!(md, "{}\n", layout::advice(study));
+    }
     for c in cases {
         for v in &c.verdict {
             let _ = writeln!(md, "- ({}) {v}", sff_name(c.sff));
@@ -1519,22 +1528,27 @@ fn markdown(
                     "\nWhere the mid-edge average stops converging: on irregular meshes its bending \
                      is not consistent (docs/model.md §1.1), so the {} error goes from {:.2e} at {} \
                      faces to {:.2e} at {} faces ({:.1}× for {:.0}× the faces) and then levels \
-                     off: refining such a mesh buys time, not accuracy. On the regular meshes the \
-                     same case converges (table below). Results on a mesh of unknown quality are \
-                     only as good as its coarsest level that already sits on the floor.",
+                     off: refining such a mesh buys time, not accuracy. On the alternating-diagonal \
+                     grids the same case converges with its curvature along the grid (table \
+                     below){}. Results on a mesh of unknown quality are only as good as its \
+                     coarsest level that already sits on the floor.",
                     s.name,
                     first.1,
                     first.0,
                     last.1,
                     last.0,
                     first.1 / last.1,
-                    last.0 as f64 / first.0 as f64
+                    last.0 as f64 / first.0 as f64,
+                    layouts.map_or(String::new(), |(study, _)| layout::alternating_note(study))
                 );
             }
         }
     }
     forms_compared(&mut md, cases);
     let _ = writeln!(md);
+    if let Some((study, plot)) = layouts {
+        layout::markdown(study, &mut md, plot);
+    }
     let _ = writeln!(md, "## Convergence under mesh refinement\n");
     let _ = writeln!(
         md,
@@ -1840,8 +1854,9 @@ fn bending_form_advice(md: &mut String, cases: &[Case]) {
          of {series} refinement series its *coarsest* mesh is already at least as accurate as the \
          mid-edge average's *finest*, and at the finest level its error is on average {:.0}× \
          smaller (geometric mean), for about 3× the cost per Newton iteration on the same mesh. \
-         Keep `mid_edge_average` for quick looks, for explicit Euler, and on regular meshes, \
-         where it converges too (cylinder, regular meshes).\n",
+         (On the regular meshes of these series — the cylinder's and the strips' — the curvature \
+         runs along the grid lines; the next paragraph varies the mesh layout and the direction \
+         of the curvature.)\n",
         sff_name(director),
         10f64.powf(ratio_sum / series as f64)
     );
@@ -1895,6 +1910,15 @@ pub fn run(opts: &Options) -> Result<()> {
         }
     }
     cases.iter_mut().for_each(summarise_knobs);
+    let layouts = if opts
+        .only
+        .as_ref()
+        .is_none_or(|o| LAYOUT_STUDY.contains(o.as_str()))
+    {
+        Some(layout::run(opts.quick).context("mesh layout study")?)
+    } else {
+        None
+    };
     let total_s = t0.elapsed().as_secs_f64();
 
     let plot_dir = opts.docs_dir.join("accuracy");
@@ -1905,10 +1929,21 @@ pub fn run(opts: &Options) -> Result<()> {
         plots.push((i, plot_case(c, &plot_dir)?));
     }
     let conv = plot_refinement(&cases, &plot_dir)?;
+    let layout_plot = match &layouts {
+        Some(study) => Some(layout::plot(study, &plot_dir)?),
+        None => None,
+    };
     let md_path = opts.docs_dir.join("accuracy.md");
     std::fs::write(
         &md_path,
-        markdown(&cases, opts.quick, total_s, &plots, &conv),
+        markdown(
+            &cases,
+            opts.quick,
+            total_s,
+            &plots,
+            &conv,
+            layouts.as_ref().zip(layout_plot.as_deref()),
+        ),
     )
     .with_context(|| format!("writing {}", md_path.display()))?;
     println!("wrote {} and {}/", md_path.display(), plot_dir.display());
@@ -1920,6 +1955,7 @@ pub fn run(opts: &Options) -> Result<()> {
         "cpu": cpu,
         "total_wall_s": total_s,
         "cases": cases.iter().map(case_json).collect::<Vec<_>>(),
+        "layout_study": layouts.as_ref().map(layout::json),
     });
     if let Some(dir) = opts.json_path.parent() {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -1964,6 +2000,27 @@ mod tests {
                     let w = r["wall_s"].as_f64().unwrap_or(f64::NAN);
                     assert!(e.is_finite() && e >= 0.0, "{name}: error {e}");
                     assert!(w.is_finite() && w >= 0.0, "{name}: wall {w}");
+                }
+            }
+        }
+        // The mesh layout study: every layout × angle × form, finite numbers.
+        let layouts = doc["layout_study"]["series"]
+            .as_array()
+            .ok_or_else(|| anyhow!("no layout study"))?;
+        assert_eq!(
+            layouts.len(),
+            layout::Layout::ALL.len() * layout::ANGLES_DEG.len() * FORMULATIONS.len()
+        );
+        for s in layouts {
+            for key in ["energy", "shape"] {
+                let points = s[key].as_array().ok_or_else(|| anyhow!("no {key}"))?;
+                assert!(points.len() >= 2, "{key}: {} levels", points.len());
+                for p in points {
+                    let e = p["relative_error"]
+                        .as_f64()
+                        .or_else(|| p["error_m"].as_f64())
+                        .unwrap_or(f64::NAN);
+                    assert!(e.is_finite(), "{key}: error {e}");
                 }
             }
         }

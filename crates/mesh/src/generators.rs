@@ -74,25 +74,104 @@ fn merge_strip(lower: &[(usize, f64)], upper: &[(usize, f64)], faces: &mut Vec<[
     }
 }
 
+/// How the quads of a structured grid are split into two triangles.
+///
+/// The choice matters for the mid-edge average bending form, which is consistent on
+/// [`Diagonals::Parallel`] grids but not on [`Diagonals::Alternating`] ones when the curvature
+/// is not aligned with the grid (see `docs/accuracy.md`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Diagonals {
+    /// Checkerboard: cell `(i, j)` is split along `(i, j)–(i+1, j+1)` when `i + j` is even and
+    /// along `(i+1, j)–(i, j+1)` otherwise (no preferred direction; every interior vertex has
+    /// valence 4 or 8).
+    Alternating,
+    /// Every cell split along the same diagonal `(i, j)–(i+1, j+1)` (all interior vertices have
+    /// valence 6; the mesh has a preferred direction).
+    Parallel,
+}
+
 /// Regular triangulated rectangle `[0, width] × [0, height]` (m) with `nx × ny` cells, each
 /// split into two triangles with alternating (checkerboard) diagonals:
 /// `(nx + 1)(ny + 1)` vertices, `2 nx ny` faces, vertex `(i, j)` at index `j (nx + 1) + i`.
+/// Same as [`grid_rectangle`] with [`Diagonals::Alternating`].
 pub fn rectangle(width: f64, height: f64, nx: usize, ny: usize) -> Result<Mesh, MeshError> {
+    grid_rectangle(width, height, nx, ny, Diagonals::Alternating)
+}
+
+/// Regular triangulated rectangle `[0, width] × [0, height]` (m) with `nx × ny` cells, each
+/// split into two triangles as `diagonals` says: `(nx + 1)(ny + 1)` vertices, `2 nx ny` faces,
+/// vertex `(i, j)` at index `j (nx + 1) + i`.
+pub fn grid_rectangle(
+    width: f64,
+    height: f64,
+    nx: usize,
+    ny: usize,
+    diagonals: Diagonals,
+) -> Result<Mesh, MeshError> {
+    perturbed_rectangle(width, height, nx, ny, diagonals, 0.0, 0)
+}
+
+/// [`grid_rectangle`] with every interior vertex displaced by up to `amplitude` times the
+/// cell size in x and in y (independently, uniformly, from a hash of `(seed, vertex)`);
+/// boundary vertices stay on the lattice, so the rectangle is covered exactly. Same counts
+/// and numbering as [`grid_rectangle`]; `amplitude = 0` gives it back.
+///
+/// `amplitude` must lie in `[0, 0.5)`; below `dx·dy / (2 (dx² + dy²))` (1/4 for square cells)
+/// no triangle can fold, above that the generator checks every triangle and returns
+/// `InvalidParameter` if one would fold or degenerate. Deterministic: the same arguments
+/// always give the same mesh.
+pub fn perturbed_rectangle(
+    width: f64,
+    height: f64,
+    nx: usize,
+    ny: usize,
+    diagonals: Diagonals,
+    amplitude: f64,
+    seed: u64,
+) -> Result<Mesh, MeshError> {
     positive("width", width)?;
     positive("height", height)?;
     at_least("nx", nx, 1)?;
     at_least("ny", ny, 1)?;
+    if !(amplitude.is_finite() && (0.0..0.5).contains(&amplitude)) {
+        return Err(MeshError::InvalidParameter {
+            name: "amplitude",
+            value: amplitude,
+            reason: "must be finite and in [0, 0.5)",
+        });
+    }
+    let (dx, dy) = (width / nx as f64, height / ny as f64);
     let mut positions = Vec::with_capacity((nx + 1) * (ny + 1));
     for j in 0..=ny {
         for i in 0..=nx {
-            positions.push(Vector3::new(
-                lattice(width, i, nx),
-                lattice(height, j, ny),
-                0.0,
-            ));
+            let mut p = Vector3::new(lattice(width, i, nx), lattice(height, j, ny), 0.0);
+            if amplitude > 0.0 && i > 0 && i < nx && j > 0 && j < ny {
+                let v = (j * (nx + 1) + i) as u64;
+                p.x += amplitude * dx * hash_unit(seed, v, 0);
+                p.y += amplitude * dy * hash_unit(seed, v, 1);
+            }
+            positions.push(p);
         }
     }
-    let faces = grid_faces(nx, ny, |i, j| j * (nx + 1) + i);
+    let faces = grid_faces(nx, ny, diagonals, |i, j| j * (nx + 1) + i);
+    // `Mesh::new` would silently flip a folded triangle to agree with its neighbours: refuse
+    // it here. The tolerance is `Mesh::new`'s degeneracy test.
+    for f in &faces {
+        let [a, b, c] = f.map(|v| positions[v]);
+        let (e1, e2) = (b - a, c - a);
+        let twice_area = e1.x * e2.y - e1.y * e2.x;
+        let l2 = e1
+            .norm_squared()
+            .max(e2.norm_squared())
+            .max((c - b).norm_squared());
+        if twice_area <= crate::DEGENERATE_TOLERANCE * l2 {
+            return Err(MeshError::InvalidParameter {
+                name: "amplitude",
+                value: amplitude,
+                reason: "too large for these cells: a perturbed triangle folds or degenerates",
+            });
+        }
+    }
     Mesh::new(positions, faces)
 }
 
@@ -180,7 +259,8 @@ fn planar_delaunay(
     Mesh::new(positions, faces)
 }
 
-/// Largest vertex count of [`irregular_rectangle`] (its Delaunay step is quadratic).
+/// Largest vertex count of [`irregular_rectangle`] and [`scattered_rectangle`] (their Delaunay
+/// step is quadratic).
 pub const MAX_DELAUNAY_POINTS: usize = 20_000;
 
 /// Well-shaped irregular triangulation of `[0, width] × [0, height]` (m).
@@ -233,6 +313,89 @@ pub fn irregular_rectangle(
         }
     }
     let fixed: Vec<bool> = interior.iter().map(|&i| !i).collect();
+    planar_delaunay(pts, &fixed, 0)
+}
+
+/// Delaunay triangulation of scattered points in `[0, width] × [0, height]` (m), spacing
+/// about `s = min(width, height) / n`.
+///
+/// The sides carry equally spaced points (spacing ≤ s, corners included). Interior points are
+/// thrown at random (a hash of `(seed, attempt)`) inside the rectangle shrunk by `s/2` and kept
+/// when no point so far lies closer than `0.6 s` ("dart throwing", a Poisson-disc sample),
+/// until there are as many as an equilateral lattice of spacing `s` would have, `⌈A / (√3/2 ·
+/// s²)⌉` (A = width·height), or `30×` that many throws failed. Unlike
+/// [`irregular_rectangle`], the points follow no lattice at all: valences, edge directions and
+/// triangle shapes vary freely. At most [`MAX_DELAUNAY_POINTS`] vertices (else
+/// `InvalidParameter`). Deterministic: the same arguments always give the same mesh.
+pub fn scattered_rectangle(
+    width: f64,
+    height: f64,
+    n: usize,
+    seed: u64,
+) -> Result<Mesh, MeshError> {
+    positive("width", width)?;
+    positive("height", height)?;
+    at_least("n", n, 1)?;
+    let s = width.min(height) / n as f64;
+    let (mx, my) = ((width / s).ceil() as usize, (height / s).ceil() as usize);
+    let target = (width * height / (0.5 * 3f64.sqrt() * s * s)).ceil() as usize;
+    if target + 2 * (mx + my) > MAX_DELAUNAY_POINTS {
+        return Err(MeshError::InvalidParameter {
+            name: "n",
+            value: n as f64,
+            reason: "too fine: more than 20 000 vertices (the Delaunay step is quadratic)",
+        });
+    }
+    // Counter-clockwise around the boundary, corners once.
+    let mut pts: Vec<[f64; 2]> = Vec::with_capacity(target + 2 * (mx + my));
+    pts.extend((0..mx).map(|i| [lattice(width, i, mx), 0.0]));
+    pts.extend((0..my).map(|j| [width, lattice(height, j, my)]));
+    pts.extend((0..mx).map(|i| [width - lattice(width, i, mx), height]));
+    pts.extend((0..my).map(|j| [0.0, height - lattice(height, j, my)]));
+    let r_min = 0.6 * s;
+    // Buckets of side r_min: a point closer than r_min to a candidate lies in one of the 3×3
+    // buckets around it.
+    let (bx, by) = (
+        (width / r_min).ceil() as usize + 1,
+        (height / r_min).ceil() as usize + 1,
+    );
+    let bucket = |p: [f64; 2]| {
+        let i = ((p[0] / r_min) as usize).min(bx - 1);
+        let j = ((p[1] / r_min) as usize).min(by - 1);
+        (i, j)
+    };
+    let mut grid: Vec<Vec<usize>> = vec![Vec::new(); bx * by];
+    for (k, &p) in pts.iter().enumerate() {
+        let (i, j) = bucket(p);
+        grid[j * bx + i].push(k);
+    }
+    let n_boundary = pts.len();
+    let (x0, y0) = (0.5 * s, 0.5 * s);
+    let (wx, wy) = ((width - s).max(0.0), (height - s).max(0.0));
+    let mut failures = 0;
+    let mut attempt = 0u64;
+    while pts.len() - n_boundary < target && failures < 30 * target.max(1) {
+        attempt += 1;
+        let p = [
+            x0 + wx * 0.5 * (1.0 + hash_unit(seed, attempt, 0)),
+            y0 + wy * 0.5 * (1.0 + hash_unit(seed, attempt, 1)),
+        ];
+        let (i, j) = bucket(p);
+        let far = (i.saturating_sub(1)..=(i + 1).min(bx - 1)).all(|u| {
+            (j.saturating_sub(1)..=(j + 1).min(by - 1)).all(|w| {
+                grid[w * bx + u].iter().all(|&k| {
+                    (pts[k][0] - p[0]).powi(2) + (pts[k][1] - p[1]).powi(2) >= r_min * r_min
+                })
+            })
+        });
+        if far {
+            grid[j * bx + i].push(pts.len());
+            pts.push(p);
+        } else {
+            failures += 1;
+        }
+    }
+    let fixed = vec![true; pts.len()];
     planar_delaunay(pts, &fixed, 0)
 }
 
@@ -430,7 +593,9 @@ pub fn cylinder_patch(
             positions.push(Vector3::new(radius * th.cos(), radius * th.sin(), z));
         }
     }
-    let faces = grid_faces(n_around, n_along, |i, j| j * n_theta + i % n_theta);
+    let faces = grid_faces(n_around, n_along, Diagonals::Alternating, |i, j| {
+        j * n_theta + i % n_theta
+    });
     Mesh::new(positions, faces)
 }
 
@@ -513,14 +678,19 @@ pub fn annulus(r_in: f64, r_out: f64, n_rings: usize, n_around: usize) -> Result
     Mesh::new(positions, faces)
 }
 
-/// Triangles of an `nx × ny` grid of quads whose corner (i, j) is vertex `id(i, j)`, split along
-/// alternating diagonals (no preferred direction), counter-clockwise in (i, j).
-fn grid_faces(nx: usize, ny: usize, id: impl Fn(usize, usize) -> usize) -> Vec<[usize; 3]> {
+/// Triangles of an `nx × ny` grid of quads whose corner (i, j) is vertex `id(i, j)`, split as
+/// `diagonals` says, counter-clockwise in (i, j).
+fn grid_faces(
+    nx: usize,
+    ny: usize,
+    diagonals: Diagonals,
+    id: impl Fn(usize, usize) -> usize,
+) -> Vec<[usize; 3]> {
     let mut faces = Vec::with_capacity(2 * nx * ny);
     for j in 0..ny {
         for i in 0..nx {
             let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
-            if (i + j) % 2 == 0 {
+            if diagonals == Diagonals::Parallel || (i + j) % 2 == 0 {
                 faces.push([a, b, c]);
                 faces.push([a, c, d]);
             } else {
