@@ -29,7 +29,7 @@ use thinshell_solver::{Boundary, Loads};
 
 use super::{
     FORMULATIONS, Knobs, Refinement, STATIC_MAX_ITERATIONS, STATIC_TOLERANCE, THICK_CYLINDER, V3,
-    membrane_force_scale, paper, rms_rigid, sff_name, shell, static_solve,
+    paper, rms_rigid, sff_name, shell, static_solve,
 };
 use crate::plot::{Chart, Mark, Series, save};
 
@@ -248,7 +248,6 @@ fn energy_error_to(mesh: &Mesh, angle_deg: f64, sff: SffKind, tolerance: f64) ->
             pinned_vertices: (0..mesh.n_vertices()).map(VertexId::new).collect(),
             ..Boundary::default()
         };
-        let fs = membrane_force_scale(mesh, &material);
         let mut sys = shell(
             mesh.clone(),
             rest.clone(),
@@ -263,7 +262,7 @@ fn energy_error_to(mesh: &Mesh, angle_deg: f64, sff: SffKind, tolerance: f64) ->
             ..Knobs::tight()
         };
         let mut xs = x.clone();
-        let c = static_solve(&mut sys, &mut xs, &mut phi, k, fs, STATIC_MAX_ITERATIONS);
+        let c = static_solve(&mut sys, &mut xs, &mut phi, k, STATIC_MAX_ITERATIONS);
         if !c.ok {
             return Err(anyhow!("angle-only solve did not converge"));
         }
@@ -314,7 +313,6 @@ fn shape_point(mesh: Mesh, angle_deg: f64, sff: SffKind) -> Result<ShapePoint> {
     let target = cylinder_map(&x0, d, KAPPA, centre);
     let start = cylinder_map(&x0, d, 0.5 * KAPPA, centre);
     let rest = RestState::from_planar(&mesh, Matrix2::identity(), d * d.transpose() * KAPPA)?;
-    let fs = membrane_force_scale(&mesh, &material);
     let faces = mesh.n_faces();
     let mut sys = shell(
         mesh,
@@ -331,7 +329,7 @@ fn shape_point(mesh: Mesh, angle_deg: f64, sff: SffKind) -> Result<ShapePoint> {
     };
     let mut x = start;
     let mut phi = Vec::new();
-    let c = static_solve(&mut sys, &mut x, &mut phi, k, fs, MAX_ITERATIONS);
+    let c = static_solve(&mut sys, &mut x, &mut phi, k, MAX_ITERATIONS);
     Ok(ShapePoint {
         faces,
         error: rms_rigid(&x, &target)?,
@@ -701,7 +699,7 @@ pub(super) fn markdown(study: &LayoutStudy, md: &mut String, plot: &str) {
         md,
         "\n**Static shape**: the flat square with ā = I and natural curvature b̄ = κ d dᵀ, free, \
          started from the cylinder of half the curvature; static Newton (the system's default \
-         Hessian, tolerance {STATIC_TOLERANCE:.0e} relative to E·h·ℓ, line search) at n = {}; \
+         Hessian, tolerance {STATIC_TOLERANCE:.0e} relative to the solver's force scale E·h·L, line search) at n = {}; \
          error = RMS vertex distance to the analytic cylinder after removing rigid motion (m). \
          Wall time of the solve. (h = 1 cm keeps the membrane locking of very thin shells on \
          meshes that cannot bend isometrically out of this measure; the paper-thin cylinder \
