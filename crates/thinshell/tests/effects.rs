@@ -80,12 +80,7 @@ fn disabled_terms_and_loads_contribute_nothing() {
 
 #[test]
 fn a_prescribed_stimulus_builds_no_diffusion_solver() {
-    // What is built does not depend on the bending form. With the default form
-    // (edge_director_tan) this curved, grown start needs more than the 50 Newton iterations
-    // allowed (relative residual 5.8e-6 after 50): a Newton-robustness case of issue #14.
     let growth = r#"
-[bending]
-form = "mid_edge_average"
 [growth]
 model = "linear"
 coefficient = 0.01

@@ -235,7 +235,7 @@ fn midspan(sim: &Simulation, nx: usize) -> f64 {
 /// converges to a crumpled state near the moved end (midspan deflection 0.0102 L). The default
 /// ramp of a static scene (linear over its 10 steps) follows the buckled path to the elastica.
 #[test]
-fn ramp_reaches_the_elastica_where_one_shot_fails_or_lands_elsewhere() {
+fn ramp_reaches_the_elastica_and_a_one_shot_solve_fails_or_agrees() {
     let shortening = 0.2;
     let nx = 16;
     let (exact, _) = pinned_elastica(shortening);
@@ -268,8 +268,6 @@ fn ramp_reaches_the_elastica_where_one_shot_fails_or_lands_elsewhere() {
             .unwrap();
         let mut solver = Static::default();
         solver.newton.max_iterations = 500;
-        solver.newton.gradient_tolerance = 1e-11;
-        solver.force_scale = Some(YOUNG * THICKNESS * LENGTH / nx as f64);
         match solver.solve(once.system_mut(), &mut x) {
             Err(e) => {
                 println!("{form}: one-shot solve failed: {e}");
@@ -289,10 +287,10 @@ fn ramp_reaches_the_elastica_where_one_shot_fails_or_lands_elsewhere() {
                     "{form}: one-shot solve: {} iterations, midspan w/L {w1:.6}",
                     r.iterations
                 );
-                assert!(
-                    (w1 / exact - 1.0).abs() > 0.5,
-                    "{form}: the one-shot solve found the elastica ({w1}); the test lost its point"
-                );
+                // With the default Newton (watchdog line search, scale-free convergence) a
+                // one-shot solve that does not fail must find the same elastica: a solve may
+                // not claim convergence elsewhere (before: sin "converged" at w/L 0.0102).
+                assert!((w1 / exact - 1.0).abs() < 5e-3, "{form}: {w1} vs {exact}");
             }
         }
     }
