@@ -874,6 +874,16 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 rec.watchdog_steps += 1;
                 break f_t;
             }
+            if backtracks == 0
+                && watch.is_none()
+                && outcome.mu <= SMALL_SHIFT
+                && -0.5 * slope <= value_noise(f)
+            {
+                // The unshifted Newton step predicts a decrease below the round-off of f and
+                // its full step is not distinguishable from x: x is at the round-off floor
+                // (typically a solve restarted at its own equilibrium), not stuck.
+                return Ok(rec.report(iteration, Convergence::RoundOff));
+            }
             if adaptive && kind == IterationHessian::Own {
                 // The own Hessian's quadratic model does not hold here (its full step fails
                 // the Armijo test): redo the iteration with the PSD Hessian rather than take a
