@@ -220,7 +220,8 @@ impl Observer for Writer {
                  positive definite: a saddle, unstable under perturbation)",
                 r.step
             );
-            match &self.bar {
+            // A hidden bar (stderr not a terminal: logs, scripts, CI) drops `println`.
+            match self.bar.as_ref().filter(|b| !b.is_hidden()) {
                 Some(bar) => bar.println(warning),
                 None => eprintln!("{warning}"),
             }
