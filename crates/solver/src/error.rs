@@ -100,7 +100,10 @@ pub enum SolverError {
     },
     /// Newton reached `max_iterations` without meeting a convergence criterion.
     #[error(
-        "Newton did not converge in {iterations} iterations (relative residual {:e}, tolerance {tolerance:e})",
+        "Newton did not converge in {iterations} iterations (relative residual ‖∇f‖∞/force scale \
+         {:e} → {:e}; converged means a Newton correction below step_tolerance × size, or a \
+         gradient tolerance {tolerance:e} where a force scale was given)",
+        residuals.first().copied().unwrap_or(f64::NAN),
         residuals.last().copied().unwrap_or(f64::NAN)
     )]
     NewtonDidNotConverge {

@@ -606,6 +606,10 @@ pub struct NewtonSpec {
     /// Backtracking Armijo line search (default true).
     #[serde(default)]
     pub line_search: Option<bool>,
+    /// Watchdog window of the line search: iterations a non-monotone full step has to recover
+    /// (default 4; 0: monotone line search).
+    #[serde(default)]
+    pub watchdog: Option<usize>,
     /// Add μI after a failed Cholesky (default true).
     #[serde(default)]
     pub regularization: Option<bool>,

@@ -364,6 +364,9 @@ impl Simulation {
         if let Some(v) = nw.line_search {
             settings.line_search = v;
         }
+        if let Some(v) = nw.watchdog {
+            settings.watchdog = v;
+        }
         if let Some(v) = nw.regularization {
             settings.regularization = v;
         }
