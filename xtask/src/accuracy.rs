@@ -1,7 +1,7 @@
 //! `cargo xtask accuracy`: what accuracy costs in time (issue #7).
 //!
 //! Runs cases with a known answer under one knob at a time (mesh resolution, Δt, Newton
-//! tolerance, exact vs Gauss–Newton Hessian, line search, implicit vs explicit Euler, static
+//! tolerance, adaptive (default) vs Gauss–Newton Hessian, line search, implicit vs explicit Euler, static
 //! solve vs dynamic relaxation), measures the error against the answer and the wall time of
 //! every run, and writes `accuracy.md` with tables and log–log plots (Pareto front marked) plus
 //! a JSON file with every run.
@@ -222,7 +222,9 @@ impl Knobs {
     }
     fn hessian_name(&self) -> &'static str {
         match self.hessian {
-            HessianMode::Exact => "exact",
+            // The solver's default policy with the exact Hessian as its own: exact where it
+            // factorises and its steps hold, Gauss–Newton elsewhere.
+            HessianMode::Exact => "adaptive",
             HessianMode::GaussNewton => "Gauss-Newton",
             HessianMode::ProjectedPsd => "projected",
         }
@@ -444,7 +446,7 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
         Loads::default(),
     )?;
 
-    // The discrete equilibrium: the tightest static solve (exact Hessian, line search).
+    // The discrete equilibrium: the tightest static solve (adaptive Hessian, line search).
     let mut x_eq = start.clone();
     if !static_solve(
         &mut sys,
@@ -591,7 +593,7 @@ fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case> {
 }
 
 /// The cylinder case on the unit square under refinement, regular (alternating diagonals) and
-/// irregular (jittered Delaunay) meshes; static solve, exact and Gauss–Newton Hessians.
+/// irregular (jittered Delaunay) meshes; static solve, adaptive and Gauss–Newton Hessians.
 fn cylinder_refinement(sff: SffKind, quick: bool) -> Result<Case> {
     let mut out = Case::new(
         CASE_NAMES[3],
@@ -1179,7 +1181,7 @@ fn cantilever(sff: SffKind, quick: bool) -> Result<Case> {
         });
     }
 
-    // Time-step convergence of implicit Euler (exact Hessian, line search).
+    // Time-step convergence of implicit Euler (adaptive Hessian, line search).
     let mut series = Refinement {
         name: "implicit Euler, error vs Δt".into(),
         points: Vec::new(),
@@ -1187,7 +1189,7 @@ fn cantilever(sff: SffKind, quick: bool) -> Result<Case> {
     for r in out
         .runs
         .iter()
-        .filter(|r| r.family == "implicit Euler, exact Hessian, line search on")
+        .filter(|r| r.family == "implicit Euler, adaptive Hessian, line search on")
     {
         series.points.push((r.steps, r.error));
     }
@@ -1196,7 +1198,7 @@ fn cantilever(sff: SffKind, quick: bool) -> Result<Case> {
     // order in Δt.
     if let Some(p) = order {
         out.notes.push(format!(
-            "Implicit Euler (exact Hessian, line search): error ∝ Δt^{:.2} (least-squares fit over \
+            "Implicit Euler (adaptive Hessian, line search): error ∝ Δt^{:.2} (least-squares fit over \
              all Δt).",
             p / 2.0
         ));
@@ -1207,7 +1209,7 @@ fn cantilever(sff: SffKind, quick: bool) -> Result<Case> {
         let best = out
             .runs
             .iter()
-            .filter(|r| r.family.starts_with("implicit Euler, exact") && r.converged)
+            .filter(|r| r.family.starts_with("implicit Euler, adaptive") && r.converged)
             .filter(|r| r.error <= eps)
             // The largest Δt, and of the variants at that Δt the fastest.
             .max_by(|a, b| {
@@ -1555,7 +1557,7 @@ fn markdown(
         md,
         "Order p of error ∝ h^p with h ∝ faces^(−1/2) (least-squares fit over all levels; per \
          refinement step in brackets). Static tolerance 1e-11 with line search; per level the \
-         converged run (exact or Gauss–Newton Hessian) with the lower final energy.\n"
+         converged run (adaptive or Gauss–Newton Hessian) with the lower final energy.\n"
     );
     let _ = writeln!(
         md,
@@ -1646,11 +1648,11 @@ fn markdown(
     md
 }
 
-/// Adds to `c.notes` how exact and Gauss–Newton Hessians fared over the case's Newton runs
+/// Adds to `c.notes` how the adaptive (default) and Gauss–Newton Hessians fared over the case's Newton runs
 /// (converged count, median iterations, total wall time), and, where the Newton tolerance was
 /// varied, the error at the loosest and the tightest tolerance.
 fn summarise_knobs(c: &mut Case) {
-    for h in ["exact", "Gauss-Newton"] {
+    for h in ["adaptive", "Gauss-Newton"] {
         let tag = format!("{h} Hessian");
         let runs: Vec<&Run> = c
             .runs
@@ -1673,7 +1675,7 @@ fn summarise_knobs(c: &mut Case) {
     let tol_runs: Vec<&Run> = c
         .runs
         .iter()
-        .filter(|r| r.family == "static, exact Hessian, line search on")
+        .filter(|r| r.family == "static, adaptive Hessian, line search on")
         .collect();
     let loose = tol_runs.iter().max_by(|a, b| {
         a.tolerance
@@ -1688,7 +1690,7 @@ fn summarise_knobs(c: &mut Case) {
     if let (Some(l), Some(t)) = (loose, tight) {
         if l.tolerance != t.tolerance {
             c.notes.push(format!(
-                "Newton tolerance (exact Hessian, line search; relative to E·h·L): {:.0e} stops \
+                "Newton tolerance (adaptive Hessian, line search; relative to E·h·L): {:.0e} stops \
                  after {} iterations at error {:.2e}, {:.0e} after {} at {:.2e}.",
                 l.tolerance.unwrap_or(0.0),
                 l.newton_iterations,
@@ -1825,7 +1827,12 @@ fn bending_form_advice(md: &mut String, cases: &[Case]) {
     // The default form when it is a director form, else the first director form studied.
     let Some(director) = Some(SffKind::default())
         .filter(|f| f.director().is_some() && FORMULATIONS.contains(f))
-        .or_else(|| FORMULATIONS.iter().copied().find(|f| f.director().is_some()))
+        .or_else(|| {
+            FORMULATIONS
+                .iter()
+                .copied()
+                .find(|f| f.director().is_some())
+        })
     else {
         return;
     };

@@ -74,11 +74,19 @@ fn a_saddle_is_reported_and_a_minimum_is_not() {
     let (text, summary) = run("compressed", 1.01 * 1.01);
     println!("{text}");
     assert_eq!(summary["stable"], serde_json::json!(false), "{summary}");
-    assert_eq!(summary["unstable_steps"], serde_json::json!([1]), "{summary}");
+    assert_eq!(
+        summary["unstable_steps"],
+        serde_json::json!([1]),
+        "{summary}"
+    );
     assert!(text.contains("warning"), "no warning line: {text}");
     // Stretched by 1 %: a minimum, no warning.
     let (text, summary) = run("stretched", 0.99 * 0.99);
     assert_eq!(summary["stable"], serde_json::json!(true), "{summary}");
-    assert_eq!(summary["unstable_steps"], serde_json::json!([]), "{summary}");
+    assert_eq!(
+        summary["unstable_steps"],
+        serde_json::json!([]),
+        "{summary}"
+    );
     assert!(!text.contains("warning"), "unexpected warning: {text}");
 }
