@@ -1,7 +1,8 @@
 //! Whole-mesh assembly on icospheres (1 280, 20 480, 81 920 faces), one thread and all
 //! threads: energy; energy + gradient; energy + gradient + Hessian (exact and Gauss–Newton;
 //! projected to PSD on the smallest mesh only); the Hessian gather ("fill") alone; and, on the
-//! 20 480-face mesh, the per-face kernel alone in a sequential loop ("kernel_only").
+//! 20 480-face mesh, the per-face kernel alone in a sequential loop ("kernel_only"); per-face
+//! 9×9 load blocks (pressure) added in one call or in one call per face ("face_blocks").
 //!
 //! `cargo bench -p thinshell-energy --bench assembly`; criterion reports time per evaluation
 //! and faces per second (throughput = number of faces). Results are quoted per face in
@@ -118,6 +119,30 @@ fn bench(c: &mut Criterion) {
             // The gather step alone, from the per-face blocks of the last Hessian evaluation.
             group.bench_function(id("fill"), |b| {
                 pool.install(|| b.iter(|| asm.gather_hessian(black_box(&mut h)).unwrap()))
+            });
+        }
+        // Per-face 9×9 load blocks (a pressure Hessian): all faces in one call, which checks the
+        // pattern once, against one call per face (the pattern checked every time; issue #15).
+        // Sequential, so no thread count.
+        let block = nalgebra::SMatrix::<f64, 9, 9>::from_fn(|i, j| 1.0 / (1.0 + (i + j) as f64));
+        let asm = Assembler::new(&mesh, &dofs, terms).unwrap();
+        let mut h = asm.hessian_template();
+        group.bench_function("face_blocks/all_at_once", |b| {
+            b.iter(|| asm.add_face_blocks(|_| block, black_box(&mut h)).unwrap())
+        });
+        // The old way costs faces × nonzeros (10.7 s at 20 480 faces): the smallest mesh only.
+        if level == 3 {
+            group.bench_function("face_blocks/one_call_per_face", |b| {
+                b.iter(|| {
+                    for f in 0..n_faces {
+                        asm.add_face_block(
+                            thinshell_mesh::FaceId::new(f),
+                            &block,
+                            black_box(&mut h),
+                        )
+                        .unwrap();
+                    }
+                })
             });
         }
         group.finish();

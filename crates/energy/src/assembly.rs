@@ -565,6 +565,34 @@ impl Assembler {
         block: &SMatrix<f64, 9, 9>,
         hessian: &mut SparseColMat<usize, f64>,
     ) -> Result<(), EnergyError> {
+        self.check_pattern(hessian)?;
+        self.add_face_block_unchecked(f, block, hessian.val_mut())
+    }
+
+    /// [`add_face_block`](Self::add_face_block) for every face: `block_of(f)` gives face `f`'s
+    /// 9×9 block. The pattern is checked once, not once per face (the check compares the whole
+    /// pattern, so per-face checks made a pressure Hessian cost faces × nonzeros).
+    pub fn add_face_blocks(
+        &self,
+        mut block_of: impl FnMut(FaceId) -> SMatrix<f64, 9, 9>,
+        hessian: &mut SparseColMat<usize, f64>,
+    ) -> Result<(), EnergyError> {
+        self.check_pattern(hessian)?;
+        let values = hessian.val_mut();
+        for f in 0..self.pattern.face_blocks.len() {
+            let f = FaceId::new(f);
+            self.add_face_block_unchecked(f, &block_of(f), values)?;
+        }
+        Ok(())
+    }
+
+    /// Adds face `f`'s block into the values of a Hessian with this assembler's pattern.
+    fn add_face_block_unchecked(
+        &self,
+        f: FaceId,
+        block: &SMatrix<f64, 9, 9>,
+        values: &mut [f64],
+    ) -> Result<(), EnergyError> {
         let blocks = self
             .pattern
             .face_blocks
@@ -573,8 +601,6 @@ impl Assembler {
                 face: f,
                 n_faces: self.energies.len(),
             })?;
-        self.check_pattern(hessian)?;
-        let values = hessian.val_mut();
         for s1 in 0..3 {
             for s2 in 0..=s1 {
                 let gb = blocks[pair(s1, s2)];

@@ -558,6 +558,35 @@ fn add_face_block_scatters_symmetric_part() {
     ));
 }
 
+/// `add_face_blocks` (all faces, one pattern check) gives exactly what one `add_face_block`
+/// call per face gives, and refuses a Hessian of another pattern.
+#[test]
+fn add_face_blocks_equals_one_call_per_face() {
+    let c = case(8, 6);
+    let dofs = pins(&c.mesh);
+    let asm = Assembler::new(&c.mesh, &dofs, ELASTIC).unwrap();
+    let mut rng = Rng(2);
+    let blocks: Vec<SMatrix<f64, 9, 9>> = (0..c.mesh.n_faces())
+        .map(|_| SMatrix::from_fn(|_, _| rng.next()))
+        .collect();
+    let mut one_by_one = asm.hessian_template();
+    for (f, b) in blocks.iter().enumerate() {
+        asm.add_face_block(FaceId::new(f), b, &mut one_by_one)
+            .unwrap();
+    }
+    let mut at_once = asm.hessian_template();
+    asm.add_face_blocks(|f| blocks[f.idx()], &mut at_once)
+        .unwrap();
+    assert_eq!(at_once.val(), one_by_one.val());
+    let small = case(4, 3).mesh;
+    let other = Assembler::new(&small, &DofMap::all_free(small.n_vertices()), ELASTIC).unwrap();
+    let mut wrong = other.hessian_template();
+    assert!(matches!(
+        asm.add_face_blocks(|f| blocks[f.idx()], &mut wrong),
+        Err(EnergyError::HessianPatternMismatch)
+    ));
+}
+
 /// Bad input gives typed errors naming the problem, never a panic or a silent NaN.
 #[test]
 fn errors_are_typed() {

@@ -6,7 +6,7 @@ use thinshell_energy::{
     Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, HessianMode, RestState,
     ShellModel, lumped_mass,
 };
-use thinshell_mesh::{FaceId, Mesh};
+use thinshell_mesh::Mesh;
 
 use super::bc::Boundary;
 use super::loads::{Loads, face_volume, face_volume_gradient, face_volume_hessian};
@@ -605,13 +605,11 @@ impl ShellObjective<'_> {
             .map_err(energy_error)?;
         let p = self.sys.pressure();
         if p != 0.0 {
-            for f in 0..self.sys.mesh.n_faces() {
-                let block = face_volume_hessian(self.face_x(f)) * -p;
-                self.sys
-                    .assembler
-                    .add_face_block(FaceId::new(f), &block, h)
-                    .map_err(energy_error)?;
-            }
+            let this = &*self;
+            this.sys
+                .assembler
+                .add_face_blocks(|f| face_volume_hessian(this.face_x(f.idx())) * -p, h)
+                .map_err(energy_error)?;
         }
         if self.sys.has_edge_unknowns() {
             // u = ℓ̄ φ for edge dofs: H_uu = D H_φφ D with D = diag(1, 1/ℓ̄).
