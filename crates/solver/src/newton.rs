@@ -891,6 +891,11 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 break f64::NAN;
             }
             if backtracks >= settings.max_backtracks || slope >= 0.0 {
+                if let Some(w) = watch.take() {
+                    // The failure carries the best point: the one before the watched step.
+                    x.copy_from_slice(&w.x);
+                    rec.residuals.truncate(w.len);
+                }
                 return Err(SolverError::LineSearchFailed {
                     iteration,
                     backtracks,
