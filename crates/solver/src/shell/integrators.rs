@@ -146,6 +146,24 @@ impl Default for Static {
     }
 }
 
+/// The integrator's cached Newton workspace, rebuilt when the number of unknowns changed.
+fn workspace<'w>(
+    slot: &'w mut Option<NewtonWorkspace>,
+    objective: &ShellObjective<'_>,
+    settings: &NewtonSettings,
+) -> Result<&'w mut NewtonWorkspace, SolverError> {
+    if slot
+        .as_ref()
+        .is_some_and(|ws| ws.n_dofs() != objective.n_dofs())
+    {
+        *slot = None;
+    }
+    match slot {
+        Some(ws) => Ok(ws),
+        None => Ok(slot.insert(NewtonWorkspace::new(objective, settings)?)),
+    }
+}
+
 /// The last accepted iterate a failed Newton solve carries, if any.
 fn last_good(e: &SolverError) -> Option<&[f64]> {
     match e {
@@ -221,10 +239,7 @@ impl Static {
         }
         let mut u = system.gather(x, phi);
         let mut obj = self.objective(system, x, phi);
-        let ws = match &mut self.workspace {
-            Some(ws) if ws.n_dofs() == u.len() => ws,
-            slot => slot.insert(NewtonWorkspace::new(&obj, &self.newton)?),
-        };
+        let ws = workspace(&mut self.workspace, &obj, &self.newton)?;
         let result = newton_solve(&mut obj, &mut u, &self.newton, ws);
         let sys = obj.sys;
         sys.scatter(&u, x, phi);
@@ -270,13 +285,8 @@ impl Static {
         let u = system.gather(x, phi);
         let own = std::mem::replace(&mut system.hessian_mode, HessianMode::Exact);
         let mut obj = self.objective(system, x, phi);
-        let result = match &mut self.workspace {
-            Some(ws) if ws.n_dofs() == u.len() => ws.is_positive_definite(&mut obj, &u),
-            slot => match NewtonWorkspace::new(&obj, &self.newton) {
-                Ok(ws) => slot.insert(ws).is_positive_definite(&mut obj, &u),
-                Err(e) => Err(e),
-            },
-        };
+        let result = workspace(&mut self.workspace, &obj, &self.newton)
+            .and_then(|ws| ws.is_positive_definite(&mut obj, &u));
         system.hessian_mode = own;
         result
     }
@@ -445,10 +455,7 @@ impl ImplicitEuler {
         } else if !obj.value(&u)?.is_finite() {
             u = u_prev;
         }
-        let ws = match &mut self.workspace {
-            Some(ws) if ws.n_dofs() == u.len() => ws,
-            slot => slot.insert(NewtonWorkspace::new(&obj, &self.newton)?),
-        };
+        let ws = workspace(&mut self.workspace, &obj, &self.newton)?;
         let report = newton_solve(&mut obj, &mut u, &self.newton, ws)?;
         let energies = obj.last_terms;
         obj.sys.scatter(&u, &mut x1, &mut phi1);
@@ -562,7 +569,7 @@ impl Integrator for ExplicitEuler {
             None
         };
         let mut phi1 = state.phi.clone();
-        let (g, energies) = if system.has_edge_unknowns() {
+        let (mut g, energies) = if system.has_edge_unknowns() {
             let mut g = vec![0.0; system.dofs.n_coordinates()];
             let report = system.relax_edge_angles(
                 &state.x,
@@ -589,7 +596,6 @@ impl Integrator for ExplicitEuler {
                 .map_err(energy_error)?;
             (g, energies)
         };
-        let mut g = g;
         add_pressure_gradient(system, &state.x, &mut g);
         let t1 = state.t + dt;
         let mut x1 = state.x.clone();
