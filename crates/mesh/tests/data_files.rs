@@ -2,14 +2,11 @@
 //! Regenerate them with `cargo run -p thinshell-mesh --example write_seed_meshes`.
 #![allow(clippy::unwrap_used)]
 
-use std::path::PathBuf;
-
 use thinshell_mesh::{Mesh, generators, io};
+use thinshell_testkit::fixtures::data_path;
 
 fn shipped(name: &str) -> Mesh {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../data/meshes")
-        .join(name);
+    let path = data_path(&format!("meshes/{name}"));
     io::load_obj(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 

@@ -6,6 +6,7 @@ use std::collections::HashSet;
 use nalgebra::Vector3;
 use proptest::prelude::*;
 use thinshell_mesh::{Mesh, generators};
+use thinshell_testkit::rng::hash_unit as uniform;
 
 fn base_mesh(kind: usize) -> Mesh {
     match kind {
@@ -18,14 +19,6 @@ fn base_mesh(kind: usize) -> Mesh {
         _ => generators::seed_square(),
     }
     .unwrap()
-}
-
-/// Splitmix-style hash to a uniform number in [0, 1).
-fn uniform(seed: u64, i: u64) -> f64 {
-    let mut z = seed ^ i.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
 }
 
 fn as_usize(m: &Mesh) -> Vec<[usize; 3]> {

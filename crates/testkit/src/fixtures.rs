@@ -1,0 +1,194 @@
+//! Set-ups shared by several test files and benches: materials, the seed's squares, the
+//! swelling strip, the shrinking sphere; paths of shipped data and per-process temporary
+//! directories.
+//!
+//! Each fixture keeps the numbers of the copies it replaced exactly, because the tests'
+//! tolerances and expected iteration counts were measured with them. A fixture used by one
+//! file only belongs in that file.
+
+use std::path::PathBuf;
+
+use nalgebra::{Matrix2, Vector2, Vector3};
+use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
+use thinshell_growth::{FaceStimulus, Growth, Prescribed, Swelling};
+use thinshell_mesh::{Mesh, generators};
+use thinshell_solver::{Boundary, Loads, ShellSystem, State, Static};
+
+/// Unit-scale material for single-face kernel checks: h = 0.3, E = 1, ν = 0.3, ρ = 1, with the
+/// given viscosity η. Stretching, bending and damping are then of comparable size on O(1)
+/// stencils.
+pub fn unit_material(viscosity: f64) -> Material {
+    Material {
+        thickness: 0.3,
+        young: 1.0,
+        poisson: 0.3,
+        density: 1.0,
+        viscosity,
+    }
+}
+
+/// A soft, thick material for whole-mesh checks on unit sheets: h = 0.05, E = 1e3, ν = 0.3,
+/// ρ = 1, η = 20 (stretching and bending of similar size, damping visible at Δt ~ 0.1).
+pub fn soft_material() -> Material {
+    Material {
+        thickness: 0.05,
+        young: 1.0e3,
+        poisson: 0.3,
+        density: 1.0,
+        viscosity: 20.0,
+    }
+}
+
+/// The beam-theory strip material: h = 0.01 m, E = 1e7 Pa, ν = 0 (so the plate stiffness of a
+/// strip equals the beam's E I), ρ = 1000 kg/m³, no damping.
+pub const BEAM_MATERIAL: Material = Material {
+    thickness: 0.01,
+    young: 1e7,
+    poisson: 0.0,
+    density: 1000.0,
+    viscosity: 0.0,
+};
+
+/// [`Material::paper`] (E = 2 GPa, ν = 0.3) with thickness `h` (m).
+pub fn paper(h: f64) -> Material {
+    Material {
+        thickness: h,
+        ..Material::paper()
+    }
+}
+
+/// [`Material::paper`] with a Kelvin–Voigt relaxation time η/E of `relaxation_time` (s).
+pub fn damped_paper(relaxation_time: f64) -> Material {
+    let paper = Material::paper();
+    Material {
+        viscosity: paper.young * relaxation_time,
+        ..paper
+    }
+}
+
+/// The seed's unit square mesh ([`generators::seed_square`]) with planar rest forms
+/// (ā, b̄) = (`a_xy`, `b_xy`) in the xy basis.
+pub fn seed_square(a_xy: Matrix2<f64>, b_xy: Matrix2<f64>) -> (Mesh, RestState) {
+    let mesh = generators::seed_square().expect("the seed square builds");
+    let rest = RestState::from_planar(&mesh, a_xy, b_xy).expect("planar rest forms");
+    (mesh, rest)
+}
+
+/// The mesh's (x, y) mapped by `map` into the plane z = 0: the seed's planar starts.
+pub fn planar_start(mesh: &Mesh, map: Matrix2<f64>) -> Vec<Vector3<f64>> {
+    mesh.positions()
+        .iter()
+        .map(|p| {
+            let q = map * Vector2::new(p.x, p.y);
+            Vector3::new(q.x, q.y, 0.0)
+        })
+        .collect()
+}
+
+/// The moisture strip: a 100 × 2 mm paper strip, h = 1 mm, 50 cells along and `ny` across,
+/// mid-edge-average bending without damping, whose top surface swells by Δm ramped linearly
+/// from 0 to 1 over the first four unit time steps ([`swelling_strip`]).
+pub struct SwellingStrip {
+    /// The strip, flat and stress-free as built.
+    pub system: ShellSystem,
+    /// The swelling model driven by the ramp, growth thickness h.
+    pub growth: Growth,
+    /// `Static::default()` with the force scale of the bending moment resultant
+    /// D·κ₀·w ≈ 4e-3 N and gradient tolerance 1e-6 (the gradient's round-off floor is
+    /// ~1e-16·E·h·ℓ ≈ 4e-10 N).
+    pub solver: Static,
+    /// The flat start at rest.
+    pub state: State,
+}
+
+impl SwellingStrip {
+    /// Cells along the strip.
+    pub const NX: usize = 50;
+    /// Thickness h (m), of the shell and of the growth model.
+    pub const THICKNESS: f64 = 1e-3;
+}
+
+/// Builds the [`SwellingStrip`] with `ny` cells across and the growth `model`.
+pub fn swelling_strip(model: Swelling, ny: usize) -> SwellingStrip {
+    let h = SwellingStrip::THICKNESS;
+    let mesh = generators::rectangle(0.1, 0.002, SwellingStrip::NX, ny).expect("strip mesh");
+    let x0 = mesh.positions().to_vec();
+    let sff = SffKind::MidEdgeAverage;
+    let initial = RestState::from_mesh(&mesh, &x0, sff).expect("rest forms of the strip");
+    let ramp = Prescribed::function(
+        &mesh,
+        &x0,
+        Box::new(|t, _| FaceStimulus {
+            top: (t / 4.0).min(1.0),
+            bottom: 0.0,
+        }),
+    )
+    .expect("swelling ramp");
+    let growth =
+        Growth::new(Box::new(model), Box::new(ramp), initial.clone(), h).expect("growth set-up");
+    let shell = ShellModel {
+        material: paper(h),
+        terms: Terms {
+            stretch: true,
+            bend: true,
+            damping: false,
+        },
+        sff,
+    };
+    let system = ShellSystem::new(mesh, shell, initial, Boundary::default(), Loads::default())
+        .expect("strip system");
+    let mut solver = Static::default();
+    solver.force_scale = Some(4e-3);
+    solver.newton.gradient_tolerance = 1e-6;
+    SwellingStrip {
+        system,
+        growth,
+        solver,
+        state: State::at_rest(x0),
+    }
+}
+
+/// The benches' shrinking sphere: the unit icosphere at `level` ([`generators::icosphere`]),
+/// rest forms of the sphere with ā scaled by 0.9 (so it wants to shrink), paper, stretching and
+/// bending with form `sff`, no loads, at rest in the sphere.
+pub fn shrinking_sphere(level: usize, sff: SffKind) -> (ShellSystem, State) {
+    let mesh = generators::icosphere(1.0, level).expect("icosphere");
+    let x = mesh.positions().to_vec();
+    let mut rest = RestState::from_mesh(&mesh, &x, sff).expect("rest forms of the sphere");
+    rest.a_bar.iter_mut().for_each(|a| *a *= 0.9);
+    let model = ShellModel {
+        material: Material::paper(),
+        terms: Terms {
+            stretch: true,
+            bend: true,
+            damping: false,
+        },
+        sff,
+    };
+    let sys = ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default())
+        .expect("sphere system");
+    (sys, State::at_rest(x))
+}
+
+/// The path of `rel` inside the repository's `data/` folder (shipped meshes and scenes).
+pub fn data_path(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data")
+        .join(rel)
+}
+
+/// `<temp>/thinshell-<name>-<process id>`, created if missing and otherwise left as it is, so
+/// the tests of one process that run in parallel can share it (each writing its own files).
+pub fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("thinshell-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).expect("create the temporary directory");
+    d
+}
+
+/// Like [`temp_dir`] but emptied first: for a test that lists what it wrote.
+pub fn fresh_temp_dir(name: &str) -> PathBuf {
+    let d = temp_dir(name);
+    std::fs::remove_dir_all(&d).expect("empty the temporary directory");
+    std::fs::create_dir_all(&d).expect("create the temporary directory");
+    d
+}
