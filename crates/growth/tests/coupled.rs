@@ -3,57 +3,25 @@
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::Vector3;
-use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
-use thinshell_growth::{
-    DirectedHeat, FaceStimulus, Growth, GrowthModel, Prescribed, Region, StimulusField, Swelling,
-};
+use thinshell_growth::{DirectedHeat, GrowthModel, Region, StimulusField, Swelling};
 use thinshell_mesh::generators;
-use thinshell_solver::{Boundary, Integrator, Loads, ShellSystem, State, Static};
+use thinshell_solver::Integrator;
+use thinshell_testkit::fixtures::{SwellingStrip, swelling_strip};
 
-const H: f64 = 1e-3;
+const H: f64 = SwellingStrip::THICKNESS;
 const C: f64 = 0.01;
-const NX: usize = 50;
+const NX: usize = SwellingStrip::NX;
 
 /// Relaxes a 100 × 2 mm strip (`ny` cells across) whose top is swollen by Δm = 1 (ramped over four quasi-static
 /// steps) and returns the mean curvature (1/m) of the middle 60 % of its centre line, signed
 /// positive when the top side is convex.
 fn relaxed_strip_curvature(model: Swelling, ny: usize) -> f64 {
-    let mesh = generators::rectangle(0.1, 0.002, NX, ny).unwrap();
-    let x0 = mesh.positions().to_vec();
-    let sff = SffKind::MidEdgeAverage;
-    let initial = RestState::from_mesh(&mesh, &x0, sff).unwrap();
-    let material = Material {
-        thickness: H,
-        ..Material::paper()
-    };
-    let ramp = Prescribed::function(
-        &mesh,
-        &x0,
-        Box::new(|t, _| FaceStimulus {
-            top: (t / 4.0).min(1.0),
-            bottom: 0.0,
-        }),
-    )
-    .unwrap();
-    let mut growth = Growth::new(Box::new(model), Box::new(ramp), initial.clone(), H).unwrap();
-    let terms = Terms {
-        stretch: true,
-        bend: true,
-        damping: false,
-    };
-    let model = ShellModel {
-        material,
-        terms,
-        sff,
-    };
-    let mut sys =
-        ShellSystem::new(mesh, model, initial, Boundary::default(), Loads::default()).unwrap();
-    let mut solver = Static::default();
-    // Bending moment resultant D·κ₀·w ≈ 4e-3 N; the round-off floor of the gradient is
-    // ~1e-16·E·h·ℓ ≈ 4e-10 N.
-    solver.force_scale = Some(4e-3);
-    solver.newton.gradient_tolerance = 1e-6;
-    let mut state = State::at_rest(x0);
+    let SwellingStrip {
+        system: mut sys,
+        mut growth,
+        mut solver,
+        mut state,
+    } = swelling_strip(model, ny);
     for step in 0..5 {
         growth.update_rest(&mut sys.rest).unwrap();
         solver.step(&mut sys, &mut state).unwrap();

@@ -9,6 +9,7 @@ use thinshell_growth::{
     Anisotropy, FaceStimulus, GrowthError, GrowthModel, Isotropic, NoGrowth, Swelling, apply_growth,
 };
 use thinshell_mesh::{Mesh, generators};
+use thinshell_testkit::strategies::cases_or;
 
 const H: f64 = 1e-3;
 
@@ -262,13 +263,6 @@ fn bad_stimulus_is_refused() {
     )
     .unwrap_err();
     assert!(matches!(e, GrowthError::CollapsedRest { .. }), "{e}");
-}
-
-fn cases_or(default: u32) -> u32 {
-    std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
 }
 
 fn spd(p: f64, q: f64, r: f64) -> Matrix2<f64> {
