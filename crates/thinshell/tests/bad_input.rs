@@ -8,6 +8,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use thinshell_testkit::fixtures::fresh_temp_dir;
+
 /// A small valid scene that each case breaks in one place.
 const BASE: &str = r#"effects = ["stretching", "bending", "inertia"]
 [mesh]
@@ -63,12 +65,7 @@ fn bin() -> Command {
 }
 
 fn case_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir()
-        .join(format!("thinshell-bad-input-{}", std::process::id()))
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    fresh_temp_dir(&format!("bad-input-{name}"))
 }
 
 /// Runs `thinshell <args>` and checks the refusal; returns the error line.

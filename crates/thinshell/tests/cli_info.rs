@@ -2,23 +2,17 @@
 //! for bad ones.
 #![allow(clippy::unwrap_used)]
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
+
+use thinshell_testkit::fixtures::{data_path as data, temp_dir};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_thinshell"))
 }
 
-fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../data")
-        .join(rel)
-}
-
 fn tmp(name: &str, content: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("thinshell-cli-info-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
+    let p = temp_dir("cli-info").join(name);
     std::fs::write(&p, content).unwrap();
     p
 }

@@ -8,6 +8,7 @@ use std::sync::atomic::AtomicBool;
 
 use thinshell::scene::Scene;
 use thinshell::sim::{NoObserver, Simulation};
+use thinshell_testkit::fixtures::temp_dir;
 
 const SCENE: &str = r#"
 name = "tiny rhombus"
@@ -31,9 +32,7 @@ formats = ["obj"]
 "#;
 
 fn dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("thinshell-cli-run-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    temp_dir("cli-run")
 }
 
 fn bin() -> Command {

@@ -9,6 +9,7 @@ use thinshell_mesh::{Mesh, generators};
 use thinshell_solver::{
     Boundary, ExplicitEuler, Integrator, Loads, NewtonReport, ShellSystem, State, Static,
 };
+use thinshell_testkit::fixtures::data_path;
 
 /// Paper-like but thick enough that bending matters on the unit square.
 fn material() -> Material {
@@ -156,9 +157,7 @@ fn director_variants_start_with_zero_angles_and_keep_unknown_count() {
 }
 
 fn scene(name: &str, overrides: &[&str]) -> thinshell::scene::Scene {
-    let p = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../data/scenes")
-        .join(name);
+    let p = data_path(&format!("scenes/{name}"));
     let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
     thinshell::scene::Scene::load_with_overrides(&p, &o).unwrap()
 }

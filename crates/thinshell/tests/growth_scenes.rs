@@ -6,11 +6,10 @@ use std::path::PathBuf;
 use nalgebra::Vector3;
 use thinshell::scene::Scene;
 use thinshell::sim::{Observer, Simulation, StepRecord};
+use thinshell_testkit::fixtures::data_path;
 
 fn scene(name: &str, overrides: &[&str]) -> Scene {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../data/scenes")
-        .join(name);
+    let p = data_path(&format!("scenes/{name}"));
     let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
     Scene::load_with_overrides(&p, &o).unwrap()
 }

@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use thinshell::scene::{Scene, SceneError};
+use thinshell_testkit::fixtures::temp_dir;
 
 const OK: &str = r#"
 effects = ["stretching", "bending", "inertia"]
@@ -268,7 +269,5 @@ fn overrides_apply_and_are_validated() {
 }
 
 fn tempdir() -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("thinshell-scene-test-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    temp_dir("scene-test")
 }

@@ -7,6 +7,8 @@
 use std::path::PathBuf;
 use std::process::Command;
 
+use thinshell_testkit::fixtures::temp_dir;
+
 /// A 1 m × 0.1 m strip of paper-like film (h = 1 mm) pinned at both ends, rest metric
 /// `a11` along its length.
 fn scene(a11: f64) -> String {
@@ -39,9 +41,7 @@ kind = "static"
 }
 
 fn dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("thinshell-stability-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    temp_dir("stability")
 }
 
 /// Runs the scene; returns (stderr + stdout, summary.json).

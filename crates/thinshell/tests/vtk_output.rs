@@ -7,6 +7,7 @@ use std::process::Command;
 use nalgebra::Vector3;
 use thinshell::vtk::{Frame, Series, VtkError, vtu_string};
 use thinshell_mesh::generators;
+use thinshell_testkit::fixtures::fresh_temp_dir;
 
 fn numbers(doc: &roxmltree::Document, name: Option<&str>, parent: &str) -> Vec<f64> {
     let node = doc
@@ -25,10 +26,7 @@ fn numbers(doc: &roxmltree::Document, name: Option<&str>, parent: &str) -> Vec<f
 }
 
 fn temp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("thinshell-vtk-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    fresh_temp_dir(&format!("vtk-{name}"))
 }
 
 #[test]
