@@ -14,36 +14,16 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use thinshell_energy::{
-    Assembler, EvalOutput, HessianMode, Material, RestState, SffKind, ShellModel, Terms,
-};
-use thinshell_mesh::generators;
-use thinshell_solver::{Boundary, ImplicitEuler, Integrator, Loads, ShellSystem, State};
-
-fn setup(level: usize, sff: SffKind) -> (ShellSystem, State) {
-    let mesh = generators::icosphere(1.0, level).unwrap();
-    let x = mesh.positions().to_vec();
-    let mut rest = RestState::from_mesh(&mesh, &x, sff).unwrap();
-    rest.a_bar.iter_mut().for_each(|a| *a *= 0.9);
-    let model = ShellModel {
-        material: Material::paper(),
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
-        sff,
-    };
-    let sys = ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default()).unwrap();
-    (sys, State::at_rest(x))
-}
+use thinshell_energy::{Assembler, EvalOutput, HessianMode, SffKind};
+use thinshell_solver::{ImplicitEuler, Integrator};
+use thinshell_testkit::fixtures::shrinking_sphere;
 
 fn bench(c: &mut Criterion) {
     let mut asm_group = c.benchmark_group("assembly");
     asm_group.sample_size(10);
     for level in [3usize, 5] {
         for sff in SffKind::ALL {
-            let (sys, state) = setup(level, sff);
+            let (sys, state) = shrinking_sphere(level, sff);
             let faces = sys.mesh.n_faces();
             let mut asm = Assembler::for_model(&sys.mesh, sys.dofs(), &sys.model).unwrap();
             let mut g = vec![0.0; sys.dofs().n_coordinates()];
@@ -90,7 +70,7 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     for level in [3usize, 5] {
         for sff in SffKind::ALL {
-            let (mut sys, state0) = setup(level, sff);
+            let (mut sys, state0) = shrinking_sphere(level, sff);
             let faces = sys.mesh.n_faces();
             let mut ie = ImplicitEuler::new(1e-3);
             let mut s = state0.clone();

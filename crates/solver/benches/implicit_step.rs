@@ -12,33 +12,15 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
-use thinshell_mesh::generators;
-use thinshell_solver::{Boundary, ImplicitEuler, Integrator, Loads, ShellSystem, State};
-
-fn setup(level: usize) -> (ShellSystem, State) {
-    let mesh = generators::icosphere(1.0, level).unwrap();
-    let x = mesh.positions().to_vec();
-    let mut rest = RestState::from_mesh(&mesh, &x, SffKind::MidEdgeAverage).unwrap();
-    rest.a_bar.iter_mut().for_each(|a| *a *= 0.9);
-    let model = ShellModel {
-        material: Material::paper(),
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
-        sff: SffKind::MidEdgeAverage,
-    };
-    let sys = ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default()).unwrap();
-    (sys, State::at_rest(x))
-}
+use thinshell_energy::SffKind;
+use thinshell_solver::{ImplicitEuler, Integrator};
+use thinshell_testkit::fixtures::shrinking_sphere;
 
 fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("implicit_step_shrinking_sphere");
     group.sample_size(10);
     for level in [3usize, 5, 6] {
-        let (mut sys, state0) = setup(level);
+        let (mut sys, state0) = shrinking_sphere(level, SffKind::MidEdgeAverage);
         let faces = sys.mesh.n_faces();
         let mut ie = ImplicitEuler::new(1e-3);
         // One reported step (also builds the workspace).

@@ -4,26 +4,17 @@
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::Vector3;
-use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
+use thinshell_energy::{RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::{Mesh, VertexId, generators};
 use thinshell_solver::{Boundary, Loads, ShellSystem, Static};
+use thinshell_testkit::fixtures::BEAM_MATERIAL;
 
 const LENGTH: f64 = 1.0;
 const WIDTH: f64 = 0.125;
-const THICKNESS: f64 = 0.01;
-const YOUNG: f64 = 1e7;
+const THICKNESS: f64 = BEAM_MATERIAL.thickness;
+const YOUNG: f64 = BEAM_MATERIAL.young;
 /// Total end load (N): w_tip / L ≈ 3·10⁻⁵, well inside the linear regime.
 const LOAD: f64 = 1e-5;
-
-fn material() -> Material {
-    Material {
-        thickness: THICKNESS,
-        young: YOUNG,
-        poisson: 0.0,
-        density: 1000.0,
-        viscosity: 0.0,
-    }
-}
 
 /// Euler–Bernoulli tip deflection (m) of the strip under `LOAD`.
 fn beam_tip_deflection() -> f64 {
@@ -50,7 +41,7 @@ fn tip_deflection(sff: SffKind, nx: usize, ny: usize) -> f64 {
     let mesh = generators::rectangle(LENGTH, WIDTH, nx, ny).unwrap();
     let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
     let model = ShellModel {
-        material: material(),
+        material: BEAM_MATERIAL,
         terms: Terms {
             stretch: true,
             bend: true,

@@ -3,9 +3,9 @@
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::{Matrix2, Vector2, Vector3};
-use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
-use thinshell_mesh::generators;
+use thinshell_energy::{SffKind, ShellModel, Terms};
 use thinshell_solver::{Boundary, ImplicitEuler, Integrator, Loads, ShellSystem, State};
+use thinshell_testkit::fixtures::{damped_paper, planar_start, seed_square};
 
 /// RMS deviation of the pairwise squared distances from those of the analytic equilibrium
 /// (x_i − x_j)ᵀ ā^{xy} (x_i − x_j), relative: zero iff x is a rigid motion of the equilibrium.
@@ -24,15 +24,11 @@ fn metric_rms(p: &[Vector3<f64>], x: &[Vector3<f64>], a: Matrix2<f64>) -> f64 {
 }
 
 fn decay(a_xy: Matrix2<f64>, start: Matrix2<f64>) -> (f64, f64, f64) {
-    let mesh = generators::seed_square().unwrap();
+    let (mesh, rest) = seed_square(a_xy, Matrix2::zeros());
     let p = mesh.positions().to_vec();
-    let rest = RestState::from_planar(&mesh, a_xy, Matrix2::zeros()).unwrap();
     // Relaxation time η/E = 2e-4 s: a few membrane oscillation periods (~1 ms) are damped
     // within the run.
-    let material = Material {
-        viscosity: 2e9 * 2e-4,
-        ..Material::paper()
-    };
+    let material = damped_paper(2e-4);
     let model = ShellModel {
         material,
         terms: Terms {
@@ -42,13 +38,7 @@ fn decay(a_xy: Matrix2<f64>, start: Matrix2<f64>) -> (f64, f64, f64) {
         },
         sff: SffKind::MidEdgeAverage,
     };
-    let x0: Vec<Vector3<f64>> = p
-        .iter()
-        .map(|q| {
-            let r = start * Vector2::new(q.x, q.y);
-            Vector3::new(r.x, r.y, 0.0)
-        })
-        .collect();
+    let x0 = planar_start(&mesh, start);
     let mut sys =
         ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default()).unwrap();
     let mut state = State::at_rest(x0);

@@ -10,7 +10,7 @@
 //! `cargo xtask hard-cases`.
 #![allow(clippy::unwrap_used)]
 
-use nalgebra::{Matrix2, Vector2, Vector3};
+use nalgebra::{Matrix2, Vector3};
 use thinshell_energy::{HessianMode, Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_growth::{DirectedHeat, FaceStimulus, Growth, Isotropic, Prescribed, Region};
 use thinshell_mesh::{Mesh, generators};
@@ -18,6 +18,8 @@ use thinshell_solver::{
     Boundary, HessianPolicy, ImplicitEuler, Integrator, Loads, NewtonReport, NewtonSettings,
     ShellSystem, SolverError, State, Static, StepReport,
 };
+use thinshell_testkit::fixtures::{self, SwellingStrip, damped_paper, planar_start};
+use thinshell_testkit::rng::Lcg64;
 
 const SFF: SffKind = SffKind::MidEdgeAverage;
 
@@ -34,12 +36,7 @@ fn model(material: Material, damping: bool) -> ShellModel {
 }
 
 /// Paper with a relaxation time η/E of 1 ms: visibly damped at the time steps used here.
-fn damped_paper() -> Material {
-    Material {
-        viscosity: 2e9 * 1e-3,
-        ..Material::paper()
-    }
-}
+const RELAXATION: f64 = 1e-3;
 
 /// Asserts the line search's contract (the potential never increases within a solve, up to
 /// round-off, except after a watchdog step, which is recovered within the watchdog's window) and that every recorded number is finite.
@@ -168,16 +165,6 @@ fn drive(
         }
     }
     out
-}
-
-fn planar_start(mesh: &Mesh, map: Matrix2<f64>) -> Vec<Vector3<f64>> {
-    mesh.positions()
-        .iter()
-        .map(|p| {
-            let q = map * Vector2::new(p.x, p.y);
-            Vector3::new(q.x, q.y, 0.0)
-        })
-        .collect()
 }
 
 /// The seed's map onto a cylinder of radius r about an axis ∥ y (model.md §5).
@@ -446,7 +433,7 @@ fn grown_sphere(k: f64) -> (ShellSystem, State) {
     rest.a_bar.iter_mut().for_each(|a| *a *= k);
     let sys = ShellSystem::new(
         mesh,
-        model(damped_paper(), true),
+        model(damped_paper(RELAXATION), true),
         rest,
         Boundary::default(),
         Loads::default(),
@@ -490,7 +477,7 @@ fn discontinuous_sheet() -> (ShellSystem, State) {
     }
     let sys = ShellSystem::new(
         mesh,
-        model(damped_paper(), true),
+        model(damped_paper(RELAXATION), true),
         rest,
         Boundary::default(),
         Loads::default(),
@@ -538,7 +525,7 @@ fn flat_sheet(n: usize, damping: bool) -> (ShellSystem, Vec<Vector3<f64>>) {
     let x0 = mesh.positions().to_vec();
     let rest = RestState::from_mesh(&mesh, &x0, SFF).unwrap();
     let m = if damping {
-        damped_paper()
+        damped_paper(RELAXATION)
     } else {
         Material::paper()
     };
@@ -756,7 +743,7 @@ fn sliver_triangles_and_graded_mesh() {
         let a = Matrix2::new(2.0, 1.0, 1.0, 2.0);
         let rest = RestState::from_planar(&mesh, a, Matrix2::zeros()).unwrap();
         let x0 = mesh.positions().to_vec();
-        let m = model(damped_paper(), true);
+        let m = model(damped_paper(RELAXATION), true);
         let sys = ShellSystem::new(mesh, m, rest, Boundary::default(), Loads::default());
         (sys.unwrap(), State::at_rest(x0))
     };
@@ -770,15 +757,12 @@ fn sliver_triangles_and_graded_mesh() {
 fn crumpled() -> (ShellSystem, Vec<Vector3<f64>>) {
     let mesh = generators::seed_square().unwrap();
     let rest = RestState::from_mesh(&mesh, mesh.positions(), SFF).unwrap();
-    let mut rng = 0x9e37_79b9_7f4a_7c15u64;
+    let mut rng = Lcg64::new(0x9e37_79b9_7f4a_7c15);
     let x0: Vec<Vector3<f64>> = mesh
         .positions()
         .iter()
         .map(|p| {
-            rng = rng
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            let z = 0.05 * ((rng >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
+            let z = 0.05 * (rng.unit() - 0.5);
             Vector3::new(0.8 * p.x, 0.8 * p.y, z)
         })
         .collect();
@@ -918,20 +902,11 @@ fn implicit_fallbacks_in_order() {
 fn extreme_sheet(material: Material, damping: bool) -> (ShellSystem, Vec<Vector3<f64>>) {
     let mesh = generators::rectangle(1.0, 1.0, 6, 6).unwrap();
     let rest = RestState::from_planar(&mesh, Matrix2::identity() * 1.21, Matrix2::zeros()).unwrap();
-    let mut rng = 0x1234_5678_9abc_def1u64;
+    let mut rng = Lcg64::new(0x1234_5678_9abc_def1);
     let x0 = mesh
         .positions()
         .iter()
-        .map(|p| {
-            rng = rng
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            p + Vector3::new(
-                0.0,
-                0.0,
-                1e-3 * ((rng >> 11) as f64 / (1u64 << 53) as f64 - 0.5),
-            )
-        })
+        .map(|p| p + Vector3::new(0.0, 0.0, 1e-3 * (rng.unit() - 0.5)))
         .collect();
     let sys = ShellSystem::new(
         mesh,
@@ -1040,7 +1015,13 @@ fn flag() -> (ShellSystem, State) {
         gravity: Vector3::new(0.0, 0.0, -9.81),
         ..Default::default()
     };
-    let sys = ShellSystem::new(mesh, model(damped_paper(), true), rest, boundary, loads);
+    let sys = ShellSystem::new(
+        mesh,
+        model(damped_paper(RELAXATION), true),
+        rest,
+        boundary,
+        loads,
+    );
     (sys.unwrap(), State::at_rest(x0))
 }
 
@@ -1118,33 +1099,14 @@ fn solver_error_debug_is_short() {
 /// quasi-static steps. Returns (steps converged, Newton iterations per step, the failure).
 fn swelling_strip(tune: &dyn Fn(&mut Static)) -> (usize, Vec<usize>, Option<SolverError>) {
     use thinshell_growth::Swelling;
-    let mesh = generators::rectangle(0.1, 0.002, 50, 16).unwrap();
-    let x0 = mesh.positions().to_vec();
-    let initial = RestState::from_mesh(&mesh, &x0, SFF).unwrap();
-    let material = Material {
-        thickness: 1e-3,
-        ..Material::paper()
-    };
-    let ramp = Prescribed::function(
-        &mesh,
-        &x0,
-        Box::new(|t, _| FaceStimulus {
-            top: (t / 4.0).min(1.0),
-            bottom: 0.0,
-        }),
-    )
-    .unwrap();
-    let swelling = Box::new(Swelling::linear(0.01));
-    let mut growth = Growth::new(swelling, Box::new(ramp), initial.clone(), 1e-3).unwrap();
-    let m = model(material, false);
-    let mut sys =
-        ShellSystem::new(mesh, m, initial, Boundary::default(), Loads::default()).unwrap();
-    let mut st = Static::default();
-    // As in coupled.rs: the bending moment resultant D·κ₀·w ≈ 4e-3 N sets the force scale.
-    st.force_scale = Some(4e-3);
-    st.newton.gradient_tolerance = 1e-6;
+    // The strip of coupled.rs, with its force scale (the bending moment resultant D·κ₀·w).
+    let SwellingStrip {
+        system: mut sys,
+        mut growth,
+        solver: mut st,
+        mut state,
+    } = fixtures::swelling_strip(Swelling::linear(0.01), 16);
     tune(&mut st);
-    let mut state = State::at_rest(x0);
     let mut iterations = Vec::new();
     for step in 0..5 {
         growth.update_rest(&mut sys.rest).unwrap();

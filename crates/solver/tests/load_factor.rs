@@ -4,22 +4,17 @@
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::Vector3;
-use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
+use thinshell_energy::{RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::{VertexId, generators};
 use thinshell_solver::{Boundary, Loads, ShellSystem, SolverError, Static};
+use thinshell_testkit::fixtures::BEAM_MATERIAL;
 
 fn system(loads: Loads, boundary: Boundary) -> ShellSystem {
     let mesh = generators::rectangle(1.0, 0.25, 8, 2).unwrap();
     let sff = SffKind::MidEdgeAverage;
     let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
     let model = ShellModel {
-        material: Material {
-            thickness: 0.01,
-            young: 1e7,
-            poisson: 0.0,
-            density: 1000.0,
-            viscosity: 0.0,
-        },
+        material: BEAM_MATERIAL,
         terms: Terms {
             stretch: true,
             bend: true,

@@ -4,6 +4,7 @@
 use faer::sparse::{SymbolicSparseColMat, SymbolicSparseColMatRef};
 use proptest::prelude::*;
 use thinshell_solver::ordering::{inverse_permutation, nested_dissection};
+use thinshell_testkit::strategies::cases_or;
 
 /// Lower pattern (with diagonal) from an undirected edge list.
 fn pattern(n: usize, edges: &[(usize, usize)]) -> SymbolicSparseColMat<usize> {
@@ -122,12 +123,4 @@ proptest! {
             prop_assert_eq!(inv[old], new);
         }
     }
-}
-
-/// `PROPTEST_CASES` when set (to hunt bugs locally), else the modest default for CI.
-fn cases_or(default: u32) -> u32 {
-    std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
 }

@@ -9,6 +9,7 @@ use thinshell_solver::{
     Boundary, ExplicitEuler, ImplicitEuler, Integrator, Loads, ShellSystem, SolverError, State,
     Static,
 };
+use thinshell_testkit::fixtures::{planar_start, seed_square};
 
 fn model(damping: bool) -> ShellModel {
     ShellModel {
@@ -40,16 +41,8 @@ fn metric_error(mesh: &Mesh, x: &[Vector3<f64>], a: Matrix2<f64>) -> f64 {
 }
 
 fn static_flat_case(a_xy: Matrix2<f64>, start_map: Matrix2<f64>) -> f64 {
-    let mesh = generators::seed_square().unwrap();
-    let rest = RestState::from_planar(&mesh, a_xy, Matrix2::zeros()).unwrap();
-    let x0: Vec<Vector3<f64>> = mesh
-        .positions()
-        .iter()
-        .map(|p| {
-            let q = start_map * nalgebra::Vector2::new(p.x, p.y);
-            Vector3::new(q.x, q.y, 0.0)
-        })
-        .collect();
+    let (mesh, rest) = seed_square(a_xy, Matrix2::zeros());
+    let x0 = planar_start(&mesh, start_map);
     let mut sys = ShellSystem::new(
         mesh,
         model(false),

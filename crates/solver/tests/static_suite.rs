@@ -16,6 +16,7 @@ use thinshell_solver::{
     Boundary, Convergence, Integrator, IterationHessian, Loads, NewtonReport, ShellSystem, State,
     Static, StepReport,
 };
+use thinshell_testkit::fixtures::paper;
 
 /// Newton iterations any case may take with the default settings.
 const MAX_ITERATIONS: usize = 30;
@@ -32,14 +33,6 @@ fn model(sff: SffKind, material: Material) -> ShellModel {
             damping: false,
         },
         sff,
-    }
-}
-
-/// Paper (E = 2 GPa, ν = 0.3) of thickness `h` (m).
-fn paper(h: f64) -> Material {
-    Material {
-        thickness: h,
-        ..Material::paper()
     }
 }
 

@@ -3,6 +3,7 @@
 
 use faer::sparse::{SparseColMat, Triplet};
 use thinshell_solver::{Objective, SolverError};
+use thinshell_testkit::rng::Lcg64;
 
 /// Springs between nodes (stiffness k in N/m, rest length in m), lumped masses under gravity,
 /// pinned nodes removed from the unknowns. E = Σ ½k(ℓ − L)² − Σ m g·p.
@@ -259,26 +260,13 @@ pub fn chain_equilibrium_z(n: usize, m: f64, k: f64, rest: f64, g: f64) -> Vec<f
     z
 }
 
-/// Deterministic pseudo-random numbers in [−1, 1) (64-bit LCG).
-pub struct Lcg(pub u64);
-
-impl Lcg {
-    pub fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
-}
-
 /// A chain start crumpled into a ball of radius `r` below the pin: every spring is compressed,
 /// so the Hessian is indefinite.
 pub fn crumpled_start(n: usize, r: f64, seed: u64) -> Vec<[f64; 3]> {
-    let mut rng = Lcg(seed);
+    let mut rng = Lcg64::new(seed);
     let mut p = vec![[0.0; 3]];
     for _ in 0..n {
-        p.push([r * rng.next(), r * rng.next(), -r + r * rng.next()]);
+        p.push([r * rng.signed(), r * rng.signed(), -r + r * rng.signed()]);
     }
     p
 }
