@@ -67,7 +67,6 @@ pub mod density;
 pub mod director;
 pub mod dofs;
 pub mod error;
-pub mod fd;
 pub mod forms;
 pub mod kernel;
 pub mod mass;

@@ -2,7 +2,6 @@
 //! thread-count determinism and error reporting.
 #![allow(clippy::unwrap_used)]
 
-use faer::sparse::SparseColMat;
 use nalgebra::{DMatrix, Rotation3, SMatrix, SymmetricEigen, Vector3};
 use proptest::prelude::*;
 use std::collections::BTreeSet;
@@ -11,33 +10,10 @@ use thinshell_energy::{
     RestState, SffKind, ShellModel, Terms,
 };
 use thinshell_mesh::{FaceId, Mesh, VertexId, generators};
-
-/// Small deterministic generator (SplitMix64) for perturbations.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-    fn vec(&mut self, s: f64) -> Vector3<f64> {
-        Vector3::new(self.next(), self.next(), self.next()) * s
-    }
-}
-
-/// A soft material so that stretching and bending have comparable magnitudes on unit meshes.
-fn material() -> Material {
-    Material {
-        thickness: 0.05,
-        young: 1.0e3,
-        poisson: 0.3,
-        density: 1.0,
-        viscosity: 20.0,
-    }
-}
+use thinshell_testkit::fd::dense_symmetric as dense;
+use thinshell_testkit::fixtures::soft_material as material;
+use thinshell_testkit::rng::SplitMix64;
+use thinshell_testkit::strategies::cases_or;
 
 fn model(terms: Terms) -> ShellModel {
     ShellModel {
@@ -76,9 +52,13 @@ fn case(seed: u64, n: usize) -> Case {
         .collect();
     let mesh = flat.with_positions(bump).unwrap();
     let rest = RestState::from_mesh(&mesh, mesh.positions(), SffKind::MidEdgeAverage).unwrap();
-    let mut rng = Rng(seed ^ 0x5EED);
-    let x_prev: Vec<_> = mesh.positions().iter().map(|p| p + rng.vec(0.02)).collect();
-    let x: Vec<_> = x_prev.iter().map(|p| p + rng.vec(0.02)).collect();
+    let mut rng = SplitMix64::new(seed ^ 0x5EED);
+    let x_prev: Vec<_> = mesh
+        .positions()
+        .iter()
+        .map(|p| p + rng.vector3(0.02))
+        .collect();
+    let x: Vec<_> = x_prev.iter().map(|p| p + rng.vector3(0.02)).collect();
     let damping =
         DampingState::from_positions(&mesh, &x_prev, SffKind::MidEdgeAverage, 0.05).unwrap();
     Case {
@@ -96,24 +76,6 @@ fn unflat(q: &[f64]) -> Vec<Vector3<f64>> {
     q.chunks(3)
         .map(|c| Vector3::new(c[0], c[1], c[2]))
         .collect()
-}
-
-/// Dense symmetric matrix from a lower-triangular faer matrix.
-fn dense(h: &SparseColMat<usize, f64>) -> DMatrix<f64> {
-    let n = h.nrows();
-    let mut d = DMatrix::zeros(n, n);
-    let s = h.symbolic();
-    for c in 0..n {
-        for k in s.col_ptr()[c]..s.col_ptr()[c + 1] {
-            let r = s.row_idx()[k];
-            assert!(r >= c, "entry above the diagonal");
-            d[(r, c)] += h.val()[k];
-            if r != c {
-                d[(c, r)] += h.val()[k];
-            }
-        }
-    }
-    d
 }
 
 fn energy(asm: &mut Assembler, m: &ShellModel, c: &Case, x: &[Vector3<f64>]) -> f64 {
@@ -172,7 +134,7 @@ proptest! {
         let g = gradient(&mut asm, &m, &c, &c.x);
         let q = flat(&c.x);
         let cell = std::cell::RefCell::new(asm);
-        let fd = thinshell_energy::fd::fd_gradient(|y| energy(&mut cell.borrow_mut(), &m, &c, &unflat(y)), &q, 1e-7);
+        let fd = thinshell_testkit::fd::fd_gradient(|y| energy(&mut cell.borrow_mut(), &m, &c, &unflat(y)), &q, 1e-7);
         let scale = max_abs(g.iter().copied());
         prop_assert!(scale > 0.0);
         let err = max_abs(g.iter().zip(&fd).map(|(a, b)| a - b));
@@ -349,12 +311,12 @@ fn flat_sheet_has_no_bending_energy() {
         nalgebra::Matrix2::zeros(),
     )
     .unwrap();
-    let mut rng = Rng(5);
+    let mut rng = SplitMix64::new(5);
     let x: Vec<_> = mesh
         .positions()
         .iter()
         .map(|p| {
-            let d = rng.vec(0.003);
+            let d = rng.vector3(0.003);
             Vector3::new(1.2 * p.x + d.x, 0.9 * p.y + d.y, 0.0)
         })
         .collect();
@@ -372,9 +334,16 @@ fn flat_sheet_has_no_bending_energy() {
 fn bit_identical_for_any_thread_count() {
     let mesh = generators::icosphere(1.0, 3).unwrap();
     let rest = RestState::from_mesh(&mesh, mesh.positions(), SffKind::MidEdgeAverage).unwrap();
-    let mut rng = Rng(99);
-    let x_prev: Vec<_> = mesh.positions().iter().map(|p| p + rng.vec(0.01)).collect();
-    let x: Vec<_> = x_prev.iter().map(|p| p * 0.97 + rng.vec(0.01)).collect();
+    let mut rng = SplitMix64::new(99);
+    let x_prev: Vec<_> = mesh
+        .positions()
+        .iter()
+        .map(|p| p + rng.vector3(0.01))
+        .collect();
+    let x: Vec<_> = x_prev
+        .iter()
+        .map(|p| p * 0.97 + rng.vector3(0.01))
+        .collect();
     let damping =
         DampingState::from_positions(&mesh, &x_prev, SffKind::MidEdgeAverage, 1e-3).unwrap();
     let dofs = DofMap::with_pinned_vertices(mesh.n_vertices(), [VertexId(0), VertexId(5)]).unwrap();
@@ -534,10 +503,10 @@ fn add_face_block_scatters_symmetric_part() {
     let dofs = pins(&c.mesh);
     let asm = Assembler::new(&c.mesh, &dofs, ELASTIC).unwrap();
     let mut h = asm.hessian_template();
-    let mut rng = Rng(1);
+    let mut rng = SplitMix64::new(1);
     let mut expected = DMatrix::zeros(dofs.n_free(), dofs.n_free());
     for f in [0, 3, c.mesh.n_faces() - 1] {
-        let b = SMatrix::<f64, 9, 9>::from_fn(|_, _| rng.next());
+        let b = SMatrix::<f64, 9, 9>::from_fn(|_, _| rng.signed());
         asm.add_face_block(FaceId::new(f), &b, &mut h).unwrap();
         let face = c.mesh.faces()[f];
         let sym = (b + b.transpose()) * 0.5;
@@ -565,9 +534,9 @@ fn add_face_blocks_equals_one_call_per_face() {
     let c = case(8, 6);
     let dofs = pins(&c.mesh);
     let asm = Assembler::new(&c.mesh, &dofs, ELASTIC).unwrap();
-    let mut rng = Rng(2);
+    let mut rng = SplitMix64::new(2);
     let blocks: Vec<SMatrix<f64, 9, 9>> = (0..c.mesh.n_faces())
-        .map(|_| SMatrix::from_fn(|_, _| rng.next()))
+        .map(|_| SMatrix::from_fn(|_, _| rng.signed()))
         .collect();
     let mut one_by_one = asm.hessian_template();
     for (f, b) in blocks.iter().enumerate() {
@@ -690,12 +659,4 @@ fn gather_alone_reproduces_hessian() {
     asm.gather_hessian(&mut h2).unwrap();
     assert_eq!(h.val(), h2.val());
     assert!(h.val().iter().any(|&v| v != 0.0));
-}
-
-/// `PROPTEST_CASES` when set (to hunt bugs locally), else the modest default for CI.
-fn cases_or(default: u32) -> u32 {
-    std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
 }

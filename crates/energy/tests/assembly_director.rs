@@ -5,39 +5,15 @@
 #![allow(clippy::unwrap_used)]
 
 use faer::sparse::SparseColMat;
-use nalgebra::{DMatrix, SymmetricEigen, Vector3};
+use nalgebra::{SymmetricEigen, Vector3};
 use thinshell_energy::{
     Assembler, DampingState, DirectorVariant, DofMap, EnergyError, EvalOutput, HessianMode,
-    Material, RestState, SffKind, ShellModel, Terms,
+    RestState, SffKind, ShellModel, Terms,
 };
 use thinshell_mesh::{EdgeId, Mesh, VertexId, generators};
-
-/// SplitMix64 for reproducible perturbations.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-    fn vec(&mut self, s: f64) -> Vector3<f64> {
-        Vector3::new(self.next(), self.next(), self.next()) * s
-    }
-}
-
-/// Soft, thick material: stretching and bending of similar size on a unit sheet.
-fn material() -> Material {
-    Material {
-        thickness: 0.05,
-        young: 1.0e3,
-        poisson: 0.3,
-        density: 1.0,
-        viscosity: 20.0,
-    }
-}
+use thinshell_testkit::fd::dense_symmetric as dense;
+use thinshell_testkit::fixtures::soft_material as material;
+use thinshell_testkit::rng::SplitMix64;
 
 const ALL: Terms = Terms {
     stretch: true,
@@ -73,11 +49,19 @@ fn case(seed: u64, sff: SffKind) -> Case {
         .collect();
     let mesh = flat.with_positions(bump).unwrap();
     let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
-    let mut rng = Rng(seed ^ 0xD1EC);
-    let x: Vec<_> = mesh.positions().iter().map(|p| p + rng.vec(0.05)).collect();
-    let x_prev: Vec<_> = mesh.positions().iter().map(|p| p + rng.vec(0.02)).collect();
-    let phi = (0..mesh.n_edges()).map(|_| 0.2 * rng.next()).collect();
-    let phi_prev = (0..mesh.n_edges()).map(|_| 0.1 * rng.next()).collect();
+    let mut rng = SplitMix64::new(seed ^ 0xD1EC);
+    let x: Vec<_> = mesh
+        .positions()
+        .iter()
+        .map(|p| p + rng.vector3(0.05))
+        .collect();
+    let x_prev: Vec<_> = mesh
+        .positions()
+        .iter()
+        .map(|p| p + rng.vector3(0.02))
+        .collect();
+    let phi = (0..mesh.n_edges()).map(|_| 0.2 * rng.signed()).collect();
+    let phi_prev = (0..mesh.n_edges()).map(|_| 0.1 * rng.signed()).collect();
     Case {
         mesh,
         rest,
@@ -86,20 +70,6 @@ fn case(seed: u64, sff: SffKind) -> Case {
         x_prev,
         phi_prev,
     }
-}
-
-/// Dense symmetric matrix from the lower triangle.
-fn dense(h: &SparseColMat<usize, f64>) -> DMatrix<f64> {
-    let n = h.nrows();
-    let mut d = DMatrix::zeros(n, n);
-    for j in 0..n {
-        for p in h.symbolic().col_range(j) {
-            let i = h.symbolic().row_idx()[p];
-            d[(i, j)] = h.val()[p];
-            d[(j, i)] = h.val()[p];
-        }
-    }
-    d
 }
 
 /// Full coordinates (positions then angles) → (positions, angles).

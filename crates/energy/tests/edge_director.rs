@@ -7,60 +7,17 @@
 
 use nalgebra::{Matrix2, Rotation3, SMatrix, Unit, Vector3};
 use proptest::prelude::*;
-use thinshell_energy::fd::{fd_gradient, fd_jacobian};
 use thinshell_energy::sff::{DIRECTOR_DOFS, SecondFundamentalForm};
 use thinshell_energy::*;
 use thinshell_mesh::{FaceId, Mesh, generators};
+use thinshell_testkit::fd::{fd_gradient, fd_jacobian, rel_err_scaled};
+use thinshell_testkit::fixtures::unit_material;
+use thinshell_testkit::rng::SplitMix64;
+use thinshell_testkit::strategies::{cases_or, rest_strategy, stencil_strategy};
 
 const FD_H: f64 = 1e-6;
 const TOL: f64 = 1e-6;
 const N: usize = DIRECTOR_DOFS;
-
-/// Small deterministic generator (SplitMix64) for perturbations.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-    fn vec(&mut self, s: f64) -> Vector3<f64> {
-        Vector3::new(self.next(), self.next(), self.next()) * s
-    }
-}
-
-/// Well-shaped triangle plus flap vertices beyond each edge with out-of-plane heights
-/// (dihedral angles up to about ±1.1 rad), any boundary mask.
-fn stencil_strategy() -> impl Strategy<Value = FaceStencil> {
-    (
-        prop::array::uniform6(-0.2f64..0.2),
-        prop::array::uniform3(-0.6f64..0.6),
-        prop::array::uniform3(0.3f64..0.8),
-        prop::array::uniform3(any::<bool>()),
-    )
-        .prop_map(|(jit, heights, out, flap)| {
-            let base = [
-                Vector3::new(0.0, 0.0, 0.1),
-                Vector3::new(1.0, 0.0, -0.1),
-                Vector3::new(0.5, 0.9, 0.05),
-            ];
-            let mut x = [Vector3::zeros(); 6];
-            for i in 0..3 {
-                x[i] = base[i] + Vector3::new(jit[2 * i], jit[2 * i + 1], 0.0);
-            }
-            let n = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
-            for e in 0..3 {
-                let (p, q) = (x[(e + 1) % 3], x[(e + 2) % 3]);
-                let mid = (p + q) * 0.5;
-                let away = (mid - x[e]).normalize();
-                x[3 + e] = mid + away * out[e] + n * heights[e];
-            }
-            FaceStencil { x, flap }
-        })
-}
 
 /// Angles with |φ| < 0.55, so that |α| ≤ |θ|/2 + |φ| < 1.2 (tan stays well away from its pole).
 fn angles_strategy() -> impl Strategy<Value = EdgeAngles> {
@@ -77,20 +34,6 @@ fn angles_strategy() -> impl Strategy<Value = EdgeAngles> {
 fn variant_strategy() -> impl Strategy<Value = EdgeDirector> {
     prop_oneof![Just(DirectorVariant::Sin), Just(DirectorVariant::Tan)]
         .prop_map(|variant| EdgeDirector { variant })
-}
-
-fn rest_strategy() -> impl Strategy<Value = FaceRest> {
-    (
-        prop::array::uniform3(-0.3f64..0.3),
-        prop::array::uniform3(-1.0f64..1.0),
-    )
-        .prop_map(|(p, q)| {
-            let l = Matrix2::new(1.0 + p[0], 0.0, p[1], 0.8 + p[2]);
-            FaceRest {
-                a_bar: l * l.transpose(),
-                b_bar: Matrix2::new(q[0], q[1], q[1], q[2]),
-            }
-        })
 }
 
 /// The 21 dofs: positions in stencil order, then φ.
@@ -115,27 +58,12 @@ fn entries(b: &Matrix2<f64>) -> Vec<f64> {
     vec![b[(0, 0)], b[(0, 1)], b[(1, 1)]]
 }
 
-/// max |a − b| / max(max |b|, floor).
-fn rel_err_scaled(a: &[f64], b: &[f64], floor: f64) -> f64 {
-    let scale = b.iter().fold(floor.max(1e-300), |m, v| m.max(v.abs()));
-    a.iter()
-        .zip(b)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
-        / scale
-}
-
 fn mat_entries(h: &SMatrix<f64, N, N>) -> Vec<f64> {
     h.transpose().iter().copied().collect()
 }
 
 fn material() -> Material {
-    Material {
-        thickness: 0.3,
-        young: 1.0,
-        poisson: 0.3,
-        density: 1.0,
-        viscosity: 0.0,
-    }
+    unit_material(0.0)
 }
 
 fn bend(
@@ -259,8 +187,12 @@ proptest! {
 #[test]
 fn sin_at_zero_angles_is_mid_edge_average_on_icosphere() {
     let mesh = generators::icosphere(1.0, 3).unwrap();
-    let mut rng = Rng(7);
-    let x: Vec<_> = mesh.positions().iter().map(|p| p + rng.vec(0.02)).collect();
+    let mut rng = SplitMix64::new(7);
+    let x: Vec<_> = mesh
+        .positions()
+        .iter()
+        .map(|p| p + rng.vector3(0.02))
+        .collect();
     let stencils = Stencils::new(&mesh);
     let signs = edge_signs(&mesh);
     let form = EdgeDirector {
@@ -304,21 +236,21 @@ fn mid_edge_formula(x: &[Vector3<f64>; 3], n: &[Vector3<f64>; 3]) -> Matrix2<f64
 fn sin_variant_is_mid_edge_formula_with_rotated_directors() {
     let sphere = generators::icosphere(1.0, 2).unwrap();
     let disc = generators::disc(1.0, 4).unwrap();
-    let mut rng = Rng(11);
+    let mut rng = SplitMix64::new(11);
     let xs: Vec<_> = sphere
         .positions()
         .iter()
-        .map(|p| p + rng.vec(0.02))
+        .map(|p| p + rng.vector3(0.02))
         .collect();
     let xd: Vec<_> = disc
         .positions()
         .iter()
-        .map(|p| Vector3::new(p.x, p.y, 0.3 * p.x * p.x - 0.2 * p.y * p.y) + rng.vec(0.01))
+        .map(|p| Vector3::new(p.x, p.y, 0.3 * p.x * p.x - 0.2 * p.y * p.y) + rng.vector3(0.01))
         .collect();
     for (mesh, x) in [(&sphere, xs), (&disc, xd)] {
         let topo = mesh.topology();
         let signs = edge_signs(mesh);
-        let phi: Vec<f64> = (0..mesh.n_edges()).map(|_| 0.5 * rng.next()).collect();
+        let phi: Vec<f64> = (0..mesh.n_edges()).map(|_| 0.5 * rng.signed()).collect();
         let normal = |f: FaceId| {
             let v = mesh.faces()[f.idx()];
             let (p, q, r) = (x[v[0].idx()], x[v[1].idx()], x[v[2].idx()]);
@@ -369,14 +301,6 @@ fn sin_variant_is_mid_edge_formula_with_rotated_directors() {
         );
         assert!(worst < 1e-13, "{worst}");
     }
-}
-
-/// `PROPTEST_CASES` when set (to hunt bugs locally), else the modest default for CI.
-fn cases_or(default: u32) -> u32 {
-    std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
 }
 
 /// A flat mesh in [0, w] × [0, 1] mapped onto the unit cylinder (u, v) ↦ (sin u, v, 1 − cos u)
@@ -605,12 +529,12 @@ fn cylinder_mismatch(flat: &Mesh) -> [f64; 4] {
 fn perturbed_rectangle(n: usize, seed: u64) -> Mesh {
     let mesh = generators::rectangle(1.0, 1.0, n, n).unwrap();
     let h = 1.0 / n as f64;
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix64::new(seed);
     let x = mesh
         .positions()
         .iter()
         .map(|p| {
-            let (dx, dy) = (0.2 * h * rng.next(), 0.2 * h * rng.next());
+            let (dx, dy) = (0.2 * h * rng.signed(), 0.2 * h * rng.signed());
             let inside = |c: f64| c > 1e-9 && c < 1.0 - 1e-9;
             if inside(p.x) && inside(p.y) {
                 p + Vector3::new(dx, dy, 0.0)

@@ -5,41 +5,14 @@
 
 use nalgebra::{Matrix2, SMatrix, Vector3};
 use proptest::prelude::*;
-use thinshell_energy::fd::{fd_gradient, fd_jacobian};
 use thinshell_energy::sff::SecondFundamentalForm;
 use thinshell_energy::*;
+use thinshell_testkit::fd::{fd_gradient, fd_jacobian, rel_err_scaled};
+use thinshell_testkit::fixtures::unit_material;
+use thinshell_testkit::strategies::{cases_or, rest_strategy, stencil_strategy};
 
 const FD_H: f64 = 1e-6;
 const TOL: f64 = 1e-6;
-
-/// Well-shaped triangle plus flap vertices beyond each edge with out-of-plane heights.
-fn stencil_strategy() -> impl Strategy<Value = FaceStencil> {
-    (
-        prop::array::uniform6(-0.2f64..0.2),
-        prop::array::uniform3(-0.6f64..0.6),
-        prop::array::uniform3(0.3f64..0.8),
-        prop::array::uniform3(any::<bool>()),
-    )
-        .prop_map(|(jit, heights, out, flap)| {
-            let base = [
-                Vector3::new(0.0, 0.0, 0.1),
-                Vector3::new(1.0, 0.0, -0.1),
-                Vector3::new(0.5, 0.9, 0.05),
-            ];
-            let mut x = [Vector3::zeros(); 6];
-            for i in 0..3 {
-                x[i] = base[i] + Vector3::new(jit[2 * i], jit[2 * i + 1], 0.0);
-            }
-            let n = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
-            for e in 0..3 {
-                let (p, q) = (x[(e + 1) % 3], x[(e + 2) % 3]);
-                let mid = (p + q) * 0.5;
-                let away = (mid - x[e]).normalize();
-                x[3 + e] = mid + away * out[e] + n * heights[e];
-            }
-            FaceStencil { x, flap }
-        })
-}
 
 fn flat(s: &FaceStencil) -> Vec<f64> {
     s.x.iter().flat_map(|v| [v.x, v.y, v.z]).collect()
@@ -53,38 +26,9 @@ fn unflat(s: &FaceStencil, v: &[f64]) -> FaceStencil {
     t
 }
 
-fn rest_strategy() -> impl Strategy<Value = FaceRest> {
-    (
-        prop::array::uniform3(-0.3f64..0.3),
-        prop::array::uniform3(-1.0f64..1.0),
-    )
-        .prop_map(|(p, q)| {
-            let l = Matrix2::new(1.0 + p[0], 0.0, p[1], 0.8 + p[2]);
-            FaceRest {
-                a_bar: l * l.transpose(),
-                b_bar: Matrix2::new(q[0], q[1], q[1], q[2]),
-            }
-        })
-}
-
 /// Unit-ish material so that all terms have comparable size.
 fn material() -> Material {
-    Material {
-        thickness: 0.3,
-        young: 1.0,
-        poisson: 0.3,
-        density: 1.0,
-        viscosity: 0.5,
-    }
-}
-
-/// max |a − b| / max(max |b|, floor).
-fn rel_err_scaled(a: &[f64], b: &[f64], floor: f64) -> f64 {
-    let scale = b.iter().fold(floor.max(1e-300), |m, v| m.max(v.abs()));
-    a.iter()
-        .zip(b)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
-        / scale
+    unit_material(0.5)
 }
 
 fn b_vec(s: &FaceStencil) -> Vec<f64> {
@@ -362,12 +306,4 @@ fn cylinder_bending_energy_close_to_exact() {
     let exact = m.thickness.powi(3) / 24.0 * (0.5 * m.alpha() + m.beta()) * a.determinant().sqrt();
     let rel = (out.energy.bend - exact).abs() / exact;
     assert!(rel < 0.5, "relative discretisation error {rel}");
-}
-
-/// `PROPTEST_CASES` when set (to hunt bugs locally), else the modest default for CI.
-fn cases_or(default: u32) -> u32 {
-    std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
 }
