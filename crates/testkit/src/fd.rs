@@ -9,17 +9,11 @@ use nalgebra::DMatrix;
 
 /// Central-difference gradient of `f` at `x` with step `h` (error O(h²)).
 pub fn fd_gradient(f: impl Fn(&[f64]) -> f64, x: &[f64], h: f64) -> Vec<f64> {
-    let mut y = x.to_vec();
-    (0..x.len())
-        .map(|i| {
-            y[i] = x[i] + h;
-            let fp = f(&y);
-            y[i] = x[i] - h;
-            let fm = f(&y);
-            y[i] = x[i];
-            (fp - fm) / (2.0 * h)
-        })
-        .collect()
+    // The one-row Jacobian: the same (f(x + h eᵢ) − f(x − h eᵢ)) / 2h per entry; no rows
+    // (and no entries) for an empty x.
+    fd_jacobian(|y| vec![f(y)], x, h)
+        .pop()
+        .unwrap_or_else(|| vec![0.0; x.len()])
 }
 
 /// Central-difference Jacobian of `f: R^n → R^m`; result row-major, `m` rows of length `n`.
