@@ -5,8 +5,8 @@
 //! - [`fd`] — central finite differences and the error measures the derivative checks use;
 //! - [`strategies`] — proptest strategies for per-face kernel inputs and the
 //!   `PROPTEST_CASES` convention ([`strategies::cases_or`]);
-//! - [`fixtures`] — materials and set-ups used by more than one test file (the seed's squares,
-//!   the swelling strip).
+//! - [`fixtures`] — materials and set-ups used by more than one test file or bench (the seed's
+//!   squares, the swelling strip, the shrinking sphere), data paths and temporary directories.
 //!
 //! What belongs here: a helper copied into two or more test files or benches, with the
 //! numbers of the copies kept exactly (assertions were tuned on them). What does not: helpers
