@@ -6,7 +6,7 @@
 //! [`SplitMix64`] (and its stateless form [`hash_unit`]) and the 64-bit LCG [`Lcg64`]. New tests
 //! should use [`SplitMix64`].
 //!
-//! Every floating-point draw takes the top 53 bits of a `u64`: [`unit`] in [0, 1),
+//! Every floating-point draw takes the top 53 bits of a `u64`: [`unit()`] in [0, 1),
 //! [`SplitMix64::signed`] / [`Lcg64::signed`] in [−1, 1).
 
 use nalgebra::Vector3;
@@ -74,7 +74,7 @@ impl SplitMix64 {
 
 /// 64-bit linear congruential generator, state ← 6364136223846793005·state +
 /// 1442695040888963407 (Knuth's MMIX constants); the output is the new state. Weak low bits,
-/// which [`unit`] discards.
+/// which [`unit()`] discards.
 #[derive(Clone, Debug)]
 pub struct Lcg64 {
     state: u64,
