@@ -231,3 +231,8 @@ impl std::fmt::Debug for SolverError {
         }
     }
 }
+
+/// An energy-crate error as a solver error.
+pub(crate) fn energy_error(e: thinshell_energy::EnergyError) -> SolverError {
+    SolverError::Objective(e.to_string())
+}
