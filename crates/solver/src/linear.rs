@@ -96,7 +96,7 @@ pub struct FactorStats {
 }
 
 /// Failure of one numeric factorisation attempt.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug)]
 pub enum FactorError {
     /// faer met a non-positive pivot (index in the permuted order; a diagnostic only).
     NotPositiveDefinite {

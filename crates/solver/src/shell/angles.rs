@@ -23,7 +23,6 @@ use thinshell_energy::{
 };
 use thinshell_mesh::{EdgeId, Mesh, VertexId};
 
-use crate::error::energy_error;
 use crate::linear::RegularizationParams;
 use crate::{Ordering, SolverError, SparseCholesky};
 
@@ -97,9 +96,8 @@ impl AngleRelaxation {
         let n = mesh.n_vertices();
         let all_vertices = (0..n).map(VertexId::new);
         let dofs = DofMap::with_pinned_vertices(n, all_vertices)
-            .and_then(|d| d.with_edges(mesh.n_edges(), clamped_edges.iter().copied()))
-            .map_err(energy_error)?;
-        let assembler = Assembler::for_model(mesh, &dofs, model).map_err(energy_error)?;
+            .and_then(|d| d.with_edges(mesh.n_edges(), clamped_edges.iter().copied()))?;
+        let assembler = Assembler::for_model(mesh, &dofs, model)?;
         let hessian = assembler.hessian_template();
         let cholesky = SparseCholesky::new(hessian.symbolic(), Ordering::Amd, None, Par::Seq)?;
         let n3 = 3 * n;
@@ -150,7 +148,7 @@ impl AngleRelaxation {
             Ok(t) => Ok(t.total()),
             // A trial angle where tan α blows up: reject it in the line search.
             Err(EnergyError::NonFinite { .. }) => Ok(f64::INFINITY),
-            Err(e) => Err(energy_error(e)),
+            Err(e) => Err(e.into()),
         }
     }
 
@@ -174,7 +172,7 @@ impl AngleRelaxation {
                     hessian: None,
                 },
             )
-            .map_err(energy_error)
+            .map_err(SolverError::from)
     }
 
     fn factorize(
@@ -186,19 +184,17 @@ impl AngleRelaxation {
         damping: Option<&DampingState>,
     ) -> Result<(), SolverError> {
         self.factorized = false;
-        self.assembler
-            .evaluate_with_angles(
-                model,
-                x,
-                phi,
-                rest,
-                damping,
-                EvalOutput {
-                    gradient: None,
-                    hessian: Some((&mut self.hessian, HessianMode::Exact)),
-                },
-            )
-            .map_err(energy_error)?;
+        self.assembler.evaluate_with_angles(
+            model,
+            x,
+            phi,
+            rest,
+            damping,
+            EvalOutput {
+                gradient: None,
+                hessian: Some((&mut self.hessian, HessianMode::Exact)),
+            },
+        )?;
         self.cholesky
             .factorize_regularized(
                 &mut self.hessian,

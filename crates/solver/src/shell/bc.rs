@@ -89,7 +89,7 @@ impl Boundary {
     /// The dof map of the free coordinates.
     pub fn dof_map(&self, mesh: &Mesh) -> Result<DofMap, SolverError> {
         DofMap::with_pinned(mesh.n_vertices(), self.held_coordinates(mesh)?)
-            .map_err(|e| SolverError::Objective(e.to_string()))
+            .map_err(SolverError::from)
     }
 
     /// Sets the prescribed vertices of `x` to their positions at time `t`.

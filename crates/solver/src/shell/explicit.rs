@@ -10,7 +10,6 @@ use super::integrator::{Integrator, StepReport, check_dt, check_state};
 use super::loads::add_pressure_gradient;
 use super::system::{ShellSystem, State};
 use crate::SolverError;
-use crate::error::energy_error;
 
 /// Symplectic (semi-implicit) Euler with lumped masses.
 ///
@@ -44,16 +43,13 @@ impl Integrator for ExplicitEuler {
                 .zip(&state.v)
                 .map(|(x, v)| x - dt * v)
                 .collect();
-            Some(
-                DampingState::from_configuration(
-                    &system.mesh,
-                    &prev,
-                    &state.phi,
-                    system.model.sff,
-                    dt,
-                )
-                .map_err(energy_error)?,
-            )
+            Some(DampingState::from_configuration(
+                &system.mesh,
+                &prev,
+                &state.phi,
+                system.model.sff,
+                dt,
+            )?)
         } else {
             None
         };
@@ -70,19 +66,16 @@ impl Integrator for ExplicitEuler {
             (g, report.energies)
         } else {
             let mut g = vec![0.0; 3 * n];
-            let energies = system
-                .assembler
-                .evaluate(
-                    &system.model,
-                    &state.x,
-                    &system.rest,
-                    damping.as_ref(),
-                    EvalOutput {
-                        gradient: Some(&mut g),
-                        hessian: None,
-                    },
-                )
-                .map_err(energy_error)?;
+            let energies = system.assembler.evaluate(
+                &system.model,
+                &state.x,
+                &system.rest,
+                damping.as_ref(),
+                EvalOutput {
+                    gradient: Some(&mut g),
+                    hessian: None,
+                },
+            )?;
             (g, energies)
         };
         add_pressure_gradient(&system.mesh, &state.x, system.pressure(), &mut g);

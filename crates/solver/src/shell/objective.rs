@@ -9,7 +9,6 @@ use thinshell_energy::{DampingState, EnergyError, EnergyTerms, EvalOutput, Hessi
 
 use super::loads::{add_pressure_gradient, add_pressure_hessian, enclosed_volume};
 use super::system::{ShellSystem, State};
-use crate::error::energy_error;
 use crate::{Objective, SolverError};
 
 /// Inertia term of the incremental potential: `1/(2Δt²) (x − x̃)ᵀ Λ (x − x̃)`.
@@ -92,16 +91,13 @@ impl<'a> ShellObjective<'a> {
         force_scale: Option<f64>,
     ) -> Result<ShellObjective<'a>, SolverError> {
         let damping = if sys.model.terms.damping {
-            Some(
-                DampingState::from_configuration(
-                    &sys.mesh,
-                    &state.x,
-                    &state.phi,
-                    sys.model.sff,
-                    dt,
-                )
-                .map_err(energy_error)?,
-            )
+            Some(DampingState::from_configuration(
+                &sys.mesh,
+                &state.x,
+                &state.phi,
+                sys.model.sff,
+                dt,
+            )?)
         } else {
             None
         };
@@ -217,7 +213,7 @@ impl Objective for ShellObjective<'_> {
             Ok(t) => Ok(t.total() + self.extra_value(u)),
             // An inverted or degenerate trial configuration: let the line search backtrack.
             Err(EnergyError::NonFinite { .. }) => Ok(f64::INFINITY),
-            Err(e) => Err(energy_error(e)),
+            Err(e) => Err(e.into()),
         }
     }
 
@@ -228,7 +224,7 @@ impl Objective for ShellObjective<'_> {
                 g.fill(f64::NAN);
                 return Ok(f64::INFINITY);
             }
-            Err(e) => return Err(energy_error(e)),
+            Err(e) => return Err(e.into()),
         };
         self.last_terms = terms;
         add_pressure_gradient(
@@ -320,16 +316,14 @@ impl ShellObjective<'_> {
         h: &mut SparseColMat<usize, f64>,
         mode: HessianMode,
     ) -> Result<(), SolverError> {
-        self.eval_mode(u, false, Some(h), mode)
-            .map_err(energy_error)?;
+        self.eval_mode(u, false, Some(h), mode)?;
         add_pressure_hessian(
             &self.sys.mesh,
             &self.sys.assembler,
             &self.x_full,
             self.sys.pressure(),
             h,
-        )
-        .map_err(energy_error)?;
+        )?;
         if self.sys.has_edge_unknowns() {
             // u = ℓ̄ φ for edge dofs: H_uu = D H_φφ D with D = diag(1, 1/ℓ̄).
             let n_pos = self.sys.dofs.n_free_positions();

@@ -12,7 +12,6 @@ use super::angles::{AngleRelaxation, AngleReport, AngleSettings};
 use super::bc::Boundary;
 use super::loads::{Loads, add_pressure_gradient};
 use crate::SolverError;
-use crate::error::energy_error;
 
 /// Dynamic state: positions (m), velocities (m/s), one entry per vertex; edge-director angles
 /// (rad), one per edge; time (s).
@@ -95,16 +94,14 @@ impl ShellSystem {
         boundary: Boundary,
         loads: Loads,
     ) -> Result<ShellSystem, SolverError> {
-        rest.validate(&mesh).map_err(energy_error)?;
+        rest.validate(&mesh)?;
         let mut dofs = boundary.dof_map(&mesh)?;
         if model.sff.director().is_some() && model.terms.bend {
-            dofs = dofs
-                .with_edges(mesh.n_edges(), boundary.clamped_edges.iter().copied())
-                .map_err(energy_error)?;
+            dofs = dofs.with_edges(mesh.n_edges(), boundary.clamped_edges.iter().copied())?;
         }
-        let mass = lumped_mass(&mesh, &rest, &model.material).map_err(energy_error)?;
+        let mass = lumped_mass(&mesh, &rest, &model.material)?;
         let f_ext = loads.forces(&mass)?;
-        let assembler = Assembler::for_model(&mesh, &dofs, &model).map_err(energy_error)?;
+        let assembler = Assembler::for_model(&mesh, &dofs, &model)?;
         let angle_scale = mean_edge_length(&mesh);
         Ok(ShellSystem {
             mesh,
@@ -276,7 +273,7 @@ impl ShellSystem {
         };
         self.assembler
             .evaluate_with_angles(&model, x, phi, &self.rest, None, EvalOutput::default())
-            .map_err(energy_error)
+            .map_err(SolverError::from)
     }
 
     /// The force (N) the supports exert on every held coordinate at `x`:
@@ -300,19 +297,17 @@ impl ShellSystem {
             phi
         };
         let mut g = vec![0.0; self.dofs.n_coordinates()];
-        self.assembler
-            .evaluate_with_angles(
-                &self.model,
-                x,
-                phi,
-                &self.rest,
-                None,
-                EvalOutput {
-                    gradient: Some(&mut g),
-                    hessian: None,
-                },
-            )
-            .map_err(energy_error)?;
+        self.assembler.evaluate_with_angles(
+            &self.model,
+            x,
+            phi,
+            &self.rest,
+            None,
+            EvalOutput {
+                gradient: Some(&mut g),
+                hessian: None,
+            },
+        )?;
         add_pressure_gradient(&self.mesh, x, self.pressure(), &mut g);
         g.truncate(3 * x.len());
         Ok(g.iter()

@@ -461,7 +461,7 @@ impl Simulation {
             let s = (done + step).min(1.0);
             if let (Some(previous), Some(target)) = (previous, &target) {
                 blend_rest(previous, target, s, &mut self.system.rest)
-                    .map_err(|e| SolverError::Objective(e.to_string()))?;
+                    .map_err(SolverError::objective)?;
             }
             let lambda = from + s * (to - from);
             self.system.set_load_factor(lambda)?;
