@@ -105,7 +105,7 @@ pub mod ordering;
 pub mod shell;
 
 pub use error::SolverError;
-pub use linear::{FactorStats, RegularizationKind, SparseCholesky};
+pub use linear::{FactorStats, RegularizationKind, RegularizationParams, SparseCholesky};
 pub use newton::{
     Convergence, HessianPolicy, IterationHessian, NewtonReport, NewtonSettings, NewtonTimings,
     NewtonWorkspace, RegularizationEvent, newton_solve,

@@ -367,8 +367,8 @@ impl Simulation {
         if let Some(v) = nw.watchdog {
             settings.watchdog = v;
         }
-        if let Some(v) = nw.regularization {
-            settings.regularization = v;
+        if nw.regularization == Some(false) {
+            settings.regularization = None;
         }
         settings.validate().map_err(|source| BuildError::Solver {
             origin: origin.clone(),
