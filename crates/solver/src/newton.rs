@@ -317,6 +317,9 @@ pub struct NewtonWorkspace {
     dx: Vec<f64>,
     x_trial: Vec<f64>,
     mu: f64,
+    /// The settings the symbolic analysis was made with.
+    ordering: Ordering,
+    parallel: bool,
 }
 
 impl NewtonWorkspace {
@@ -351,7 +354,33 @@ impl NewtonWorkspace {
             dx: vec![0.0; n],
             x_trial: vec![0.0; n],
             mu: 0.0,
+            ordering: settings.ordering,
+            parallel: settings.parallel,
         })
+    }
+
+    /// Whether the workspace was built with `settings`' ordering and parallelism. A cached
+    /// workspace must be rebuilt when they change (or when the objective's number of unknowns
+    /// or Hessian pattern does): [`newton_solve`] rejects a wrong size but otherwise factorises
+    /// with the ordering and parallelism the workspace was built with.
+    pub fn matches(&self, settings: &NewtonSettings) -> bool {
+        self.ordering == settings.ordering && self.parallel == settings.parallel
+    }
+
+    /// Number of stored entries of the Hessian pattern (lower triangle).
+    pub fn nnz(&self) -> usize {
+        self.hessian.val().len()
+    }
+
+    /// The ordering the workspace was built with (as requested; [`FactorStats::ordering`] is
+    /// the one `Ordering::Auto` chose).
+    pub fn ordering(&self) -> Ordering {
+        self.ordering
+    }
+
+    /// Whether the factorisation runs on the rayon pool (as built).
+    pub fn parallel(&self) -> bool {
+        self.parallel
     }
 
     /// Number of unknowns the workspace was built for.

@@ -86,6 +86,15 @@ impl ImplicitEuler {
     }
 }
 
+impl ImplicitEuler {
+    /// The cached Newton workspace (symbolic factorisation, ordering, fill statistics) of the
+    /// last solve; `None` before the first. It is rebuilt when the system's unknowns or
+    /// [`NewtonSettings::ordering`] / [`NewtonSettings::parallel`] change.
+    pub fn workspace(&self) -> Option<&NewtonWorkspace> {
+        self.workspace.as_ref()
+    }
+}
+
 impl Integrator for ImplicitEuler {
     fn step(
         &mut self,

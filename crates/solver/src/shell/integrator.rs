@@ -84,16 +84,19 @@ pub(crate) fn check_state(system: &ShellSystem, state: &mut State) -> Result<(),
     Ok(())
 }
 
-/// The integrator's cached Newton workspace, rebuilt when the number of unknowns changed.
+/// The integrator's cached Newton workspace, rebuilt when anything it was built from changed:
+/// the number of unknowns, the Hessian pattern's size (another system), the ordering or the
+/// parallelism.
 pub(crate) fn workspace<'w>(
     slot: &'w mut Option<NewtonWorkspace>,
     objective: &ShellObjective<'_>,
     settings: &NewtonSettings,
 ) -> Result<&'w mut NewtonWorkspace, SolverError> {
-    if slot
-        .as_ref()
-        .is_some_and(|ws| ws.n_dofs() != objective.n_dofs())
-    {
+    if slot.as_ref().is_some_and(|ws| {
+        ws.n_dofs() != objective.n_dofs()
+            || ws.nnz() != objective.sys.assembler.nnz()
+            || !ws.matches(settings)
+    }) {
         *slot = None;
     }
     match slot {

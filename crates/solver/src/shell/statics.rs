@@ -130,6 +130,15 @@ impl Static {
     }
 }
 
+impl Static {
+    /// The cached Newton workspace (symbolic factorisation, ordering, fill statistics) of the
+    /// last solve; `None` before the first. It is rebuilt when the system's unknowns or
+    /// [`NewtonSettings::ordering`] / [`NewtonSettings::parallel`] change.
+    pub fn workspace(&self) -> Option<&NewtonWorkspace> {
+        self.workspace.as_ref()
+    }
+}
+
 impl Integrator for Static {
     fn step(
         &mut self,
