@@ -48,10 +48,12 @@ fn relaxed_strip_curvature(model: Swelling, ny: usize) -> f64 {
     };
     let mut sys =
         ShellSystem::new(mesh, model, initial, Boundary::default(), Loads::default()).unwrap();
-    let mut solver = Static::default();
-    // Bending moment resultant D·κ₀·w ≈ 4e-3 N; the round-off floor of the gradient is
-    // ~1e-16·E·h·ℓ ≈ 4e-10 N.
-    solver.force_scale = Some(4e-3);
+    let mut solver = Static {
+        // Bending moment resultant D·κ₀·w ≈ 4e-3 N; the round-off floor of the gradient is
+        // ~1e-16·E·h·ℓ ≈ 4e-10 N.
+        force_scale: Some(4e-3),
+        ..Static::default()
+    };
     solver.newton.gradient_tolerance = 1e-6;
     let mut state = State::at_rest(x0);
     for step in 0..5 {

@@ -114,5 +114,5 @@ pub use objective::Objective;
 pub use ordering::Ordering;
 pub use shell::{
     AngleReport, AngleSettings, Boundary, ExplicitEuler, ImplicitEuler, Integrator, Loads,
-    Prescribed, ShellSystem, State, Static, StepReport,
+    NewtonCache, Prescribed, ShellSystem, State, Static, StepKind, StepReport,
 };

@@ -1145,9 +1145,11 @@ fn swelling_strip(tune: &dyn Fn(&mut Static)) -> (usize, Vec<usize>, Option<Solv
     let m = model(material, false);
     let mut sys =
         ShellSystem::new(mesh, m, initial, Boundary::default(), Loads::default()).unwrap();
-    let mut st = Static::default();
-    // As in coupled.rs: the bending moment resultant D·κ₀·w ≈ 4e-3 N sets the force scale.
-    st.force_scale = Some(4e-3);
+    let mut st = Static {
+        // As in coupled.rs: the bending moment resultant D·κ₀·w ≈ 4e-3 N sets the force scale.
+        force_scale: Some(4e-3),
+        ..Static::default()
+    };
     st.newton.gradient_tolerance = 1e-6;
     tune(&mut st);
     let mut state = State::at_rest(x0);

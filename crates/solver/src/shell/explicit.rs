@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 use thinshell_energy::{DampingState, EvalOutput};
 
 use super::angles::AngleSettings;
-use super::integrator::{Integrator, StepReport, check_dt, check_state};
+use super::integrator::{Integrator, StepKind, StepReport, check_dt, check_state};
 use super::loads::add_pressure_gradient;
 use super::system::{ShellSystem, State};
 use crate::SolverError;
@@ -25,6 +25,10 @@ pub struct ExplicitEuler {
 }
 
 impl Integrator for ExplicitEuler {
+    fn kind(&self) -> StepKind {
+        StepKind::Explicit
+    }
+
     fn step(
         &mut self,
         system: &mut ShellSystem,

@@ -11,7 +11,8 @@
 use thinshell_energy::{EnergyTerms, HessianMode};
 
 use super::integrator::{
-    Integrator, StepReport, check_dt, check_state, fallback_mode, retry_start, retryable, workspace,
+    Integrator, NewtonCache, StepKind, StepReport, check_dt, check_state, fallback_mode,
+    retry_start, retryable,
 };
 use super::objective::ShellObjective;
 use super::system::{ShellSystem, State};
@@ -32,7 +33,8 @@ pub struct ImplicitEuler {
     /// Hessian mode tried at the same Δt, from the last good iterate, when the solve with the
     /// system's mode fails, before Δt is halved (`None`: no retry).
     pub fallback_hessian: Option<HessianMode>,
-    workspace: Option<NewtonWorkspace>,
+    /// The cached Newton workspace ([`Default`]: empty).
+    pub cache: NewtonCache,
 }
 
 impl ImplicitEuler {
@@ -44,7 +46,7 @@ impl ImplicitEuler {
             force_scale: None,
             max_halvings: 0,
             fallback_hessian: None,
-            workspace: None,
+            cache: NewtonCache::default(),
         }
     }
 
@@ -68,7 +70,7 @@ impl ImplicitEuler {
         } else if !obj.value(&u)?.is_finite() {
             u = obj.sys.gather(&state.x, &state.phi);
         }
-        let ws = workspace(&mut self.workspace, &obj, &self.newton)?;
+        let ws = self.cache.fit(&obj, &self.newton)?;
         let report = newton_solve(&mut obj, &mut u, &self.newton, ws)?;
         let energies = obj.last_terms;
         obj.sys.scatter(&u, &mut x1, &mut phi1);
@@ -91,11 +93,15 @@ impl ImplicitEuler {
     /// last solve; `None` before the first. It is rebuilt when the system's unknowns or
     /// [`NewtonSettings::ordering`] / [`NewtonSettings::parallel`] change.
     pub fn workspace(&self) -> Option<&NewtonWorkspace> {
-        self.workspace.as_ref()
+        self.cache.get()
     }
 }
 
 impl Integrator for ImplicitEuler {
+    fn kind(&self) -> StepKind {
+        StepKind::Implicit
+    }
+
     fn step(
         &mut self,
         system: &mut ShellSystem,

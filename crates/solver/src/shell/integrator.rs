@@ -35,8 +35,28 @@ pub struct StepReport {
     pub stable: Option<bool>,
 }
 
+/// What kind of step an [`Integrator`] takes: callers that treat equilibrium and dynamic steps
+/// differently (load ramps, pseudo-time) ask the integrator instead of keeping a kind beside it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum StepKind {
+    /// Static equilibrium: no inertia; the state's time is only read (prescribed motion).
+    Static,
+    /// Implicit time step (a Newton solve per step).
+    Implicit,
+    /// Explicit time step (no solve).
+    Explicit,
+}
+
 /// Advances a [`State`] of a [`ShellSystem`] by one step.
 pub trait Integrator {
+    /// What kind of step [`Integrator::step`] takes.
+    fn kind(&self) -> StepKind;
+
+    /// Whether the step is a static equilibrium solve (no time, no inertia).
+    fn is_static(&self) -> bool {
+        self.kind() == StepKind::Static
+    }
+
     /// One step; on error `state` is unchanged.
     fn step(
         &mut self,
@@ -84,24 +104,36 @@ pub(crate) fn check_state(system: &ShellSystem, state: &mut State) -> Result<(),
     Ok(())
 }
 
-/// The integrator's cached Newton workspace, rebuilt when anything it was built from changed:
-/// the number of unknowns, the Hessian pattern's size (another system), the ordering or the
-/// parallelism.
-pub(crate) fn workspace<'w>(
-    slot: &'w mut Option<NewtonWorkspace>,
-    objective: &ShellObjective<'_>,
-    settings: &NewtonSettings,
-) -> Result<&'w mut NewtonWorkspace, SolverError> {
-    if slot.as_ref().is_some_and(|ws| {
-        ws.n_dofs() != objective.n_dofs()
-            || ws.nnz() != objective.sys.assembler.nnz()
-            || !ws.matches(settings)
-    }) {
-        *slot = None;
+/// An integrator's cached Newton workspace (symbolic factorisation, Hessian storage),
+/// rebuilt when anything it was built from changed: the number of unknowns, the Hessian
+/// pattern's size (another system), [`NewtonSettings::ordering`] or
+/// [`NewtonSettings::parallel`]. [`Default`] is empty (built at the first solve).
+#[derive(Debug, Default)]
+pub struct NewtonCache(Option<NewtonWorkspace>);
+
+impl NewtonCache {
+    /// The workspace of the last solve, `None` before the first.
+    pub fn get(&self) -> Option<&NewtonWorkspace> {
+        self.0.as_ref()
     }
-    match slot {
-        Some(ws) => Ok(ws),
-        None => Ok(slot.insert(NewtonWorkspace::new(objective, settings)?)),
+
+    /// The workspace for `objective` and `settings`, rebuilt if it does not fit them.
+    pub(crate) fn fit(
+        &mut self,
+        objective: &ShellObjective<'_>,
+        settings: &NewtonSettings,
+    ) -> Result<&mut NewtonWorkspace, SolverError> {
+        if self.0.as_ref().is_some_and(|ws| {
+            ws.n_dofs() != objective.n_dofs()
+                || ws.nnz() != objective.sys.assembler.nnz()
+                || !ws.matches(settings)
+        }) {
+            self.0 = None;
+        }
+        match &mut self.0 {
+            Some(ws) => Ok(ws),
+            slot => Ok(slot.insert(NewtonWorkspace::new(objective, settings)?)),
+        }
     }
 }
 

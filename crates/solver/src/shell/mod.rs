@@ -18,7 +18,7 @@ pub use angles::{AngleReport, AngleSettings};
 pub use bc::{Boundary, Prescribed};
 pub use explicit::ExplicitEuler;
 pub use implicit::ImplicitEuler;
-pub use integrator::{Integrator, StepReport};
+pub use integrator::{Integrator, NewtonCache, StepKind, StepReport};
 pub use loads::Loads;
 pub use statics::Static;
 pub use system::{ShellSystem, State};

@@ -10,7 +10,8 @@ use nalgebra::Vector3;
 use thinshell_energy::HessianMode;
 
 use super::integrator::{
-    Integrator, StepReport, check_state, fallback_mode, retry_start, retryable, workspace,
+    Integrator, NewtonCache, StepKind, StepReport, check_state, fallback_mode, retry_start,
+    retryable,
 };
 use super::objective::ShellObjective;
 use super::system::{ShellSystem, State};
@@ -31,7 +32,8 @@ pub struct Static {
     /// Hessian mode [`Integrator::step`] retries with, from the last good iterate, when the
     /// solve with the system's mode fails (`None`: no retry).
     pub fallback_hessian: Option<HessianMode>,
-    workspace: Option<NewtonWorkspace>,
+    /// The cached Newton workspace ([`Default`]: empty).
+    pub cache: NewtonCache,
 }
 
 impl Default for Static {
@@ -41,7 +43,7 @@ impl Default for Static {
             hessian_shift: 1e-10,
             force_scale: None,
             fallback_hessian: None,
-            workspace: None,
+            cache: NewtonCache::default(),
         }
     }
 }
@@ -90,7 +92,7 @@ impl Static {
         }
         let mut u = system.gather(x, phi);
         let mut obj = self.objective(system, x, phi);
-        let ws = workspace(&mut self.workspace, &obj, &self.newton)?;
+        let ws = self.cache.fit(&obj, &self.newton)?;
         let result = newton_solve(&mut obj, &mut u, &self.newton, ws);
         let sys = obj.sys;
         sys.scatter(&u, x, phi);
@@ -123,7 +125,9 @@ impl Static {
         let u = system.gather(x, phi);
         let own = std::mem::replace(&mut system.hessian_mode, HessianMode::Exact);
         let mut obj = self.objective(system, x, phi);
-        let result = workspace(&mut self.workspace, &obj, &self.newton)
+        let result = self
+            .cache
+            .fit(&obj, &self.newton)
             .and_then(|ws| ws.is_positive_definite(&mut obj, &u));
         system.hessian_mode = own;
         result
@@ -135,11 +139,15 @@ impl Static {
     /// last solve; `None` before the first. It is rebuilt when the system's unknowns or
     /// [`NewtonSettings::ordering`] / [`NewtonSettings::parallel`] change.
     pub fn workspace(&self) -> Option<&NewtonWorkspace> {
-        self.workspace.as_ref()
+        self.cache.get()
     }
 }
 
 impl Integrator for Static {
+    fn kind(&self) -> StepKind {
+        StepKind::Static
+    }
+
     fn step(
         &mut self,
         system: &mut ShellSystem,

@@ -96,7 +96,7 @@ impl ShellSystem {
     ) -> Result<ShellSystem, SolverError> {
         rest.validate(&mesh)?;
         let mut dofs = boundary.dof_map(&mesh)?;
-        if model.sff.director().is_some() && model.terms.bend {
+        if ShellSystem::has_edge_unknowns_for(&model) {
             dofs = dofs.with_edges(mesh.n_edges(), boundary.clamped_edges.iter().copied())?;
         }
         let mass = lumped_mass(&mesh, &rest, &model.material)?;
@@ -118,6 +118,14 @@ impl ShellSystem {
             angle_scale,
             angle_relaxation: None,
         })
+    }
+
+    /// Whether a system of `model` has one edge-director angle per edge among its unknowns:
+    /// an edge-director second fundamental form with bending on (without bending the angles do
+    /// not enter the energy). The one definition of the test, for callers that need it before
+    /// a system exists (the scene runner's initial energy).
+    pub fn has_edge_unknowns_for(model: &ShellModel) -> bool {
+        model.sff.director().is_some() && model.terms.bend
     }
 
     /// Whether the unknowns include one edge-director angle per edge.
