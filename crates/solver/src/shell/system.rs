@@ -284,6 +284,18 @@ impl ShellSystem {
             .map_err(SolverError::from)
     }
 
+    /// Energy terms (J) of every face, in face order, at positions `x` and edge angles `phi`
+    /// (rad, one per edge; empty = all 0), no damping; they sum to
+    /// [`ShellSystem::energy_at`]. For energy maps and per-face studies.
+    pub fn face_energies(
+        &mut self,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+    ) -> Result<Vec<EnergyTerms>, SolverError> {
+        self.energy_at(x, phi)?;
+        Ok(self.assembler.face_energies().to_vec())
+    }
+
     /// The force (N) the supports exert on every held coordinate at `x`:
     /// `R = ∂E/∂x − F_ext − p ∂V/∂x` there (0 on free coordinates).
     /// With edge unknowns the angles are taken as 0 (see [`ShellSystem::reactions_at`]).
