@@ -3,9 +3,10 @@
 //! The angles φ_e of an edge-director form carry no mass: at every instant they minimise the
 //! energy for the current positions. Implicit and static solves find them together with the
 //! positions; [`ExplicitEuler`](super::ExplicitEuler), which only moves positions, calls
-//! [`ShellSystem::relax_edge_angles`](crate::ShellSystem::relax_edge_angles) once per step. With the angles at their minimiser
-//! φ*(x), ∂E/∂φ = 0, so the position force −∂E/∂x(x, φ*) is the exact gradient of the reduced
-//! energy E*(x) = min_φ E(x, φ): the explicit step integrates a conservative system.
+//! [`ShellSystem::relax_edge_angles`](crate::ShellSystem::relax_edge_angles) once per step.
+//! With the angles at their minimiser φ*(x), ∂E/∂φ = 0, so the position force −∂E/∂x(x, φ*)
+//! is the exact gradient of the reduced energy E*(x) = min_φ E(x, φ): the explicit step
+//! integrates a conservative system.
 //!
 //! The sub-problem is the shell with every vertex coordinate held: its Hessian is the sparse
 //! angle block (one row per free edge, five entries per row), assembled by its own
@@ -53,7 +54,8 @@ impl Default for AngleSettings {
     }
 }
 
-/// What one [`ShellSystem::relax_edge_angles`](crate::ShellSystem::relax_edge_angles) call did.
+/// What one [`ShellSystem::relax_edge_angles`](crate::ShellSystem::relax_edge_angles) call
+/// did.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct AngleReport {
     /// Gradient evaluations (the last one is at the returned angles).
@@ -69,8 +71,8 @@ pub struct AngleReport {
     pub energies: EnergyTerms,
 }
 
-/// Cached angle-only problem of a [`ShellSystem`](crate::ShellSystem): assembler with every vertex coordinate
-/// held, Hessian buffer, factorisation, scratch vectors.
+/// Cached angle-only problem of a [`ShellSystem`](crate::ShellSystem): assembler with every
+/// vertex coordinate held, Hessian buffer, factorisation, scratch vectors.
 pub(crate) struct AngleRelaxation {
     assembler: Assembler,
     hessian: SparseColMat<usize, f64>,

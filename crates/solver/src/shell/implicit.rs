@@ -26,7 +26,8 @@ pub struct ImplicitEuler {
     /// Newton parameters.
     pub newton: NewtonSettings,
     /// `Some(F)`: also stop when `‖∇‖∞ ≤ gradient_tolerance · F` (N). `None` (default):
-    /// converge on the Newton correction or at round-off only (see [`Static::force_scale`]).
+    /// converge on the Newton correction or at round-off only (see
+    /// [`Static::force_scale`](super::Static::force_scale)).
     pub force_scale: Option<f64>,
     /// Times Δt may be halved when Newton fails (0: no adaptivity).
     pub max_halvings: usize,
