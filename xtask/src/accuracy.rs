@@ -301,11 +301,13 @@ fn static_solve(
     max_iterations: usize,
 ) -> Cost {
     sys.hessian_mode = k.hessian;
-    let mut st = Static::default();
-    st.newton = k.settings(max_iterations);
-    // The knob's tolerance is a gradient test against the solver's one force scale, on top of
-    // the solver's scale-free convergence test.
-    st.force_scale = Some(sys.force_scale());
+    let mut st = Static {
+        newton: k.settings(max_iterations),
+        // The knob's tolerance is a gradient test against the solver's one force scale, on top
+        // of the solver's scale-free convergence test.
+        force_scale: Some(sys.force_scale()),
+        ..Static::default()
+    };
     phi.resize(sys.n_edge_angles(), 0.0);
     let t0 = Instant::now();
     let r = st.solve_with_angles(sys, x, phi);

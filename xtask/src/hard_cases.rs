@@ -376,7 +376,10 @@ fn strip(rows: &mut Vec<Value>) -> Result<()> {
                 "exact, first shift 1e-9" => {
                     st.newton.hessian = HessianPolicy::Fixed;
                     st.newton.watchdog = 0;
-                    st.newton.regularization_initial = 1e-9;
+                    st.newton.regularization = Some(thinshell_solver::RegularizationParams {
+                        initial: 1e-9,
+                        ..Default::default()
+                    });
                 }
                 _ => {
                     st.newton.hessian = HessianPolicy::Fixed;

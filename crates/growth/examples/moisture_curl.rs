@@ -97,9 +97,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         sff,
     };
     let mut system = ShellSystem::new(mesh, model, initial, boundary, Loads::default())?;
-    let mut solver = Static::default();
-    // Residuals relative to 1e-2 N: the round-off floor of the gradient is ~1e-16·E·h·ℓ ≈ 1e-10 N.
-    solver.force_scale = Some(1e-2);
+    let mut solver = Static {
+        // Residuals relative to 1e-2 N: the round-off floor of the gradient is ~1e-16·E·h·ℓ ≈ 1e-10 N.
+        force_scale: Some(1e-2),
+        ..Static::default()
+    };
     solver.newton.max_iterations = 300;
     let mut state = State::at_rest(x0);
 

@@ -1,5 +1,7 @@
 //! The error type of the crate.
 
+use thinshell_energy::EnergyError;
+
 /// Everything that can go wrong in the solver.
 ///
 /// Dof indices refer to the objective's unknowns (`0..n_dofs`), iterations count from 0.
@@ -7,7 +9,12 @@
 /// iterate, so a caller can inspect or restart from it — never silent garbage. Their `Debug`
 /// output summarises those vectors (length, first / last / largest entry) instead of printing
 /// thousands of numbers.
-#[derive(thiserror::Error, Clone, PartialEq)]
+///
+/// Errors of the layers below keep their type as the [`source`](std::error::Error::source):
+/// [`SolverError::Energy`] holds the energy crate's [`EnergyError`], and
+/// [`SolverError::Objective`] any other objective's error (e.g. a growth update), so a caller
+/// can downcast it (`err.source()?.downcast_ref::<GrowthError>()`).
+#[derive(thiserror::Error)]
 #[non_exhaustive]
 pub enum SolverError {
     /// A setting is out of its admissible range.
@@ -119,9 +126,127 @@ pub enum SolverError {
     /// faer reported a failure other than a non-positive pivot (out of memory, index overflow).
     #[error("sparse linear algebra failed: {0}")]
     Linear(String),
-    /// An error reported by the objective (e.g. the energy assembly).
+    /// The energy crate failed (assembly, rest state, masses, dof map).
     #[error("objective evaluation failed: {0}")]
-    Objective(String),
+    Energy(#[from] EnergyError),
+    /// Any other error reported by an objective or a caller's update between solves (e.g. a
+    /// growth rule), kept with its type: downcast the [`source`](std::error::Error::source).
+    #[error("objective evaluation failed: {0}")]
+    Objective(#[source] Box<dyn std::error::Error + Send + Sync>),
+}
+
+impl SolverError {
+    /// Wraps an objective's own error (its type stays reachable through
+    /// [`source`](std::error::Error::source)).
+    pub fn objective(e: impl std::error::Error + Send + Sync + 'static) -> SolverError {
+        SolverError::Objective(Box::new(e))
+    }
+}
+
+/// Structural equality; the wrapped errors of other crates ([`SolverError::Energy`],
+/// [`SolverError::Objective`]), which need not implement `PartialEq`, compare by message.
+impl PartialEq for SolverError {
+    fn eq(&self, other: &Self) -> bool {
+        use SolverError::*;
+        match (self, other) {
+            (
+                InvalidSetting {
+                    name: a,
+                    value: b,
+                    requirement: c,
+                },
+                InvalidSetting {
+                    name: x,
+                    value: y,
+                    requirement: z,
+                },
+            ) => a == x && b == y && c == z,
+            (
+                DimensionMismatch {
+                    what: a,
+                    expected: b,
+                    found: c,
+                },
+                DimensionMismatch {
+                    what: x,
+                    expected: y,
+                    found: z,
+                },
+            ) => a == x && b == y && c == z,
+            (InvalidPattern { dof: a, reason: b }, InvalidPattern { dof: x, reason: y }) => {
+                a == x && b == y
+            }
+            (InvalidForceScale(a), InvalidForceScale(x))
+            | (InvalidLengthScale(a), InvalidLengthScale(x)) => a == x,
+            (NonFiniteCoordinate { dof: a }, NonFiniteCoordinate { dof: x }) => a == x,
+            (
+                NonFinite {
+                    what: a,
+                    iteration: b,
+                    dof: c,
+                },
+                NonFinite {
+                    what: x,
+                    iteration: y,
+                    dof: z,
+                },
+            ) => a == x && b == y && c == z,
+            (
+                NotPositiveDefinite {
+                    iteration: a,
+                    pivot: b,
+                },
+                NotPositiveDefinite {
+                    iteration: x,
+                    pivot: y,
+                },
+            ) => a == x && b == y,
+            (
+                RegularizationFailed {
+                    iteration: a,
+                    mu: b,
+                    attempts: c,
+                },
+                RegularizationFailed {
+                    iteration: x,
+                    mu: y,
+                    attempts: z,
+                },
+            ) => a == x && b == y && c == z,
+            (
+                LineSearchFailed {
+                    iteration: a,
+                    backtracks: b,
+                    residuals: c,
+                    last_good: d,
+                },
+                LineSearchFailed {
+                    iteration: w,
+                    backtracks: x,
+                    residuals: y,
+                    last_good: z,
+                },
+            ) => a == w && b == x && c == y && d == z,
+            (
+                NewtonDidNotConverge {
+                    residuals: a,
+                    iterations: b,
+                    tolerance: c,
+                    last_good: d,
+                },
+                NewtonDidNotConverge {
+                    residuals: w,
+                    iterations: x,
+                    tolerance: y,
+                    last_good: z,
+                },
+            ) => a == w && b == x && c == y && d == z,
+            (Linear(a), Linear(x)) => a == x,
+            (Energy(a), Energy(x)) => a.to_string() == x.to_string(),
+            (Objective(a), Objective(x)) => a.to_string() == x.to_string(),
+            _ => false,
+        }
+    }
 }
 
 /// `Debug` of a long vector: its length and a few telling entries.
@@ -227,7 +352,8 @@ impl std::fmt::Debug for SolverError {
                 .field("last_good", &Summary(last_good))
                 .finish(),
             Linear(msg) => f.debug_tuple("Linear").field(msg).finish(),
-            Objective(msg) => f.debug_tuple("Objective").field(msg).finish(),
+            Energy(e) => f.debug_tuple("Energy").field(e).finish(),
+            Objective(e) => f.debug_tuple("Objective").field(e).finish(),
         }
     }
 }

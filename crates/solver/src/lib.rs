@@ -13,14 +13,15 @@
 //! - [`ordering`]: AMD or a geometric nested dissection ([`Ordering`]);
 //! - [`shell`]: a [`ShellSystem`] (mesh, [`ShellModel`](thinshell_energy::ShellModel), rest
 //!   state, [`Boundary`], [`Loads`]) advanced by an [`Integrator`]: [`ImplicitEuler`]
-//!   (incremental potential, model.md §3), [`ExplicitEuler`] (symplectic) or [`Static`].
+//!   (incremental potential, model.md §3), [`ExplicitEuler`] (symplectic) or [`Static`];
+//! - [`nalgebra`] and [`faer`], re-exported: the versions of the public API's types.
 //!
 //! A paper sheet pinned on its boundary, one implicit step under gravity, then the static sag:
 //!
 //! ```
-//! use nalgebra::Vector3;
 //! use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
 //! use thinshell_mesh::generators;
+//! use thinshell_solver::nalgebra::Vector3;
 //! use thinshell_solver::{Boundary, ImplicitEuler, Integrator, Loads, ShellSystem, State, Static};
 //!
 //! let mesh = generators::rectangle(1.0, 1.0, 6, 6)?;
@@ -46,8 +47,7 @@
 //! let report = implicit.step(&mut system, &mut state)?;
 //! assert!(report.newton.unwrap().iterations >= 1 && state.t == 1e-3);
 //!
-//! let mut statics = Static::default();
-//! statics.force_scale = Some(weight);
+//! let mut statics = Static { force_scale: Some(weight), ..Static::default() };
 //! let mut x = x0.clone();
 //! statics.solve(&mut system, &mut x)?;
 //! assert!(x.iter().all(|p| p.z <= 0.0)); // sags along gravity, pins stay at z = 0
@@ -97,6 +97,11 @@
 //! # Ok::<(), SolverError>(())
 //! ```
 
+// The linear-algebra crates of the public API (positions are nalgebra vectors, Hessians faer
+// sparse matrices), re-exported so that a dependent crate uses the same versions and features.
+pub use faer;
+pub use nalgebra;
+
 pub mod error;
 pub mod linear;
 pub mod newton;
@@ -105,14 +110,19 @@ pub mod ordering;
 pub mod shell;
 
 pub use error::SolverError;
-pub use linear::{FactorStats, RegularizationKind, SparseCholesky};
+pub use linear::{FactorStats, RegularizationKind, RegularizationParams, SparseCholesky};
 pub use newton::{
     Convergence, HessianPolicy, IterationHessian, NewtonReport, NewtonSettings, NewtonTimings,
     NewtonWorkspace, RegularizationEvent, newton_solve,
 };
 pub use objective::Objective;
 pub use ordering::Ordering;
+/// The README's example, compiled and run as a doctest so that it cannot go stale.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;
+
 pub use shell::{
     AngleReport, AngleSettings, Boundary, ExplicitEuler, ImplicitEuler, Integrator, Loads,
-    Prescribed, ShellSystem, State, Static, StepReport,
+    NewtonCache, Prescribed, ShellSystem, State, Static, StepKind, StepReport,
 };

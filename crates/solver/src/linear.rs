@@ -53,6 +53,49 @@ pub struct RegularizationParams {
     pub max_attempts: usize,
 }
 
+impl RegularizationParams {
+    /// Checks every parameter; the error names the first bad one (as the flat names
+    /// `regularization_initial`, … of the scene and of earlier versions).
+    pub fn validate(&self) -> Result<(), SolverError> {
+        fn bad(name: &'static str, value: f64, requirement: &'static str) -> SolverError {
+            SolverError::InvalidSetting {
+                name,
+                value,
+                requirement,
+            }
+        }
+        if !(self.initial.is_finite() && self.initial > 0.0) {
+            return Err(bad(
+                "regularization_initial",
+                self.initial,
+                "must be positive and finite",
+            ));
+        }
+        if !(self.growth.is_finite() && self.growth > 1.0) {
+            return Err(bad(
+                "regularization_growth",
+                self.growth,
+                "must be finite and greater than 1",
+            ));
+        }
+        if !(self.shrink > 0.0 && self.shrink < 1.0) {
+            return Err(bad(
+                "regularization_shrink",
+                self.shrink,
+                "must lie in (0, 1)",
+            ));
+        }
+        if self.max_attempts == 0 {
+            return Err(bad(
+                "regularization_max_attempts",
+                0.0,
+                "must be at least 1",
+            ));
+        }
+        Ok(())
+    }
+}
+
 impl Default for RegularizationParams {
     fn default() -> Self {
         Self {
@@ -96,7 +139,7 @@ pub struct FactorStats {
 }
 
 /// Failure of one numeric factorisation attempt.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug)]
 pub enum FactorError {
     /// faer met a non-positive pivot (index in the permuted order; a diagnostic only).
     NotPositiveDefinite {

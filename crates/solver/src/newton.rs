@@ -56,9 +56,7 @@ use faer::Par;
 use faer::sparse::SparseColMat;
 
 use crate::SolverError;
-use crate::linear::{
-    FactorError, FactorStats, RegularizationKind, RegularizationParams, SparseCholesky,
-};
+use crate::linear::{FactorError, FactorStats, RegularizationParams, SparseCholesky};
 use crate::objective::Objective;
 use crate::ordering::Ordering;
 
@@ -110,18 +108,11 @@ pub struct NewtonSettings {
     /// one of the next `watchdog` iterates satisfies the Armijo test of that step (0: off).
     /// See the [module docs](self).
     pub watchdog: usize,
-    /// Shift the Hessian's diagonal when it is not positive definite (otherwise a typed error).
-    pub regularization: bool,
-    /// Shape of the shift.
-    pub regularization_kind: RegularizationKind,
-    /// First relative shift μ (relative to the mean |H_dd| for `Identity`), > 0.
-    pub regularization_initial: f64,
-    /// Growth factor of μ after a failed factorisation, > 1.
-    pub regularization_growth: f64,
-    /// Factor applied to the remembered μ before the next factorisation, in (0, 1).
-    pub regularization_shrink: f64,
-    /// Maximum shifted factorisation attempts per iteration (≥ 1).
-    pub regularization_max_attempts: usize,
+    /// Diagonal shift of a Hessian that is not positive definite: its shape, first size,
+    /// growth and attempts ([`RegularizationParams`], the one definition shared with the
+    /// edge-angle relaxation). `None`: no shift, a typed error instead
+    /// ([`SolverError::NotPositiveDefinite`]).
+    pub regularization: Option<RegularizationParams>,
     /// Fill-reducing ordering of the factorisation (used when the workspace is built).
     pub ordering: Ordering,
     /// Let faer factorise and solve on the rayon thread pool (results may then differ in the
@@ -131,7 +122,6 @@ pub struct NewtonSettings {
 
 impl Default for NewtonSettings {
     fn default() -> Self {
-        let reg = RegularizationParams::default();
         Self {
             max_iterations: 100,
             hessian: HessianPolicy::Adaptive,
@@ -145,12 +135,7 @@ impl Default for NewtonSettings {
             backtrack_factor: 0.5,
             max_backtracks: 40,
             watchdog: 4,
-            regularization: true,
-            regularization_kind: reg.kind,
-            regularization_initial: reg.initial,
-            regularization_growth: reg.growth,
-            regularization_shrink: reg.shrink,
-            regularization_max_attempts: reg.max_attempts,
+            regularization: Some(RegularizationParams::default()),
             ordering: Ordering::default(),
             parallel: false,
         }
@@ -194,50 +179,19 @@ impl NewtonSettings {
                 "must lie in (0, 1)",
             ));
         }
-        if !(self.regularization_initial.is_finite() && self.regularization_initial > 0.0) {
-            return Err(bad(
-                "regularization_initial",
-                self.regularization_initial,
-                "must be positive and finite",
-            ));
-        }
-        if !(self.regularization_growth.is_finite() && self.regularization_growth > 1.0) {
-            return Err(bad(
-                "regularization_growth",
-                self.regularization_growth,
-                "must be finite and greater than 1",
-            ));
-        }
-        if !(self.regularization_shrink > 0.0 && self.regularization_shrink < 1.0) {
-            return Err(bad(
-                "regularization_shrink",
-                self.regularization_shrink,
-                "must lie in (0, 1)",
-            ));
-        }
-        if self.regularization_max_attempts == 0 {
-            return Err(bad(
-                "regularization_max_attempts",
-                0.0,
-                "must be at least 1",
-            ));
+        if let Some(r) = &self.regularization {
+            r.validate()?;
         }
         Ok(())
     }
 
-    /// The regularisation parameters as the linear solver takes them.
-    pub fn regularization_params(&self) -> RegularizationParams {
-        RegularizationParams {
-            kind: self.regularization_kind,
-            initial: self.regularization_initial,
-            growth: self.regularization_growth,
-            shrink: self.regularization_shrink,
-            max_attempts: if self.regularization {
-                self.regularization_max_attempts
-            } else {
-                0
-            },
-        }
+    /// The regularisation parameters as the linear solver takes them: no shifted attempt when
+    /// regularisation is off.
+    fn regularization_params(&self) -> RegularizationParams {
+        self.regularization.unwrap_or(RegularizationParams {
+            max_attempts: 0,
+            ..RegularizationParams::default()
+        })
     }
 
     fn par(&self) -> Par {
@@ -363,6 +317,9 @@ pub struct NewtonWorkspace {
     dx: Vec<f64>,
     x_trial: Vec<f64>,
     mu: f64,
+    /// The settings the symbolic analysis was made with.
+    ordering: Ordering,
+    parallel: bool,
 }
 
 impl NewtonWorkspace {
@@ -397,7 +354,33 @@ impl NewtonWorkspace {
             dx: vec![0.0; n],
             x_trial: vec![0.0; n],
             mu: 0.0,
+            ordering: settings.ordering,
+            parallel: settings.parallel,
         })
+    }
+
+    /// Whether the workspace was built with `settings`' ordering and parallelism. A cached
+    /// workspace must be rebuilt when they change (or when the objective's number of unknowns
+    /// or Hessian pattern does): [`newton_solve`] rejects a wrong size but otherwise factorises
+    /// with the ordering and parallelism the workspace was built with.
+    pub fn matches(&self, settings: &NewtonSettings) -> bool {
+        self.ordering == settings.ordering && self.parallel == settings.parallel
+    }
+
+    /// Number of stored entries of the Hessian pattern (lower triangle).
+    pub fn nnz(&self) -> usize {
+        self.hessian.val().len()
+    }
+
+    /// The ordering the workspace was built with (as requested; [`FactorStats::ordering`] is
+    /// the one `Ordering::Auto` chose).
+    pub fn ordering(&self) -> Ordering {
+        self.ordering
+    }
+
+    /// Whether the factorisation runs on the rayon pool (as built).
+    pub fn parallel(&self) -> bool {
+        self.parallel
     }
 
     /// Number of unknowns the workspace was built for.
@@ -607,7 +590,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
     let gradient_test = objective.gradient_test();
     let step_limit = settings.step_tolerance * length_scale;
     let reg_params = settings.regularization_params();
-    if !settings.regularization {
+    if settings.regularization.is_none() {
         // A shift remembered from an earlier solve must not leak into an unregularised one.
         ws.mu = 0.0;
     }
@@ -748,7 +731,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 match outcome {
                     Ok(o) => o,
                     Err(FactorError::NotPositiveDefinite { pivot }) => {
-                        return Err(if settings.regularization {
+                        return Err(if settings.regularization.is_some() {
                             SolverError::RegularizationFailed {
                                 iteration,
                                 mu: ws.mu,

@@ -80,8 +80,10 @@ fn tip_deflection(sff: SffKind, nx: usize, ny: usize) -> f64 {
     };
     let x0 = mesh.positions().to_vec();
     let mut sys = ShellSystem::new(mesh, model, rest, boundary, loads).unwrap();
-    let mut st = Static::default();
-    st.force_scale = Some(LOAD);
+    let mut st = Static {
+        force_scale: Some(LOAD),
+        ..Static::default()
+    };
     st.newton.gradient_tolerance = 1e-8;
     st.newton.max_iterations = 100;
     let mut x = x0;

@@ -16,7 +16,7 @@ use thinshell_growth::{DirectedHeat, FaceStimulus, Growth, Isotropic, Prescribed
 use thinshell_mesh::{Mesh, generators};
 use thinshell_solver::{
     Boundary, HessianPolicy, ImplicitEuler, Integrator, Loads, NewtonReport, NewtonSettings,
-    ShellSystem, SolverError, State, Static, StepReport,
+    RegularizationParams, ShellSystem, SolverError, State, Static, StepReport,
 };
 use thinshell_testkit::fixtures::{self, SwellingStrip, damped_paper, planar_start};
 use thinshell_testkit::rng::Lcg64;
@@ -786,12 +786,15 @@ fn crumpled_start_needs_regularisation() {
     // The former default: exact Hessian, first shift 1e-6, monotone line search.
     let exact = |st: &mut Static| {
         st.newton.hessian = HessianPolicy::Fixed;
-        st.newton.regularization_initial = 1e-6;
+        st.newton.regularization = Some(RegularizationParams {
+            initial: 1e-6,
+            ..RegularizationParams::default()
+        });
         st.newton.watchdog = 0;
     };
     let mut st = Static::default();
     exact(&mut st);
-    st.newton.regularization = false;
+    st.newton.regularization = None;
     let mut x = x0.clone();
     let e = st.solve(&mut sys, &mut x).unwrap_err();
     println!("crumpled start, no regularisation: {e}");
@@ -805,7 +808,10 @@ fn crumpled_start_needs_regularisation() {
     let mut state = State::at_rest(x0.clone());
     let mut ie = ImplicitEuler::new(1e-3);
     ie.newton.hessian = HessianPolicy::Fixed;
-    ie.newton.regularization_initial = 1e-6;
+    ie.newton.regularization = Some(RegularizationParams {
+        initial: 1e-6,
+        ..RegularizationParams::default()
+    });
     let out = drive(&mut ie, &mut dyn_sys, &mut state, 1);
     println!(
         "{}",
@@ -837,7 +843,7 @@ fn crumpled_start_needs_regularisation() {
     for regularization in [true, false] {
         let mut st = Static::default();
         exact(&mut st);
-        st.newton.regularization = regularization;
+        st.newton.regularization = regularization.then(RegularizationParams::default);
         st.fallback_hessian = Some(HessianMode::GaussNewton);
         let mut state = State::at_rest(x0.clone());
         let out = drive(&mut st, &mut sys, &mut state, 1);
@@ -870,7 +876,7 @@ fn implicit_fallbacks_in_order() {
     let mut dyn_sys = with_damping(&sys);
     let mut ie = ImplicitEuler::new(1e-2);
     ie.newton.hessian = HessianPolicy::Fixed;
-    ie.newton.regularization = false;
+    ie.newton.regularization = None;
     ie.fallback_hessian = Some(HessianMode::GaussNewton);
     ie.max_halvings = 4;
     let mut state = State::at_rest(x0.clone());
@@ -1131,7 +1137,10 @@ fn thin_strip_with_aspect_16_triangles() {
     // |H_dd|), monotone line search.
     let exact = |s: &mut Static| {
         s.newton.hessian = HessianPolicy::Fixed;
-        s.newton.regularization_initial = 1e-6;
+        s.newton.regularization = Some(RegularizationParams {
+            initial: 1e-6,
+            ..RegularizationParams::default()
+        });
         s.newton.watchdog = 0;
     };
     let (done, its, failure) = swelling_strip(&exact);
@@ -1152,7 +1161,10 @@ fn thin_strip_with_aspect_16_triangles() {
     // 1e-9 · mean |H_dd| restores Newton's convergence...
     let (done, its, failure) = swelling_strip(&|s: &mut Static| {
         s.newton.hessian = HessianPolicy::Fixed;
-        s.newton.regularization_initial = 1e-9;
+        s.newton.regularization = Some(RegularizationParams {
+            initial: 1e-9,
+            ..RegularizationParams::default()
+        });
     });
     println!("strip, regularisation from 1e-9: {done} steps, iterations {its:?}");
     assert!(failure.is_none() && its.iter().all(|&i| i <= 20), "{its:?}");

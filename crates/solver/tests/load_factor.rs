@@ -98,8 +98,10 @@ fn static_response_is_linear_in_the_load_factor_for_small_loads() {
     let mut sys = system(loads, boundary);
     let mut deflection = |lambda: f64| {
         sys.set_load_factor(lambda).unwrap();
-        let mut st = Static::default();
-        st.force_scale = Some(3e-6);
+        let mut st = Static {
+            force_scale: Some(3e-6),
+            ..Static::default()
+        };
         let mut x = sys.mesh.positions().to_vec();
         st.solve(&mut sys, &mut x).unwrap();
         -tip.iter().map(|v| x[v.idx()].z).sum::<f64>() / tip.len() as f64

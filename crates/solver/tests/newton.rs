@@ -6,7 +6,7 @@ mod common;
 use common::{chain, chain_equilibrium_z, crumpled_start, rigid_lattice};
 use thinshell_solver::{
     Convergence, HessianPolicy, IterationHessian, NewtonSettings, NewtonWorkspace, Objective,
-    Ordering, SolverError, newton_solve,
+    Ordering, RegularizationParams, SolverError, newton_solve,
 };
 use thinshell_testkit::rng::Lcg64;
 
@@ -97,7 +97,7 @@ fn crumpled_chain_needs_regularisation_and_converges() {
     );
     // The same start without regularisation is rejected with a typed error.
     let plain = NewtonSettings {
-        regularization: false,
+        regularization: None,
         ..settings
     };
     let mut x = net.unknowns(&start);
@@ -296,28 +296,40 @@ fn invalid_settings_are_rejected_by_name() {
         (
             "regularization_initial",
             NewtonSettings {
-                regularization_initial: 0.0,
+                regularization: Some(RegularizationParams {
+                    initial: 0.0,
+                    ..RegularizationParams::default()
+                }),
                 ..d
             },
         ),
         (
             "regularization_growth",
             NewtonSettings {
-                regularization_growth: 1.0,
+                regularization: Some(RegularizationParams {
+                    growth: 1.0,
+                    ..RegularizationParams::default()
+                }),
                 ..d
             },
         ),
         (
             "regularization_shrink",
             NewtonSettings {
-                regularization_shrink: 1.0,
+                regularization: Some(RegularizationParams {
+                    shrink: 1.0,
+                    ..RegularizationParams::default()
+                }),
                 ..d
             },
         ),
         (
             "regularization_max_attempts",
             NewtonSettings {
-                regularization_max_attempts: 0,
+                regularization: Some(RegularizationParams {
+                    max_attempts: 0,
+                    ..RegularizationParams::default()
+                }),
                 ..d
             },
         ),

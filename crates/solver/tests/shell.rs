@@ -103,9 +103,11 @@ fn gravity_on_a_pinned_sheet_sags_and_reactions_carry_the_weight() {
     let weight: f64 = sys.mass().iter().sum::<f64>() * 9.81;
     let x0 = sys.mesh.positions().to_vec();
     let mut x = x0.clone();
-    let mut solver = Static::default();
-    // The weight (~0.25 N) is far below E·h·L: measure residuals against it.
-    solver.force_scale = Some(weight);
+    let mut solver = Static {
+        // The weight (~0.25 N) is far below E·h·L: measure residuals against it.
+        force_scale: Some(weight),
+        ..Static::default()
+    };
     solver.newton.gradient_tolerance = 1e-9;
     solver.solve(&mut sys, &mut x).unwrap();
     for v in &pinned {
@@ -199,8 +201,10 @@ fn explicit_blows_up_above_its_stability_limit_implicit_does_not() {
     // (the overshoot bound of a suddenly applied load; implicit Euler only dissipates).
     let weight = sys.mass().iter().sum::<f64>() * 9.81;
     let mut x_static = x0.clone();
-    let mut solver = Static::default();
-    solver.force_scale = Some(weight);
+    let mut solver = Static {
+        force_scale: Some(weight),
+        ..Static::default()
+    };
     solver.solve(&mut sys, &mut x_static).unwrap();
     let sag = max_disp(&x_static, &x0);
     let mut state = State::at_rest(x0.clone());
@@ -284,9 +288,11 @@ fn cylinder_patch_reaches_radius_one_within_discretisation_error() {
         Loads::default(),
     )
     .unwrap();
-    let mut solver = Static::default();
-    // Bending forces scale with E h³ / L ≈ 2e-4 N: measure residuals against them.
-    solver.force_scale = Some(1e-4);
+    let mut solver = Static {
+        // Bending forces scale with E h³ / L ≈ 2e-4 N: measure residuals against them.
+        force_scale: Some(1e-4),
+        ..Static::default()
+    };
     // Round-off floor of the gradient is ~1e-10 N (stretching stiffness E·h = 2e5 N/m).
     solver.newton.gradient_tolerance = 1e-5;
     solver.newton.max_iterations = 2000;

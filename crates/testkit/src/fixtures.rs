@@ -137,8 +137,10 @@ pub fn swelling_strip(model: Swelling, ny: usize) -> SwellingStrip {
     };
     let system = ShellSystem::new(mesh, shell, initial, Boundary::default(), Loads::default())
         .expect("strip system");
-    let mut solver = Static::default();
-    solver.force_scale = Some(4e-3);
+    let mut solver = Static {
+        force_scale: Some(4e-3),
+        ..Static::default()
+    };
     solver.newton.gradient_tolerance = 1e-6;
     SwellingStrip {
         system,

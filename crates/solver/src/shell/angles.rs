@@ -3,9 +3,10 @@
 //! The angles φ_e of an edge-director form carry no mass: at every instant they minimise the
 //! energy for the current positions. Implicit and static solves find them together with the
 //! positions; [`ExplicitEuler`](super::ExplicitEuler), which only moves positions, calls
-//! [`ShellSystem::relax_edge_angles`] once per step. With the angles at their minimiser
-//! φ*(x), ∂E/∂φ = 0, so the position force −∂E/∂x(x, φ*) is the exact gradient of the reduced
-//! energy E*(x) = min_φ E(x, φ): the explicit step integrates a conservative system.
+//! [`ShellSystem::relax_edge_angles`](crate::ShellSystem::relax_edge_angles) once per step.
+//! With the angles at their minimiser φ*(x), ∂E/∂φ = 0, so the position force −∂E/∂x(x, φ*)
+//! is the exact gradient of the reduced energy E*(x) = min_φ E(x, φ): the explicit step
+//! integrates a conservative system.
 //!
 //! The sub-problem is the shell with every vertex coordinate held: its Hessian is the sparse
 //! angle block (one row per free edge, five entries per row), assembled by its own
@@ -18,18 +19,18 @@ use faer::Par;
 use faer::sparse::SparseColMat;
 use nalgebra::Vector3;
 use thinshell_energy::{
-    Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, HessianMode,
+    Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, HessianMode, RestState,
+    ShellModel,
 };
-use thinshell_mesh::VertexId;
+use thinshell_mesh::{EdgeId, Mesh, VertexId};
 
-use super::system::{ShellSystem, energy_error};
 use crate::linear::RegularizationParams;
 use crate::{Ordering, SolverError, SparseCholesky};
 
 /// Largest correction (rad) taken with a reused factorisation; larger ones refactorise first.
 const MAX_CHORD_STEP: f64 = 0.05;
 
-/// Settings of [`ShellSystem::relax_edge_angles`].
+/// Settings of [`ShellSystem::relax_edge_angles`](crate::ShellSystem::relax_edge_angles).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AngleSettings {
     /// Converged when the Newton correction max_e |δφ_e| (rad) is at most this. Angles are
@@ -53,7 +54,8 @@ impl Default for AngleSettings {
     }
 }
 
-/// What one [`ShellSystem::relax_edge_angles`] call did.
+/// What one [`ShellSystem::relax_edge_angles`](crate::ShellSystem::relax_edge_angles) call
+/// did.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct AngleReport {
     /// Gradient evaluations (the last one is at the returned angles).
@@ -69,8 +71,8 @@ pub struct AngleReport {
     pub energies: EnergyTerms,
 }
 
-/// Cached angle-only problem of a [`ShellSystem`]: assembler with every vertex coordinate
-/// held, Hessian buffer, factorisation, scratch vectors.
+/// Cached angle-only problem of a [`ShellSystem`](crate::ShellSystem): assembler with every
+/// vertex coordinate held, Hessian buffer, factorisation, scratch vectors.
 pub(crate) struct AngleRelaxation {
     assembler: Assembler,
     hessian: SparseColMat<usize, f64>,
@@ -87,18 +89,17 @@ pub(crate) struct AngleRelaxation {
 }
 
 impl AngleRelaxation {
-    fn new(sys: &ShellSystem) -> Result<AngleRelaxation, SolverError> {
-        let n = sys.mesh.n_vertices();
+    /// The angle-only problem of `model` on `mesh` with the angles of `clamped_edges` fixed.
+    pub(crate) fn new(
+        mesh: &Mesh,
+        model: &ShellModel,
+        clamped_edges: &[EdgeId],
+    ) -> Result<AngleRelaxation, SolverError> {
+        let n = mesh.n_vertices();
         let all_vertices = (0..n).map(VertexId::new);
         let dofs = DofMap::with_pinned_vertices(n, all_vertices)
-            .and_then(|d| {
-                d.with_edges(
-                    sys.mesh.n_edges(),
-                    sys.boundary.clamped_edges.iter().copied(),
-                )
-            })
-            .map_err(energy_error)?;
-        let assembler = Assembler::for_model(&sys.mesh, &dofs, &sys.model).map_err(energy_error)?;
+            .and_then(|d| d.with_edges(mesh.n_edges(), clamped_edges.iter().copied()))?;
+        let assembler = Assembler::for_model(mesh, &dofs, model)?;
         let hessian = assembler.hessian_template();
         let cholesky = SparseCholesky::new(hessian.symbolic(), Ordering::Amd, None, Par::Seq)?;
         let n3 = 3 * n;
@@ -118,77 +119,84 @@ impl AngleRelaxation {
         })
     }
 
-    /// Whether this cache still fits `sys` (same counts of coordinates and free angles).
-    fn fits(&self, sys: &ShellSystem) -> bool {
-        self.grad_full.len() == sys.dofs.n_coordinates()
-            && self.edge_of_dof.len() == sys.dofs.n_free() - sys.dofs.n_free_positions()
+    /// Whether this cache still fits a system with unknowns `dofs` (same counts of
+    /// coordinates and free angles).
+    pub(crate) fn fits(&self, dofs: &DofMap) -> bool {
+        self.grad_full.len() == dofs.n_coordinates()
+            && self.edge_of_dof.len() == dofs.n_free() - dofs.n_free_positions()
+    }
+
+    /// The full gradient (N, then J/rad per edge) of the last evaluation.
+    pub(crate) fn gradient_full(&self) -> &[f64] {
+        &self.grad_full
     }
 
     fn energy(
         &mut self,
-        sys: &ShellSystem,
+        model: &ShellModel,
+        rest: &RestState,
         x: &[Vector3<f64>],
         phi: &[f64],
         damping: Option<&DampingState>,
     ) -> Result<f64, SolverError> {
         match self.assembler.evaluate_with_angles(
-            &sys.model,
+            model,
             x,
             phi,
-            &sys.rest,
+            rest,
             damping,
             EvalOutput::default(),
         ) {
             Ok(t) => Ok(t.total()),
             // A trial angle where tan α blows up: reject it in the line search.
             Err(EnergyError::NonFinite { .. }) => Ok(f64::INFINITY),
-            Err(e) => Err(energy_error(e)),
+            Err(e) => Err(e.into()),
         }
     }
 
     fn gradient(
         &mut self,
-        sys: &ShellSystem,
+        model: &ShellModel,
+        rest: &RestState,
         x: &[Vector3<f64>],
         phi: &[f64],
         damping: Option<&DampingState>,
     ) -> Result<EnergyTerms, SolverError> {
         self.assembler
             .evaluate_with_angles(
-                &sys.model,
+                model,
                 x,
                 phi,
-                &sys.rest,
+                rest,
                 damping,
                 EvalOutput {
                     gradient: Some(&mut self.grad_full),
                     hessian: None,
                 },
             )
-            .map_err(energy_error)
+            .map_err(SolverError::from)
     }
 
     fn factorize(
         &mut self,
-        sys: &ShellSystem,
+        model: &ShellModel,
+        rest: &RestState,
         x: &[Vector3<f64>],
         phi: &[f64],
         damping: Option<&DampingState>,
     ) -> Result<(), SolverError> {
         self.factorized = false;
-        self.assembler
-            .evaluate_with_angles(
-                &sys.model,
-                x,
-                phi,
-                &sys.rest,
-                damping,
-                EvalOutput {
-                    gradient: None,
-                    hessian: Some((&mut self.hessian, HessianMode::Exact)),
-                },
-            )
-            .map_err(energy_error)?;
+        self.assembler.evaluate_with_angles(
+            model,
+            x,
+            phi,
+            rest,
+            damping,
+            EvalOutput {
+                gradient: None,
+                hessian: Some((&mut self.hessian, HessianMode::Exact)),
+            },
+        )?;
         self.cholesky
             .factorize_regularized(
                 &mut self.hessian,
@@ -219,9 +227,10 @@ impl AngleRelaxation {
     }
 
     /// Newton on the free angles at fixed `x`; `phi` holds the start and receives the result.
-    fn relax(
+    pub(crate) fn relax(
         &mut self,
-        sys: &ShellSystem,
+        model: &ShellModel,
+        rest: &RestState,
         x: &[Vector3<f64>],
         phi: &mut [f64],
         damping: Option<&DampingState>,
@@ -233,14 +242,14 @@ impl AngleRelaxation {
         // Correction predicted before the last chord step (None after a fresh Newton step).
         let mut chord_from: Option<f64> = None;
         let result = loop {
-            report.energies = self.gradient(sys, x, phi, damping)?;
+            report.energies = self.gradient(model, rest, x, phi, damping)?;
             report.gradient_evaluations += 1;
             if self.edge_of_dof.is_empty() {
                 break Ok(());
             }
             let mut fresh = false;
             if !self.factorized {
-                self.factorize(sys, x, phi, damping)?;
+                self.factorize(model, rest, x, phi, damping)?;
                 report.factorizations += 1;
                 fresh = true;
             }
@@ -253,7 +262,7 @@ impl AngleRelaxation {
                 && (norm > MAX_CHORD_STEP
                     || chord_from.is_some_and(|prev| norm > settings.contraction * prev))
             {
-                self.factorize(sys, x, phi, damping)?;
+                self.factorize(model, rest, x, phi, damping)?;
                 report.factorizations += 1;
                 fresh = true;
                 norm = self.correction(n3)?;
@@ -284,7 +293,7 @@ impl AngleRelaxation {
                     for (d, &e) in self.delta.iter().zip(&self.edge_of_dof) {
                         trial[e] = phi[e] + t * d;
                     }
-                    let e1 = self.energy(sys, x, &trial, damping)?;
+                    let e1 = self.energy(model, rest, x, &trial, damping)?;
                     report.value_evaluations += 1;
                     if e1 <= e0 + 1e-4 * t * slope || t < 1e-10 {
                         break;
@@ -313,78 +322,5 @@ impl AngleRelaxation {
                 last_good: phi.to_vec(),
             }),
         }
-    }
-}
-
-impl ShellSystem {
-    /// Minimises the energy over the free edge-director angles `phi` (rad, one per edge; the
-    /// start, overwritten with the result) at fixed positions `x` (m), by Newton's method on
-    /// the angle block of the Hessian (see the module docs). `damping`, when the system has
-    /// damping on, is the Kelvin–Voigt state of the step. When `gradient` is given it receives
-    /// the full gradient (N, then J/rad per edge; length `3·n_vertices + n_edges`) at the
-    /// returned angles. Without edge unknowns nothing is done except that gradient.
-    ///
-    /// Errors: wrong lengths, an invalid configuration, or no convergence within
-    /// `settings.max_iterations` ([`SolverError::NewtonDidNotConverge`], whose `residuals`
-    /// are the corrections in rad and `last_good` the angles reached).
-    pub fn relax_edge_angles(
-        &mut self,
-        x: &[Vector3<f64>],
-        phi: &mut [f64],
-        damping: Option<&DampingState>,
-        settings: &AngleSettings,
-        gradient: Option<&mut [f64]>,
-    ) -> Result<AngleReport, SolverError> {
-        if !self.has_edge_unknowns() {
-            return Err(SolverError::InvalidSetting {
-                name: "sff",
-                value: 0.0,
-                requirement: "edge angles exist only with an edge-director form and bending on",
-            });
-        }
-        let n_edges = self.n_edge_angles();
-        for (what, len, expected) in [
-            ("positions", x.len(), self.mesh.n_vertices()),
-            ("edge angles", phi.len(), n_edges),
-        ] {
-            if len != expected {
-                return Err(SolverError::DimensionMismatch {
-                    what,
-                    expected,
-                    found: len,
-                });
-            }
-        }
-        if !(settings.tolerance > 0.0
-            && settings.tolerance.is_finite()
-            && settings.contraction > 0.0
-            && settings.contraction < 1.0)
-        {
-            return Err(SolverError::InvalidSetting {
-                name: "angle settings",
-                value: settings.tolerance,
-                requirement: "tolerance > 0 and finite, contraction in (0, 1)",
-            });
-        }
-        let mut cache = match self.angle_relaxation.take() {
-            Some(c) if c.fits(self) => c,
-            _ => Box::new(AngleRelaxation::new(self)?),
-        };
-        let result = cache.relax(self, x, phi, damping, settings);
-        if let (Ok(_), Some(g)) = (&result, gradient) {
-            let n = g.len().min(cache.grad_full.len());
-            g[..n].copy_from_slice(&cache.grad_full[..n]);
-        }
-        self.angle_relaxation = Some(cache);
-        result
-    }
-
-    /// Totals of every [`ShellSystem::relax_edge_angles`] call on this system so far
-    /// (evaluations and factorisations; `energies` and `last_correction` of the last call).
-    pub fn angle_relaxation_totals(&self) -> AngleReport {
-        self.angle_relaxation
-            .as_ref()
-            .map(|c| c.totals)
-            .unwrap_or_default()
     }
 }

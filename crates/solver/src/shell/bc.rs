@@ -86,10 +86,92 @@ impl Boundary {
         Ok(held)
     }
 
+    /// A 3-2-1 pin set: six pinned coordinates that remove exactly the six rigid motions of a
+    /// free shell (three translations, three rotations) and nothing else, so at an equilibrium
+    /// under self-balanced loads (pressure on a closed surface, opposite point forces) the pins
+    /// carry no force. Which coordinates:
+    /// - all three of `anchor` (a): the translations;
+    /// - two of the vertex b farthest from a: the rotations about the two axes across ab;
+    /// - one of the vertex c farthest from the line ab: the rotation about ab.
+    ///
+    /// The axes of b and c are the ones that make the six constraints best conditioned (the
+    /// largest determinant of the rotation block). Use the result as
+    /// [`Boundary::pinned_coordinates`]. Errors when all vertices lie on one line (or `anchor`
+    /// is out of range).
+    pub fn rigid_motion_pins(
+        mesh: &Mesh,
+        anchor: VertexId,
+    ) -> Result<Vec<(VertexId, usize)>, SolverError> {
+        let p = mesh.positions();
+        let a = *p.get(anchor.idx()).ok_or(SolverError::InvalidSetting {
+            name: "anchor",
+            value: anchor.idx() as f64,
+            requirement: "vertex out of range",
+        })?;
+        let farthest = |key: &dyn Fn(&Vector3<f64>) -> f64| {
+            (0..p.len())
+                .map(|i| (i, key(&p[i])))
+                .fold(
+                    (anchor.idx(), 0.0f64),
+                    |best, c| {
+                        if c.1 > best.1 { c } else { best }
+                    },
+                )
+        };
+        let (b, _) = farthest(&|q| (q - a).norm());
+        let ab = p[b] - a;
+        let ab_len = ab.norm();
+        let (c, off_line) = farthest(&|q| {
+            if ab_len > 0.0 {
+                ab.cross(&(q - a)).norm() / ab_len
+            } else {
+                0.0
+            }
+        });
+        // Under a small rotation ω about a, vertex q moves by ω × (q − a); pinning axis i of q
+        // imposes ω · ((q − a) × e_i) = 0. The three rows must be independent.
+        let row = |q: usize, i: usize| (p[q] - a).cross(&Vector3::ith(i, 1.0));
+        let mut best = (0.0f64, 0, 0);
+        for b_free in 0..3 {
+            let [i, j] = [(b_free + 1) % 3, (b_free + 2) % 3];
+            for k in 0..3 {
+                let m = nalgebra::Matrix3::from_rows(&[
+                    row(b, i).transpose(),
+                    row(b, j).transpose(),
+                    row(c, k).transpose(),
+                ]);
+                let det = m.determinant().abs();
+                if det > best.0 {
+                    best = (det, b_free, k);
+                }
+            }
+        }
+        // Relative to |ab|²·distance of c from ab (the determinant's scale): round-off only
+        // when the vertices are collinear.
+        let scale = ab_len * ab_len * off_line;
+        if !(scale > 0.0 && best.0 > 1e-12 * scale * ab_len) {
+            return Err(SolverError::InvalidSetting {
+                name: "rigid_motion_pins",
+                value: off_line,
+                requirement: "needs three vertices that are not on one line",
+            });
+        }
+        let (_, b_free, k) = best;
+        let (b, c) = (VertexId::new(b), VertexId::new(c));
+        Ok(vec![
+            (anchor, 0),
+            (anchor, 1),
+            (anchor, 2),
+            (b, (b_free + 1) % 3),
+            (b, (b_free + 2) % 3),
+            (c, k),
+        ])
+    }
+
     /// The dof map of the free coordinates.
     pub fn dof_map(&self, mesh: &Mesh) -> Result<DofMap, SolverError> {
         DofMap::with_pinned(mesh.n_vertices(), self.held_coordinates(mesh)?)
-            .map_err(|e| SolverError::Objective(e.to_string()))
+            .map_err(SolverError::from)
     }
 
     /// Sets the prescribed vertices of `x` to their positions at time `t`.

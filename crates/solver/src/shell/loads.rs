@@ -1,7 +1,11 @@
-//! External loads: gravity and per-vertex point forces.
+//! External loads: gravity, point forces (constant forces, potential −F·x) and uniform
+//! pressure (a follower load, potential −p·V(x)): the force vector, and the pressure's volume,
+//! gradient and Hessian that the objectives and the explicit step add to the elastic terms.
 
+use faer::sparse::SparseColMat;
 use nalgebra::Vector3;
-use thinshell_mesh::VertexId;
+use thinshell_energy::{Assembler, EnergyError};
+use thinshell_mesh::{Mesh, VertexId};
 
 use crate::SolverError;
 
@@ -81,4 +85,49 @@ impl Loads {
         }
         Ok(f)
     }
+}
+
+/// The three corner positions of face `f`.
+fn corners(mesh: &Mesh, x: &[Vector3<f64>], f: usize) -> [Vector3<f64>; 3] {
+    let face = mesh.faces()[f];
+    [x[face[0].idx()], x[face[1].idx()], x[face[2].idx()]]
+}
+
+/// Enclosed volume `V(x) = Σ_f x_i·(x_j × x_k)/6` (m³) of positions `x` on `mesh`.
+pub(crate) fn enclosed_volume(mesh: &Mesh, x: &[Vector3<f64>]) -> f64 {
+    (0..mesh.n_faces())
+        .map(|f| face_volume(corners(mesh, x, f)))
+        .sum()
+}
+
+/// `g −= p ∂V/∂x` (N) into the first `3·n_vertices` entries of the full gradient `g`: the
+/// pressure force `p ∂V/∂x` enters like an external force. Nothing is done for `p = 0`.
+pub(crate) fn add_pressure_gradient(mesh: &Mesh, x: &[Vector3<f64>], p: f64, g: &mut [f64]) {
+    if p == 0.0 {
+        return;
+    }
+    for (f, face) in mesh.faces().iter().enumerate() {
+        let gv = face_volume_gradient(corners(mesh, x, f));
+        for (s, v) in face.iter().enumerate() {
+            let base = 3 * v.idx();
+            for (gc, gvc) in g[base..base + 3].iter_mut().zip(gv[s].iter()) {
+                *gc -= p * gvc;
+            }
+        }
+    }
+}
+
+/// `H −= p ∂²V/∂x²` into a Hessian with `assembler`'s pattern (free dofs only; the pattern is
+/// checked once, so the cost is linear in the number of faces). Nothing is done for `p = 0`.
+pub(crate) fn add_pressure_hessian(
+    mesh: &Mesh,
+    assembler: &Assembler,
+    x: &[Vector3<f64>],
+    p: f64,
+    h: &mut SparseColMat<usize, f64>,
+) -> Result<(), EnergyError> {
+    if p == 0.0 {
+        return Ok(());
+    }
+    assembler.add_face_blocks(|f| face_volume_hessian(corners(mesh, x, f.idx())) * -p, h)
 }

@@ -1,14 +1,24 @@
 //! The shell layer: boundary conditions, loads, the shell objectives and the time integrators,
 //! on top of the energy crate's [`Assembler`](thinshell_energy::Assembler).
+//!
+//! Module dependencies point one way (no circles): `bc`, `loads`, `angles` → `system` →
+//! `objective` → `integrator` → `statics`, `implicit`, `explicit`.
 
 pub mod angles;
 pub mod bc;
-pub mod integrators;
+pub mod explicit;
+pub mod implicit;
+pub mod integrator;
 pub mod loads;
+mod objective;
+pub mod statics;
 pub mod system;
 
 pub use angles::{AngleReport, AngleSettings};
 pub use bc::{Boundary, Prescribed};
-pub use integrators::{ExplicitEuler, ImplicitEuler, Integrator, Static, StepReport};
+pub use explicit::ExplicitEuler;
+pub use implicit::ImplicitEuler;
+pub use integrator::{Integrator, NewtonCache, StepKind, StepReport};
 pub use loads::Loads;
+pub use statics::Static;
 pub use system::{ShellSystem, State};

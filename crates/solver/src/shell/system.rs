@@ -1,16 +1,17 @@
-//! A shell with its boundary conditions and loads, and the objectives Newton minimises.
+//! A shell with its boundary conditions and loads: the one owner of the dof map, masses,
+//! external forces, the force and length scales, and the assembler.
 
-use faer::sparse::SparseColMat;
 use nalgebra::Vector3;
 use thinshell_energy::{
-    Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, HessianMode, RestState,
-    ShellModel, lumped_mass,
+    Assembler, DampingState, DofMap, EnergyTerms, EvalOutput, HessianMode, RestState, ShellModel,
+    lumped_mass,
 };
 use thinshell_mesh::Mesh;
 
+use super::angles::{AngleRelaxation, AngleReport, AngleSettings};
 use super::bc::Boundary;
-use super::loads::{Loads, face_volume, face_volume_gradient, face_volume_hessian};
-use crate::{Objective, SolverError};
+use super::loads::{Loads, add_pressure_gradient};
+use crate::SolverError;
 
 /// Dynamic state: positions (m), velocities (m/s), one entry per vertex; edge-director angles
 /// (rad), one per edge; time (s).
@@ -42,10 +43,6 @@ impl State {
     }
 }
 
-pub(crate) fn energy_error(e: EnergyError) -> SolverError {
-    SolverError::Objective(e.to_string())
-}
-
 /// A mesh with material, rest state, boundary conditions and loads, plus the assembler (pattern
 /// built once over the free dofs) and the lumped masses.
 pub struct ShellSystem {
@@ -73,7 +70,7 @@ pub struct ShellSystem {
     /// steps lengths (m), like those of the positions.
     pub(crate) angle_scale: f64,
     /// Angle-only sub-problem of [`ShellSystem::relax_edge_angles`], built on first use.
-    pub(crate) angle_relaxation: Option<Box<super::angles::AngleRelaxation>>,
+    pub(crate) angle_relaxation: Option<Box<AngleRelaxation>>,
 }
 
 impl std::fmt::Debug for ShellSystem {
@@ -97,16 +94,14 @@ impl ShellSystem {
         boundary: Boundary,
         loads: Loads,
     ) -> Result<ShellSystem, SolverError> {
-        rest.validate(&mesh).map_err(energy_error)?;
+        rest.validate(&mesh)?;
         let mut dofs = boundary.dof_map(&mesh)?;
-        if model.sff.director().is_some() && model.terms.bend {
-            dofs = dofs
-                .with_edges(mesh.n_edges(), boundary.clamped_edges.iter().copied())
-                .map_err(energy_error)?;
+        if ShellSystem::has_edge_unknowns_for(&model) {
+            dofs = dofs.with_edges(mesh.n_edges(), boundary.clamped_edges.iter().copied())?;
         }
-        let mass = lumped_mass(&mesh, &rest, &model.material).map_err(energy_error)?;
+        let mass = lumped_mass(&mesh, &rest, &model.material)?;
         let f_ext = loads.forces(&mass)?;
-        let assembler = Assembler::for_model(&mesh, &dofs, &model).map_err(energy_error)?;
+        let assembler = Assembler::for_model(&mesh, &dofs, &model)?;
         let angle_scale = mean_edge_length(&mesh);
         Ok(ShellSystem {
             mesh,
@@ -123,6 +118,14 @@ impl ShellSystem {
             angle_scale,
             angle_relaxation: None,
         })
+    }
+
+    /// Whether a system of `model` has one edge-director angle per edge among its unknowns:
+    /// an edge-director second fundamental form with bending on (without bending the angles do
+    /// not enter the energy). The one definition of the test, for callers that need it before
+    /// a system exists (the scene runner's initial energy).
+    pub fn has_edge_unknowns_for(model: &ShellModel) -> bool {
+        model.sff.director().is_some() && model.terms.bend
     }
 
     /// Whether the unknowns include one edge-director angle per edge.
@@ -278,7 +281,19 @@ impl ShellSystem {
         };
         self.assembler
             .evaluate_with_angles(&model, x, phi, &self.rest, None, EvalOutput::default())
-            .map_err(energy_error)
+            .map_err(SolverError::from)
+    }
+
+    /// Energy terms (J) of every face, in face order, at positions `x` and edge angles `phi`
+    /// (rad, one per edge; empty = all 0), no damping; they sum to
+    /// [`ShellSystem::energy_at`]. For energy maps and per-face studies.
+    pub fn face_energies(
+        &mut self,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+    ) -> Result<Vec<EnergyTerms>, SolverError> {
+        self.energy_at(x, phi)?;
+        Ok(self.assembler.face_energies().to_vec())
     }
 
     /// The force (N) the supports exert on every held coordinate at `x`:
@@ -302,20 +317,18 @@ impl ShellSystem {
             phi
         };
         let mut g = vec![0.0; self.dofs.n_coordinates()];
-        self.assembler
-            .evaluate_with_angles(
-                &self.model,
-                x,
-                phi,
-                &self.rest,
-                None,
-                EvalOutput {
-                    gradient: Some(&mut g),
-                    hessian: None,
-                },
-            )
-            .map_err(energy_error)?;
-        super::integrators::add_pressure_gradient(self, x, &mut g);
+        self.assembler.evaluate_with_angles(
+            &self.model,
+            x,
+            phi,
+            &self.rest,
+            None,
+            EvalOutput {
+                gradient: Some(&mut g),
+                hessian: None,
+            },
+        )?;
+        add_pressure_gradient(&self.mesh, x, self.pressure(), &mut g);
         g.truncate(3 * x.len());
         Ok(g.iter()
             .zip(&self.f_ext)
@@ -361,6 +374,84 @@ impl ShellSystem {
     }
 }
 
+impl ShellSystem {
+    /// Minimises the energy over the free edge-director angles `phi` (rad, one per edge; the
+    /// start, overwritten with the result) at fixed positions `x` (m), by Newton's method on
+    /// the angle block of the Hessian (see [`angles`](super::angles)). `damping`, when the system has
+    /// damping on, is the Kelvin–Voigt state of the step. When `gradient` is given it receives
+    /// the full gradient (N, then J/rad per edge; length `3·n_vertices + n_edges`) at the
+    /// returned angles. Without edge unknowns nothing is done except that gradient.
+    ///
+    /// Errors: wrong lengths, an invalid configuration, or no convergence within
+    /// `settings.max_iterations` ([`SolverError::NewtonDidNotConverge`], whose `residuals`
+    /// are the corrections in rad and `last_good` the angles reached).
+    pub fn relax_edge_angles(
+        &mut self,
+        x: &[Vector3<f64>],
+        phi: &mut [f64],
+        damping: Option<&DampingState>,
+        settings: &AngleSettings,
+        gradient: Option<&mut [f64]>,
+    ) -> Result<AngleReport, SolverError> {
+        if !self.has_edge_unknowns() {
+            return Err(SolverError::InvalidSetting {
+                name: "sff",
+                value: 0.0,
+                requirement: "edge angles exist only with an edge-director form and bending on",
+            });
+        }
+        let n_edges = self.n_edge_angles();
+        for (what, len, expected) in [
+            ("positions", x.len(), self.mesh.n_vertices()),
+            ("edge angles", phi.len(), n_edges),
+        ] {
+            if len != expected {
+                return Err(SolverError::DimensionMismatch {
+                    what,
+                    expected,
+                    found: len,
+                });
+            }
+        }
+        if !(settings.tolerance > 0.0
+            && settings.tolerance.is_finite()
+            && settings.contraction > 0.0
+            && settings.contraction < 1.0)
+        {
+            return Err(SolverError::InvalidSetting {
+                name: "angle settings",
+                value: settings.tolerance,
+                requirement: "tolerance > 0 and finite, contraction in (0, 1)",
+            });
+        }
+        let mut cache = match self.angle_relaxation.take() {
+            Some(c) if c.fits(&self.dofs) => c,
+            _ => Box::new(AngleRelaxation::new(
+                &self.mesh,
+                &self.model,
+                &self.boundary.clamped_edges,
+            )?),
+        };
+        let result = cache.relax(&self.model, &self.rest, x, phi, damping, settings);
+        if let (Ok(_), Some(g)) = (&result, gradient) {
+            let full = cache.gradient_full();
+            let n = g.len().min(full.len());
+            g[..n].copy_from_slice(&full[..n]);
+        }
+        self.angle_relaxation = Some(cache);
+        result
+    }
+
+    /// Totals of every [`ShellSystem::relax_edge_angles`] call on this system so far
+    /// (evaluations and factorisations; `energies` and `last_correction` of the last call).
+    pub fn angle_relaxation_totals(&self) -> AngleReport {
+        self.angle_relaxation
+            .as_ref()
+            .map(|c| c.totals)
+            .unwrap_or_default()
+    }
+}
+
 /// Mean edge length (m) of the reference mesh; 1 if degenerate.
 fn mean_edge_length(mesh: &Mesh) -> f64 {
     let p = mesh.positions();
@@ -374,393 +465,5 @@ fn mean_edge_length(mesh: &Mesh) -> f64 {
         mean
     } else {
         1.0
-    }
-}
-
-/// Inertia term of the incremental potential: `1/(2Δt²) (x − x̃)ᵀ Λ (x − x̃)`.
-pub(crate) struct Inertia {
-    /// x̃ = xⁿ + Δt vⁿ per free dof.
-    pub x_tilde: Vec<f64>,
-    /// Λ/Δt² per free dof (kg/s²).
-    pub m_over_dt2: Vec<f64>,
-}
-
-/// `E(x) + inertia − F_extᵀx` over the free dofs; held coordinates are taken from `base`.
-pub(crate) struct ShellObjective<'a> {
-    pub sys: &'a mut ShellSystem,
-    pub x_full: Vec<Vector3<f64>>,
-    /// Edge angles (rad), one per edge with edge unknowns, else empty.
-    pub phi_full: Vec<f64>,
-    pub grad_full: Vec<f64>,
-    pub inertia: Option<Inertia>,
-    pub damping: Option<DampingState>,
-    /// Static solves: shift κ·mean|H_dd| added to the Hessian diagonal only (the gradient is
-    /// exact, so the minimiser is unchanged); it makes rigid-motion null spaces invertible.
-    pub hessian_shift: f64,
-    /// Unit of the reported residuals (N).
-    pub force_scale: f64,
-    /// Whether `‖∇‖∞ ≤ tol · force_scale` may end a solve (the caller gave the scale).
-    pub gradient_test: bool,
-    pub last_terms: EnergyTerms,
-}
-
-impl ShellObjective<'_> {
-    fn face_x(&self, f: usize) -> [Vector3<f64>; 3] {
-        let face = self.sys.mesh.faces()[f];
-        [
-            self.x_full[face[0].idx()],
-            self.x_full[face[1].idx()],
-            self.x_full[face[2].idx()],
-        ]
-    }
-
-    /// Enclosed volume (m³) of `x_full`; 0 without pressure.
-    fn volume(&self) -> f64 {
-        if self.sys.pressure() == 0.0 {
-            return 0.0;
-        }
-        (0..self.sys.mesh.n_faces())
-            .map(|f| face_volume(self.face_x(f)))
-            .sum()
-    }
-
-    /// Adds the pressure force gradient −p ∂V/∂x into the full gradient.
-    fn add_pressure_gradient(&mut self) {
-        let p = self.sys.pressure();
-        if p == 0.0 {
-            return;
-        }
-        for f in 0..self.sys.mesh.n_faces() {
-            let g = face_volume_gradient(self.face_x(f));
-            let face = self.sys.mesh.faces()[f];
-            for (s, v) in face.iter().enumerate() {
-                let base = 3 * v.idx();
-                for (gc, gv) in self.grad_full[base..base + 3].iter_mut().zip(g[s].iter()) {
-                    *gc -= p * gv;
-                }
-            }
-        }
-    }
-
-    fn eval(
-        &mut self,
-        u: &[f64],
-        gradient: bool,
-        hessian: Option<&mut SparseColMat<usize, f64>>,
-    ) -> Result<EnergyTerms, EnergyError> {
-        let mode = self.sys.hessian_mode;
-        self.eval_mode(u, gradient, hessian, mode)
-    }
-
-    fn eval_mode(
-        &mut self,
-        u: &[f64],
-        gradient: bool,
-        hessian: Option<&mut SparseColMat<usize, f64>>,
-        mode: HessianMode,
-    ) -> Result<EnergyTerms, EnergyError> {
-        self.sys.scatter(u, &mut self.x_full, &mut self.phi_full);
-        let out = EvalOutput {
-            gradient: if gradient {
-                Some(&mut self.grad_full)
-            } else {
-                None
-            },
-            hessian: hessian.map(|h| (h, mode)),
-        };
-        self.sys.assembler.evaluate_with_angles(
-            &self.sys.model,
-            &self.x_full,
-            &self.phi_full,
-            &self.sys.rest,
-            self.damping.as_ref(),
-            out,
-        )
-    }
-
-    /// Inertia and load part of the value at `u` (call after `eval`, which fills `x_full`).
-    fn extra_value(&self, u: &[f64]) -> f64 {
-        let coords = self.sys.dofs.free_coordinates();
-        let mut v = -self.sys.pressure() * self.volume();
-        for (d, &c) in coords.iter().enumerate() {
-            v -= self.sys.f_ext.get(c).copied().unwrap_or(0.0) * u[d];
-            if let Some(i) = &self.inertia {
-                let dx = u[d] - i.x_tilde[d];
-                v += 0.5 * i.m_over_dt2[d] * dx * dx;
-            }
-        }
-        v
-    }
-}
-
-impl Objective for ShellObjective<'_> {
-    fn n_dofs(&self) -> usize {
-        self.sys.dofs.n_free()
-    }
-
-    fn value(&mut self, u: &[f64]) -> Result<f64, SolverError> {
-        match self.eval(u, false, None) {
-            Ok(t) => Ok(t.total() + self.extra_value(u)),
-            // An inverted or degenerate trial configuration: let the line search backtrack.
-            Err(EnergyError::NonFinite { .. }) => Ok(f64::INFINITY),
-            Err(e) => Err(energy_error(e)),
-        }
-    }
-
-    fn gradient(&mut self, u: &[f64], g: &mut [f64]) -> Result<f64, SolverError> {
-        let terms = match self.eval(u, true, None) {
-            Ok(t) => t,
-            Err(EnergyError::NonFinite { .. }) => {
-                g.fill(f64::NAN);
-                return Ok(f64::INFINITY);
-            }
-            Err(e) => return Err(energy_error(e)),
-        };
-        self.last_terms = terms;
-        self.add_pressure_gradient();
-        let coords = self.sys.dofs.free_coordinates();
-        let n_pos = self.sys.dofs.n_free_positions();
-        let inv_scale = 1.0 / self.sys.angle_scale;
-        for (d, &c) in coords.iter().enumerate() {
-            g[d] = if d < n_pos {
-                self.grad_full[c] - self.sys.f_ext[c]
-            } else {
-                self.grad_full[c] * inv_scale
-            };
-            if let Some(i) = &self.inertia {
-                g[d] += i.m_over_dt2[d] * (u[d] - i.x_tilde[d]);
-            }
-        }
-        Ok(terms.total() + self.extra_value(u))
-    }
-
-    fn hessian(&mut self, u: &[f64], h: &mut SparseColMat<usize, f64>) -> Result<(), SolverError> {
-        let mode = self.sys.hessian_mode;
-        self.hessian_in_mode(u, h, mode)
-    }
-
-    /// The Gauss–Newton Hessian (PSD by construction; the pressure and inertia terms are added
-    /// as in [`hessian`](Objective::hessian)).
-    fn psd_hessian(
-        &mut self,
-        u: &[f64],
-        h: &mut SparseColMat<usize, f64>,
-    ) -> Result<(), SolverError> {
-        self.hessian_in_mode(u, h, HessianMode::GaussNewton)
-    }
-
-    fn has_psd_hessian(&self) -> bool {
-        true
-    }
-
-    fn hessian_template(&self) -> SparseColMat<usize, f64> {
-        self.sys.assembler.hessian_template()
-    }
-
-    fn force_scale(&self) -> f64 {
-        self.force_scale
-    }
-
-    fn gradient_test(&self) -> bool {
-        self.gradient_test
-    }
-
-    fn length_scale(&self) -> f64 {
-        self.sys.length_scale()
-    }
-
-    fn dof_coordinates(&self) -> Option<Vec<[f64; 3]>> {
-        let p = self.sys.mesh.positions();
-        let n3 = 3 * p.len();
-        let edges = self.sys.mesh.topology().edges();
-        Some(
-            self.sys
-                .dofs
-                .free_coordinates()
-                .iter()
-                .map(|&c| {
-                    // An edge angle sits at its edge's midpoint.
-                    let q = if c < n3 {
-                        p[c / 3]
-                    } else {
-                        let e = &edges[c - n3];
-                        (p[e.vertices[0].idx()] + p[e.vertices[1].idx()]) * 0.5
-                    };
-                    [q.x, q.y, q.z]
-                })
-                .collect(),
-        )
-    }
-}
-
-impl ShellObjective<'_> {
-    /// The Hessian in `mode` plus pressure, angle scaling, inertia and the static shift.
-    fn hessian_in_mode(
-        &mut self,
-        u: &[f64],
-        h: &mut SparseColMat<usize, f64>,
-        mode: HessianMode,
-    ) -> Result<(), SolverError> {
-        self.eval_mode(u, false, Some(h), mode)
-            .map_err(energy_error)?;
-        let p = self.sys.pressure();
-        if p != 0.0 {
-            let this = &*self;
-            this.sys
-                .assembler
-                .add_face_blocks(|f| face_volume_hessian(this.face_x(f.idx())) * -p, h)
-                .map_err(energy_error)?;
-        }
-        if self.sys.has_edge_unknowns() {
-            // u = ℓ̄ φ for edge dofs: H_uu = D H_φφ D with D = diag(1, 1/ℓ̄).
-            let n_pos = self.sys.dofs.n_free_positions();
-            let inv_scale = 1.0 / self.sys.angle_scale;
-            let (symbolic, val) = h.parts_mut();
-            for j in n_pos.min(symbolic.ncols())..symbolic.ncols() {
-                for p in symbolic.col_range(j) {
-                    // Rows of an angle column are angles too (lower triangle, angles last).
-                    val[p] *= inv_scale * inv_scale;
-                }
-            }
-            for j in 0..n_pos.min(symbolic.ncols()) {
-                for p in symbolic.col_range(j) {
-                    if symbolic.row_idx()[p] >= n_pos {
-                        val[p] *= inv_scale;
-                    }
-                }
-            }
-        }
-        let offsets = self.sys.assembler.diagonal_offsets();
-        let val = h.val_mut();
-        if let Some(i) = &self.inertia {
-            for (&o, &m) in offsets.iter().zip(&i.m_over_dt2) {
-                val[o] += m;
-            }
-        }
-        if self.hessian_shift > 0.0 && !offsets.is_empty() {
-            let mean = offsets.iter().map(|&o| val[o].abs()).sum::<f64>() / offsets.len() as f64;
-            for &o in offsets {
-                val[o] += self.hessian_shift * mean;
-            }
-        }
-        Ok(())
-    }
-}
-
-#[cfg(test)]
-#[allow(clippy::unwrap_used)]
-mod tests {
-    use super::*;
-    use thinshell_energy::{Material, SffKind, Terms};
-    use thinshell_mesh::generators;
-
-    /// Gradient and Hessian of the static and implicit objectives with pressure, gravity and a
-    /// point force against central differences.
-    #[test]
-    fn objective_derivatives_match_finite_differences() {
-        let mesh = generators::icosphere(1.0, 1).unwrap();
-        let sff = SffKind::MidEdgeAverage;
-        let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
-        let model = ShellModel {
-            material: Material {
-                young: 1e3,
-                thickness: 1e-2,
-                ..Material::paper()
-            },
-            terms: Terms {
-                stretch: true,
-                bend: true,
-                damping: false,
-            },
-            sff,
-        };
-        let loads = Loads {
-            gravity: Vector3::new(0.0, 0.0, -9.81),
-            point_forces: vec![(
-                thinshell_mesh::VertexId::new(3),
-                Vector3::new(0.1, 0.2, -0.3),
-            )],
-            pressure: 7.0,
-        };
-        let boundary = Boundary {
-            pinned_vertices: vec![thinshell_mesh::VertexId::new(0)],
-            ..Default::default()
-        };
-        let mut sys = ShellSystem::new(mesh, model, rest, boundary, loads).unwrap();
-        // A deformed configuration.
-        let x: Vec<Vector3<f64>> = sys
-            .mesh
-            .positions()
-            .iter()
-            .enumerate()
-            .map(|(i, p)| p * (1.0 + 0.05 * ((i as f64) * 0.7).sin()))
-            .collect();
-        let n = sys.dofs.n_free();
-        for inertia in [false, true] {
-            let u0 = sys.gather(&x, &[]);
-            let inertia = inertia.then(|| Inertia {
-                x_tilde: u0.iter().map(|v| v + 0.01).collect(),
-                m_over_dt2: (0..n).map(|d| 1.0 + d as f64 * 0.01).collect(),
-            });
-            let n3 = 3 * x.len();
-            let mut obj = ShellObjective {
-                sys: &mut sys,
-                x_full: x.clone(),
-                phi_full: Vec::new(),
-                grad_full: vec![0.0; n3],
-                inertia,
-                damping: None,
-                hessian_shift: 0.0,
-                force_scale: 1.0,
-                gradient_test: true,
-                last_terms: EnergyTerms::default(),
-            };
-            let mut g = vec![0.0; n];
-            let f0 = obj.gradient(&u0, &mut g).unwrap();
-            assert_eq!(obj.value(&u0).unwrap(), f0);
-            let mut h = obj.hessian_template();
-            obj.hessian(&u0, &mut h).unwrap();
-            let eps = 1e-6;
-            let gscale = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            for d in (0..n).step_by(7) {
-                let mut up = u0.clone();
-                up[d] += eps;
-                let mut um = u0.clone();
-                um[d] -= eps;
-                let fd = (obj.value(&up).unwrap() - obj.value(&um).unwrap()) / (2.0 * eps);
-                assert!(
-                    (fd - g[d]).abs() < 1e-6 * gscale,
-                    "dof {d}: fd {fd} vs {}",
-                    g[d]
-                );
-                // Column d of the Hessian vs difference of gradients.
-                let mut gp = vec![0.0; n];
-                let mut gm = vec![0.0; n];
-                obj.gradient(&up, &mut gp).unwrap();
-                obj.gradient(&um, &mut gm).unwrap();
-                let mut col = vec![0.0; n];
-                for j in 0..n {
-                    for p in h.symbolic().col_range(j) {
-                        let i = h.symbolic().row_idx()[p];
-                        let v = h.val()[p];
-                        if j == d {
-                            col[i] += v;
-                        }
-                        if i == d && i != j {
-                            col[j] += v;
-                        }
-                    }
-                }
-                let hscale = col.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                for i in 0..n {
-                    let fdh = (gp[i] - gm[i]) / (2.0 * eps);
-                    assert!(
-                        (fdh - col[i]).abs() < 1e-5 * hscale,
-                        "H[{i},{d}]: fd {fdh} vs {}",
-                        col[i]
-                    );
-                }
-            }
-        }
     }
 }

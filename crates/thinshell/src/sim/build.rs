@@ -348,39 +348,43 @@ impl Simulation {
             (true, None) if on(Effect::Growth) => LoadRamp::None,
             (true, None) => LoadRamp::Linear,
         };
-        // The library's defaults (adaptive Hessian, scale-free convergence), for static and
-        // implicit solves alike; the scene may override them.
-        let mut settings = NewtonSettings::default();
+        // The scene's Newton keys override the solver's defaults of the chosen integrator.
         let nw = &it.newton;
-        if let Some(v) = nw.tolerance {
-            settings.gradient_tolerance = v;
-        }
-        if let Some(v) = nw.step_tolerance {
-            settings.step_tolerance = v;
-        }
-        if let Some(v) = nw.max_iterations {
-            settings.max_iterations = v;
-        }
-        if let Some(v) = nw.line_search {
-            settings.line_search = v;
-        }
-        if let Some(v) = nw.watchdog {
-            settings.watchdog = v;
-        }
-        if let Some(v) = nw.regularization {
-            settings.regularization = v;
-        }
-        settings.validate().map_err(|source| BuildError::Solver {
-            origin: origin.clone(),
-            source,
-        })?;
         let (hessian_mode, policy) = match nw.hessian {
             HessianSpec::Adaptive => (HessianMode::Exact, HessianPolicy::Adaptive),
             HessianSpec::Exact => (HessianMode::Exact, HessianPolicy::Fixed),
             HessianSpec::GaussNewton => (HessianMode::GaussNewton, HessianPolicy::Fixed),
             HessianSpec::Projected => (HessianMode::ProjectedPsd, HessianPolicy::Fixed),
         };
-        settings.hessian = policy;
+        let newton = |defaults: NewtonSettings| -> Result<NewtonSettings, BuildError> {
+            let mut settings = defaults;
+            if let Some(v) = nw.tolerance {
+                settings.gradient_tolerance = v;
+            }
+            if let Some(v) = nw.step_tolerance {
+                settings.step_tolerance = v;
+            }
+            if let Some(v) = nw.max_iterations {
+                settings.max_iterations = v;
+            }
+            if let Some(v) = nw.line_search {
+                settings.line_search = v;
+            }
+            if let Some(v) = nw.watchdog {
+                settings.watchdog = v;
+            }
+            if nw.regularization == Some(false) {
+                settings.regularization = None;
+            }
+            settings.hessian = policy;
+            settings.validate().map_err(|source| BuildError::Solver {
+                origin: origin.clone(),
+                source,
+            })?;
+            Ok(settings)
+        };
+        // Bad keys are rejected whatever the integrator, before anything else is built.
+        newton(NewtonSettings::default())?;
 
         let (growth, grown_rest) = match s.growth.as_ref().filter(|_| on(Effect::Growth)) {
             Some(g) => {
@@ -409,20 +413,24 @@ impl Simulation {
         let fallback = (hessian_mode == HessianMode::Exact).then_some(HessianMode::GaussNewton);
         let integrator: Box<dyn Integrator + Send> = match it.kind {
             IntegratorKind::Static => {
-                let mut st = Static::default();
-                st.newton = settings;
-                st.force_scale = force_scale;
-                st.fallback_hessian = fallback;
-                Box::new(st)
+                let defaults = Static::default();
+                Box::new(Static {
+                    newton: newton(defaults.newton)?,
+                    force_scale,
+                    fallback_hessian: fallback,
+                    ..defaults
+                })
             }
             IntegratorKind::Implicit => {
-                let mut ie = ImplicitEuler::new(dt);
-                ie.newton = settings;
-                ie.force_scale = force_scale;
-                ie.max_halvings = if it.adaptive_dt { 8 } else { 0 };
-                // With `adaptive_dt`, before halving Δt.
-                ie.fallback_hessian = fallback.filter(|_| it.adaptive_dt);
-                Box::new(ie)
+                let defaults = ImplicitEuler::new(dt);
+                Box::new(ImplicitEuler {
+                    newton: newton(defaults.newton)?,
+                    force_scale,
+                    max_halvings: if it.adaptive_dt { 8 } else { 0 },
+                    // With `adaptive_dt`, before halving Δt.
+                    fallback_hessian: fallback.filter(|_| it.adaptive_dt),
+                    ..defaults
+                })
             }
             IntegratorKind::Explicit => Box::new(ExplicitEuler { dt }),
         };
@@ -435,7 +443,6 @@ impl Simulation {
             system,
             state,
             integrator,
-            kind: it.kind,
             dt,
             steps_done: 0,
             steps_total: steps,
@@ -589,7 +596,7 @@ fn elastic_energy(
     };
     let model = ShellModel { terms, ..*model };
     // Edge-director angles start at 0.
-    let n_angles = if model.sff.director().is_some() && terms.bend {
+    let n_angles = if ShellSystem::has_edge_unknowns_for(&model) {
         mesh.n_edges()
     } else {
         0

@@ -23,7 +23,7 @@ use serde::Serialize;
 use thinshell_energy::{EnergyTerms, ShellModel};
 use thinshell_growth::{Growth, GrowthError, blend_rest};
 use thinshell_mesh::Mesh;
-use thinshell_solver::{Integrator, IterationHessian, ShellSystem, SolverError, State};
+use thinshell_solver::{Integrator, IterationHessian, ShellSystem, SolverError, State, StepKind};
 
 pub use build::BuildError;
 
@@ -168,7 +168,6 @@ pub struct Simulation {
     pub(crate) system: ShellSystem,
     pub(crate) state: State,
     pub(crate) integrator: Box<dyn Integrator + Send>,
-    pub(crate) kind: IntegratorKind,
     pub(crate) dt: f64,
     pub(crate) steps_done: usize,
     pub(crate) steps_total: usize,
@@ -252,9 +251,13 @@ impl Simulation {
     pub fn system_mut(&mut self) -> &mut ShellSystem {
         &mut self.system
     }
-    /// The integrator.
+    /// The integrator's kind (derived from the integrator itself).
     pub fn integrator(&self) -> IntegratorKind {
-        self.kind
+        match self.integrator.kind() {
+            StepKind::Static => IntegratorKind::Static,
+            StepKind::Implicit => IntegratorKind::Implicit,
+            StepKind::Explicit => IntegratorKind::Explicit,
+        }
     }
     /// Time step, s.
     pub fn dt(&self) -> f64 {
@@ -273,8 +276,8 @@ impl Simulation {
     /// Load factor λ_k that static step `k` (1-based) solves for: k/N with a linear ramp over
     /// N steps, else 1.
     pub fn load_factor_of_step(&self, k: usize) -> f64 {
-        match (self.kind, self.load_ramp) {
-            (IntegratorKind::Static, LoadRamp::Linear) if self.steps_total > 0 => {
+        match self.load_ramp {
+            LoadRamp::Linear if self.integrator.is_static() && self.steps_total > 0 => {
                 (k.min(self.steps_total) as f64) / self.steps_total as f64
             }
             _ => 1.0,
@@ -371,7 +374,7 @@ impl Simulation {
                 self.system.set_mass(mass).map_err(|e| fail(e.into()))?;
             }
         }
-        let static_solve = self.kind == IntegratorKind::Static;
+        let static_solve = self.integrator.is_static();
         let lambda_prev = self.load_factor;
         let lambda = self.load_factor_of_step(step);
         if static_solve {
@@ -409,7 +412,7 @@ impl Simulation {
         if let Some(g) = &mut self.growth {
             g.advance(time, self.dt).map_err(|e| fail(e.into()))?;
         }
-        if self.kind == IntegratorKind::Static {
+        if static_solve {
             // Quasi-static: the pseudo-time advances by one step per solve.
             self.state.t = time + self.dt;
         }
@@ -461,7 +464,7 @@ impl Simulation {
             let s = (done + step).min(1.0);
             if let (Some(previous), Some(target)) = (previous, &target) {
                 blend_rest(previous, target, s, &mut self.system.rest)
-                    .map_err(|e| SolverError::Objective(e.to_string()))?;
+                    .map_err(SolverError::objective)?;
             }
             let lambda = from + s * (to - from);
             self.system.set_load_factor(lambda)?;

@@ -1,0 +1,153 @@
+//! Implicit (backward) Euler: [`ImplicitEuler`] minimises the incremental potential
+//! `Φ(x) = 1/(2Δt²)(x − x̃)ᵀΛ(x − x̃) + E(x) + E_damp(x; xⁿ) − F_extᵀx − p·V(x)`,
+//! `x̃ = xⁿ + Δt vⁿ` (model.md §3), with Newton; on failure optionally a retry with a fallback
+//! Hessian (e.g. Gauss–Newton), then halving of Δt.
+//!
+//! The fallback Hessian exists because the exact Hessian of a badly crumpled or strongly
+//! compressed shell is far from positive definite: the diagonal shift that regularisation needs
+//! then turns Newton into a slow gradient method. The Gauss–Newton Hessian is positive
+//! semi-definite by construction and keeps the curvature information of the forms.
+
+use thinshell_energy::{EnergyTerms, HessianMode};
+
+use super::integrator::{
+    Integrator, NewtonCache, StepKind, StepReport, check_dt, check_state, fallback_mode,
+    retry_start, retryable,
+};
+use super::objective::ShellObjective;
+use super::system::{ShellSystem, State};
+use crate::{NewtonReport, NewtonSettings, NewtonWorkspace, Objective, SolverError, newton_solve};
+
+/// Implicit (backward) Euler by minimisation of the incremental potential.
+#[derive(Debug)]
+pub struct ImplicitEuler {
+    /// Time step Δt (s).
+    pub dt: f64,
+    /// Newton parameters.
+    pub newton: NewtonSettings,
+    /// `Some(F)`: also stop when `‖∇‖∞ ≤ gradient_tolerance · F` (N). `None` (default):
+    /// converge on the Newton correction or at round-off only (see
+    /// [`Static::force_scale`](super::Static::force_scale)).
+    pub force_scale: Option<f64>,
+    /// Times Δt may be halved when Newton fails (0: no adaptivity).
+    pub max_halvings: usize,
+    /// Hessian mode tried at the same Δt, from the last good iterate, when the solve with the
+    /// system's mode fails, before Δt is halved (`None`: no retry).
+    pub fallback_hessian: Option<HessianMode>,
+    /// The cached Newton workspace ([`Default`]: empty).
+    pub cache: NewtonCache,
+}
+
+impl ImplicitEuler {
+    /// Fixed step `dt` (s) with default Newton settings.
+    pub fn new(dt: f64) -> ImplicitEuler {
+        ImplicitEuler {
+            dt,
+            newton: NewtonSettings::default(),
+            force_scale: None,
+            max_halvings: 0,
+            fallback_hessian: None,
+            cache: NewtonCache::default(),
+        }
+    }
+
+    fn try_step(
+        &mut self,
+        system: &mut ShellSystem,
+        state: &State,
+        dt: f64,
+        start: Option<&[f64]>,
+    ) -> Result<(State, NewtonReport, EnergyTerms), SolverError> {
+        let t1 = state.t + dt;
+        let mut x1 = state.x.clone();
+        system.boundary.apply_prescribed(&mut x1, t1)?;
+        let mut phi1 = state.phi.clone();
+        let mut obj = ShellObjective::incremental(system, state, &x1, dt, self.force_scale)?;
+        let mut u = obj.prediction().map(<[f64]>::to_vec).unwrap_or_default();
+        // Start from the given point (a retry), else the inertial prediction x̃ unless it is an
+        // invalid (e.g. inverted) configuration; then from xⁿ.
+        if let Some(s) = start.filter(|s| s.len() == u.len()) {
+            u.copy_from_slice(s);
+        } else if !obj.value(&u)?.is_finite() {
+            u = obj.sys.gather(&state.x, &state.phi);
+        }
+        let ws = self.cache.fit(&obj, &self.newton)?;
+        let report = newton_solve(&mut obj, &mut u, &self.newton, ws)?;
+        let energies = obj.last_terms;
+        obj.sys.scatter(&u, &mut x1, &mut phi1);
+        let v1 = x1.iter().zip(&state.x).map(|(a, b)| (a - b) / dt).collect();
+        Ok((
+            State {
+                x: x1,
+                v: v1,
+                phi: phi1,
+                t: t1,
+            },
+            report,
+            energies,
+        ))
+    }
+}
+
+impl ImplicitEuler {
+    /// The cached Newton workspace (symbolic factorisation, ordering, fill statistics) of the
+    /// last solve; `None` before the first. It is rebuilt when the system's unknowns or
+    /// [`NewtonSettings::ordering`] / [`NewtonSettings::parallel`] change.
+    pub fn workspace(&self) -> Option<&NewtonWorkspace> {
+        self.cache.get()
+    }
+}
+
+impl Integrator for ImplicitEuler {
+    fn kind(&self) -> StepKind {
+        StepKind::Implicit
+    }
+
+    fn step(
+        &mut self,
+        system: &mut ShellSystem,
+        state: &mut State,
+    ) -> Result<StepReport, SolverError> {
+        check_dt(self.dt)?;
+        check_state(system, state)?;
+        let mut dt = self.dt;
+        let mut halvings = 0;
+        let own = system.hessian_mode;
+        loop {
+            let mut hessian = own;
+            let mut result = self.try_step(system, state, dt, None);
+            if let (Err(e), Some(mode)) = (&result, fallback_mode(system, self.fallback_hessian)) {
+                if retryable(e) {
+                    // As in `Static`: from the last good iterate, then from the usual start.
+                    let from_last = retry_start(&result);
+                    system.hessian_mode = mode;
+                    hessian = mode;
+                    result = self.try_step(system, state, dt, from_last.as_deref());
+                    if result.is_err() && from_last.is_some() {
+                        result = self.try_step(system, state, dt, None);
+                    }
+                    system.hessian_mode = own;
+                }
+            }
+            match result {
+                Ok((next, report, energies)) => {
+                    *state = next;
+                    return Ok(StepReport {
+                        t: state.t,
+                        dt,
+                        newton: Some(report),
+                        halvings,
+                        hessian,
+                        energies,
+                        stable: None,
+                    });
+                }
+                Err(e) if halvings < self.max_halvings && retryable(&e) => {
+                    halvings += 1;
+                    dt *= 0.5;
+                }
+                Err(e) => return Err(e),
+            }
+        }
+    }
+}

@@ -1,0 +1,205 @@
+//! Static equilibrium: [`Static`] minimises `E(x) − F_extᵀx − p·V(x)` over the free dofs.
+//!
+//! Rigid motions (a null space when too few coordinates are held) are handled by a small shift
+//! `κ·mean|H_dd|` of the Hessian diagonal only (the gradient is exact, so the equilibrium is
+//! unchanged; the iterates simply do not drift along rigid modes), plus Newton's regularisation
+//! when needed; optionally a retry with a fallback Hessian from the last good iterate (see
+//! [`Static::fallback_hessian`]).
+
+use nalgebra::Vector3;
+use thinshell_energy::HessianMode;
+
+use super::integrator::{
+    Integrator, NewtonCache, StepKind, StepReport, check_state, fallback_mode, retry_start,
+    retryable,
+};
+use super::objective::ShellObjective;
+use super::system::{ShellSystem, State};
+use crate::{NewtonReport, NewtonSettings, NewtonWorkspace, SolverError, newton_solve};
+
+/// Static equilibrium: minimise `E(x) − F_extᵀx` over the free dofs.
+#[derive(Debug)]
+pub struct Static {
+    /// Newton parameters.
+    pub newton: NewtonSettings,
+    /// Relative Hessian diagonal shift κ against rigid-motion null spaces (≥ 0).
+    pub hessian_shift: f64,
+    /// `Some(F)`: also stop when `‖∇‖∞ ≤ gradient_tolerance · F` (N; trust it only when F is
+    /// the size of the forces that matter). `None` (default): converge on the Newton correction
+    /// or at round-off only (scale-free, see [`newton_solve`]); residuals are reported relative
+    /// to [`ShellSystem::force_scale`].
+    pub force_scale: Option<f64>,
+    /// Hessian mode [`Integrator::step`] retries with, from the last good iterate, when the
+    /// solve with the system's mode fails (`None`: no retry).
+    pub fallback_hessian: Option<HessianMode>,
+    /// The cached Newton workspace ([`Default`]: empty).
+    pub cache: NewtonCache,
+}
+
+impl Default for Static {
+    fn default() -> Self {
+        Static {
+            newton: NewtonSettings::default(),
+            hessian_shift: 1e-10,
+            force_scale: None,
+            fallback_hessian: None,
+            cache: NewtonCache::default(),
+        }
+    }
+}
+
+impl Static {
+    /// Solves for the equilibrium starting from `x` (overwritten; held coordinates kept). With
+    /// edge unknowns the angles start at 0 and are discarded; use
+    /// [`Static::solve_with_angles`] to keep them.
+    pub fn solve(
+        &mut self,
+        system: &mut ShellSystem,
+        x: &mut [Vector3<f64>],
+    ) -> Result<NewtonReport, SolverError> {
+        let mut phi = vec![0.0; system.n_edge_angles()];
+        self.solve_with_angles(system, x, &mut phi)
+    }
+
+    /// Solves for the equilibrium starting from positions `x` and edge angles `phi` (rad, one
+    /// per edge; empty without edge unknowns), both overwritten.
+    pub fn solve_with_angles(
+        &mut self,
+        system: &mut ShellSystem,
+        x: &mut [Vector3<f64>],
+        phi: &mut [f64],
+    ) -> Result<NewtonReport, SolverError> {
+        if phi.len() != system.n_edge_angles() {
+            return Err(SolverError::DimensionMismatch {
+                what: "edge angles",
+                expected: system.n_edge_angles(),
+                found: phi.len(),
+            });
+        }
+        if system.model.terms.damping {
+            return Err(SolverError::InvalidSetting {
+                name: "terms.damping",
+                value: 1.0,
+                requirement: "a static solve has no damping (build the system without it)",
+            });
+        }
+        if !(self.hessian_shift.is_finite() && self.hessian_shift >= 0.0) {
+            return Err(SolverError::InvalidSetting {
+                name: "hessian_shift",
+                value: self.hessian_shift,
+                requirement: "must be non-negative and finite",
+            });
+        }
+        let mut u = system.gather(x, phi);
+        let mut obj = self.objective(system, x, phi);
+        let ws = self.cache.fit(&obj, &self.newton)?;
+        let result = newton_solve(&mut obj, &mut u, &self.newton, ws);
+        let sys = obj.sys;
+        sys.scatter(&u, x, phi);
+        result
+    }
+}
+
+impl Static {
+    fn objective<'a>(
+        &self,
+        system: &'a mut ShellSystem,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+    ) -> ShellObjective<'a> {
+        ShellObjective::statics(system, x, phi, self.hessian_shift, self.force_scale)
+    }
+
+    /// Whether positions `x` and edge angles `phi` (rad, one per edge; empty without edge
+    /// unknowns) are a stable equilibrium candidate: the **exact** Hessian of the static
+    /// potential there, plus the shift `hessian_shift · mean|H_dd|` that makes rigid motions of
+    /// an unheld shell invertible, factorises without further shift. Negative eigenvalues
+    /// smaller in magnitude than that shift (1e-10 of the mean diagonal by default, far below
+    /// bending stiffness) go unnoticed. Costs one Hessian assembly and factorisation.
+    pub fn is_stable(
+        &mut self,
+        system: &mut ShellSystem,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+    ) -> Result<bool, SolverError> {
+        let u = system.gather(x, phi);
+        let own = std::mem::replace(&mut system.hessian_mode, HessianMode::Exact);
+        let mut obj = self.objective(system, x, phi);
+        let result = self
+            .cache
+            .fit(&obj, &self.newton)
+            .and_then(|ws| ws.is_positive_definite(&mut obj, &u));
+        system.hessian_mode = own;
+        result
+    }
+}
+
+impl Static {
+    /// The cached Newton workspace (symbolic factorisation, ordering, fill statistics) of the
+    /// last solve; `None` before the first. It is rebuilt when the system's unknowns or
+    /// [`NewtonSettings::ordering`] / [`NewtonSettings::parallel`] change.
+    pub fn workspace(&self) -> Option<&NewtonWorkspace> {
+        self.cache.get()
+    }
+}
+
+impl Integrator for Static {
+    fn kind(&self) -> StepKind {
+        StepKind::Static
+    }
+
+    fn step(
+        &mut self,
+        system: &mut ShellSystem,
+        state: &mut State,
+    ) -> Result<StepReport, SolverError> {
+        check_state(system, state)?;
+        let mut x = state.x.clone();
+        let mut phi = state.phi.clone();
+        system.boundary.apply_prescribed(&mut x, state.t)?;
+        let mut hessian = system.hessian_mode;
+        // `solve_with_angles` leaves its last iterate in `x`, `phi`, failed or not.
+        let (start_x, start_phi) = (x.clone(), phi.clone());
+        let report = match self.solve_with_angles(system, &mut x, &mut phi) {
+            Ok(r) => r,
+            Err(e) => match fallback_mode(system, self.fallback_hessian) {
+                Some(mode) if retryable(&e) => {
+                    let own = std::mem::replace(&mut system.hessian_mode, mode);
+                    hessian = mode;
+                    // First from the best point found (line search never increased E), then,
+                    // if that fails too, from the start: the failed path may have led into a
+                    // region that is hard for any Hessian.
+                    let mut retry = Err(e);
+                    for from in [retry_start(&retry), None] {
+                        if retry.is_ok() {
+                            break;
+                        }
+                        x.copy_from_slice(&start_x);
+                        phi.copy_from_slice(&start_phi);
+                        if let Some(u) = from {
+                            system.scatter(&u, &mut x, &mut phi);
+                        }
+                        retry = self.solve_with_angles(system, &mut x, &mut phi);
+                    }
+                    system.hessian_mode = own;
+                    retry?
+                }
+                _ => return Err(e),
+            },
+        };
+        let energies = system.energy_at(&x, &phi)?;
+        let stable = self.is_stable(system, &x, &phi)?;
+        state.x = x;
+        state.phi = phi;
+        state.v.iter_mut().for_each(|v| *v = Vector3::zeros());
+        Ok(StepReport {
+            t: state.t,
+            dt: 0.0,
+            newton: Some(report),
+            halvings: 0,
+            hessian,
+            energies,
+            stable: Some(stable),
+        })
+    }
+}
