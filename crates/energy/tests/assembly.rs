@@ -8,7 +8,7 @@ use proptest::prelude::*;
 use std::collections::BTreeSet;
 use thinshell_energy::{
     Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, HessianMode, Material,
-    RestState, SffKind, ShellModel, Terms,
+    MaterialModel, RestState, SffKind, ShellModel, Terms,
 };
 use thinshell_mesh::{FaceId, Mesh, VertexId, generators};
 
@@ -36,6 +36,7 @@ fn material() -> Material {
         poisson: 0.3,
         density: 1.0,
         viscosity: 20.0,
+        model: MaterialModel::StVK,
     }
 }
 

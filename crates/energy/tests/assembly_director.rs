@@ -8,7 +8,7 @@ use faer::sparse::SparseColMat;
 use nalgebra::{DMatrix, SymmetricEigen, Vector3};
 use thinshell_energy::{
     Assembler, DampingState, DirectorVariant, DofMap, EnergyError, EvalOutput, HessianMode,
-    Material, RestState, SffKind, ShellModel, Terms,
+    Material, MaterialModel, RestState, SffKind, ShellModel, Terms,
 };
 use thinshell_mesh::{EdgeId, Mesh, VertexId, generators};
 
@@ -36,6 +36,7 @@ fn material() -> Material {
         poisson: 0.3,
         density: 1.0,
         viscosity: 20.0,
+        model: MaterialModel::StVK,
     }
 }
 

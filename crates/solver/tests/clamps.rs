@@ -22,6 +22,7 @@ fn material() -> Material {
         poisson: 0.0,
         density: 1000.0,
         viscosity: 0.0,
+        model: thinshell_energy::MaterialModel::StVK,
     }
 }
 

@@ -19,6 +19,7 @@ fn system(loads: Loads, boundary: Boundary) -> ShellSystem {
             poisson: 0.0,
             density: 1000.0,
             viscosity: 0.0,
+            model: thinshell_energy::MaterialModel::StVK,
         },
         terms: Terms {
             stretch: true,

@@ -220,6 +220,7 @@ impl Simulation {
             poisson: mat.poisson,
             density: mat.density,
             viscosity: mat.viscosity,
+            model: thinshell_energy::MaterialModel::StVK,
         };
         material.validate().map_err(energy_err)?;
         let terms = Terms {
