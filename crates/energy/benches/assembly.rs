@@ -162,7 +162,7 @@ fn kernel_only(
     model: &ShellModel,
 ) {
     let stencils = Stencils::new(mesh);
-    let sff = model.sff.as_dyn();
+    let sff = &thinshell_energy::MidEdgeAverage;
     let mut group = c.benchmark_group(format!("kernel_only/{}", mesh.n_faces()));
     group
         .sample_size(10)
@@ -223,5 +223,71 @@ fn kernel_only(
     group.finish();
 }
 
-criterion_group!(benches, bench);
+/// Whole-mesh assembly with the edge-director form (tan, 21 dofs per face: positions and the
+/// three edge angles) on the 20 480-face icosphere, one thread.
+fn director(c: &mut Criterion) {
+    let sff = SffKind::EdgeDirector(thinshell_energy::DirectorVariant::Tan);
+    let model = ShellModel {
+        material: Material::paper(),
+        terms: Terms {
+            stretch: true,
+            bend: true,
+            damping: false,
+        },
+        sff,
+    };
+    let mesh = generators::icosphere(1.0, 5).unwrap();
+    let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
+    let x: Vec<Vector3<f64>> = mesh
+        .positions()
+        .iter()
+        .map(|p| Vector3::new(p.x, p.y * 0.9, p.z * (1.0 + 0.05 * (7.0 * p.x).sin())))
+        .collect();
+    let phi: Vec<f64> = (0..mesh.n_edges())
+        .map(|e| 0.01 * (e as f64).sin())
+        .collect();
+    let dofs = DofMap::all_free(mesh.n_vertices())
+        .with_edges(mesh.n_edges(), [])
+        .unwrap();
+    let mut asm = Assembler::for_model(&mesh, &dofs, &model).unwrap();
+    let mut g = vec![0.0; asm.n_coordinates()];
+    let mut h = asm.hessian_template();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let mut group = c.benchmark_group(format!("assembly_director/{}", mesh.n_faces()));
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2))
+        .sampling_mode(SamplingMode::Flat)
+        .throughput(Throughput::Elements(mesh.n_faces() as u64));
+    let wants: [(&str, bool, Option<HessianMode>); 3] = [
+        ("energy", false, None),
+        ("energy_gradient", true, None),
+        (
+            "energy_gradient_hessian_exact",
+            true,
+            Some(HessianMode::Exact),
+        ),
+    ];
+    for (name, gradient, mode) in wants {
+        group.bench_function(BenchmarkId::new(name, "1t"), |b| {
+            pool.install(|| {
+                b.iter(|| {
+                    let out = EvalOutput {
+                        gradient: gradient.then_some(&mut g[..]),
+                        hessian: mode.map(|m| (&mut h, m)),
+                    };
+                    asm.evaluate_with_angles(&model, black_box(&x), &phi, &rest, None, out)
+                        .unwrap()
+                })
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench, director);
 criterion_main!(benches);

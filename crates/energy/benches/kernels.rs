@@ -6,8 +6,8 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Matrix2, Vector3};
 use thinshell_energy::{
-    DirectorFaceEval, DirectorVariant, EdgeAngles, EdgeDirector, FaceDamping, FaceEval, FaceRest,
-    FaceStencil, HessianMode, Material, SffKind, Terms, Want, eval_director_bend, eval_face,
+    DirectorVariant, EdgeAngles, EdgeDirector, FaceDamping, FaceEval, FaceRest, FaceStencil,
+    HessianMode, Layer, Material, MaterialModel, MidEdgeAverage, Terms, Want, eval_face,
     forms::first_fundamental_form,
 };
 
@@ -25,6 +25,10 @@ fn stencil() -> FaceStencil {
             p(0.06, -0.09),
         ],
         flap: [true; 3],
+        angles: EdgeAngles {
+            phi: [0.05, -0.1, 0.02],
+            sigma: [1.0, -1.0, 1.0],
+        },
     }
 }
 
@@ -41,7 +45,7 @@ fn bench(c: &mut Criterion) {
         dt: 1e-3,
     };
     let material = Material::paper();
-    let sff = SffKind::MidEdgeAverage.as_dyn();
+    let sff = &MidEdgeAverage;
     let mut out = FaceEval::default();
     let mut g = c.benchmark_group("eval_face");
     g.sample_size(30);
@@ -146,11 +150,7 @@ fn bench(c: &mut Criterion) {
             black_box(out.energy.bend)
         })
     });
-    let angles = EdgeAngles {
-        phi: [0.05, -0.1, 0.02],
-        sigma: [1.0, -1.0, 1.0],
-    };
-    let mut dout = DirectorFaceEval::default();
+    let mut dout = FaceEval::<21>::default();
     for (name, variant) in [
         ("edge-director-sin", DirectorVariant::Sin),
         ("edge-director-tan", DirectorVariant::Tan),
@@ -158,16 +158,74 @@ fn bench(c: &mut Criterion) {
         let form = EdgeDirector { variant };
         g.bench_function(name, |b| {
             b.iter(|| {
-                eval_director_bend(
+                eval_face(
                     &form,
                     &material,
                     black_box(&s),
-                    &angles,
                     &rest,
+                    None,
+                    bend_only,
                     want,
                     &mut dout,
                 );
-                black_box(dout.energy)
+                black_box(dout.energy.bend)
+            })
+        });
+    }
+    g.finish();
+
+    // Stretching + bending with an exact Hessian for each material model and both forms.
+    let mut g = c.benchmark_group("materials");
+    g.sample_size(30);
+    let layer = |thickness, eigenstrain| Layer {
+        thickness,
+        young: 2e9,
+        poisson: 0.3,
+        eigenstrain,
+    };
+    let models = [
+        ("stvk", material),
+        (
+            "neo_hookean",
+            material.with_model(MaterialModel::NeoHookean),
+        ),
+        (
+            "bilayer",
+            Material::bilayer(layer(4e-5, 0.0), layer(6e-5, 1e-3), 250.0, 0.0),
+        ),
+    ];
+    let tan = EdgeDirector {
+        variant: DirectorVariant::Tan,
+    };
+    for (name, m) in models {
+        g.bench_function(format!("{name}/mid-edge-average"), |b| {
+            b.iter(|| {
+                eval_face(
+                    sff,
+                    &m,
+                    black_box(&s),
+                    &rest,
+                    None,
+                    Terms::ELASTIC,
+                    want,
+                    &mut out,
+                );
+                black_box(out.energy.total())
+            })
+        });
+        g.bench_function(format!("{name}/edge-director-tan"), |b| {
+            b.iter(|| {
+                eval_face(
+                    &tan,
+                    &m,
+                    black_box(&s),
+                    &rest,
+                    None,
+                    Terms::ELASTIC,
+                    want,
+                    &mut dout,
+                );
+                black_box(dout.energy.total())
             })
         });
     }

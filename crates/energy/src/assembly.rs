@@ -14,15 +14,14 @@
 
 mod pattern;
 
-use crate::director::{DirectorFaceEval, eval_director_b_terms, project_psd};
 use crate::dofs::{DofMap, check_len};
 use crate::error::EnergyError;
 use crate::kernel::{
     EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want, eval_face,
-    eval_face_parts,
 };
+use crate::linalg::ProjectPsd;
 use crate::rest::{DampingState, RestState};
-use crate::sff::{EdgeDirector, SffKind};
+use crate::sff::{EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind};
 use crate::shell::ShellModel;
 use crate::stencils::Stencils;
 use faer::sparse::SparseColMat;
@@ -274,11 +273,20 @@ impl Assembler {
             hessian: hessian.as_ref().map(|(_, mode)| *mode),
         };
 
-        match self.director {
-            Some(form) => {
-                self.evaluate_director_faces(&form, model, x, phi, rest, damping, want)?
+        // One monomorphised per-face loop per form (adding a form adds an arm here).
+        match model.sff {
+            SffKind::MidEdgeAverage => {
+                self.evaluate_faces(&MidEdgeAverage, model, x, phi, rest, damping, want)?
             }
-            None => self.evaluate_faces(model, x, rest, damping, want)?,
+            SffKind::EdgeDirector(variant) => self.evaluate_faces(
+                &EdgeDirector { variant },
+                model,
+                x,
+                phi,
+                rest,
+                damping,
+                want,
+            )?,
         }
         self.has_hessian = want.hessian.is_some();
 
@@ -299,99 +307,32 @@ impl Assembler {
         Ok(total)
     }
 
-    /// Per-face kernels, in parallel, into the per-face buffers and `self.energies`.
-    fn evaluate_faces(
-        &mut self,
-        model: &ShellModel,
-        x: &[Vector3<f64>],
-        rest: &RestState,
-        damping: Option<&DampingState>,
-        want: Want,
-    ) -> Result<(), EnergyError> {
-        let sff = model.sff.as_dyn();
-        let n_slots = self.n_slots;
-        let (grad_stride, hess_stride) = (self.pattern.grad_stride, self.pattern.hess_stride);
-        let stencils = &self.stencils;
-        let copy_gradient = want.gradient || want.hessian.is_some();
-        let bad_face = self
-            .grad_buffer
-            .par_chunks_mut(grad_stride)
-            .zip(self.hess_buffer.par_chunks_mut(hess_stride))
-            .zip(self.energies.par_iter_mut())
-            .enumerate()
-            .map_init(FaceEval::default, |fe, (f, ((grad, hess), energy))| {
-                let stencil = stencils.stencil(f, x);
-                let (face_rest, face_damping) = face_data(rest, damping, f);
-                eval_face(
-                    sff,
-                    &model.material,
-                    &stencil,
-                    &face_rest,
-                    face_damping.as_ref(),
-                    model.terms,
-                    want,
-                    fe,
-                );
-                *energy = fe.energy;
-                let mut finite = fe.energy.total().is_finite();
-                if copy_gradient {
-                    grad.copy_from_slice(&fe.gradient.as_slice()[..grad_stride]);
-                    finite &= all_finite(grad);
-                }
-                if want.hessian.is_some() {
-                    // nalgebra is column-major: column 3 s2 + c holds rows 3 s1 .. 3 s1 + 3.
-                    let h = fe.hessian.as_slice();
-                    for s1 in 0..n_slots {
-                        for s2 in 0..=s1 {
-                            let b = &mut hess[9 * pair(s1, s2)..9 * pair(s1, s2) + 9];
-                            for c in 0..3 {
-                                let col = 18 * (3 * s2 + c) + 3 * s1;
-                                b[3 * c..3 * c + 3].copy_from_slice(&h[col..col + 3]);
-                            }
-                        }
-                    }
-                    finite &= all_finite(hess);
-                }
-                (!finite).then_some(f)
-            })
-            .flatten()
-            .min();
-        match bad_face {
-            Some(f) => Err(EnergyError::NonFinite {
-                face: FaceId::new(f),
-            }),
-            None => Ok(()),
-        }
-    }
-
-    /// Per-face kernels with edge-director bending: the membrane terms from [`eval_face_parts`],
-    /// the b-dependent terms (bending, bending damping) from the director kernel over the 21
-    /// face dofs, combined and projected (if asked) per face, then copied into the 9-slot
-    /// buffers (an edge slot uses axis 0 only).
+    /// Per-face kernels ([`eval_face`] over the form's N dofs), in parallel, into the per-face
+    /// buffers and `self.energies`. Slot s < 6 (a stencil vertex) takes face dofs 3s..3s+3;
+    /// an edge slot (s ≥ 6, edge unknowns only) takes dof 18 + s − 6 on axis 0, zeros
+    /// elsewhere. Without edge unknowns a form's extra dofs (angles held at 0) are dropped.
     #[allow(clippy::too_many_arguments)] // mirrors `evaluate_with_angles`
-    fn evaluate_director_faces(
+    fn evaluate_faces<const N: usize, F>(
         &mut self,
-        form: &EdgeDirector,
+        form: &F,
         model: &ShellModel,
         x: &[Vector3<f64>],
         phi: &[f64],
         rest: &RestState,
         damping: Option<&DampingState>,
         want: Want,
-    ) -> Result<(), EnergyError> {
+    ) -> Result<(), EnergyError>
+    where
+        F: SecondFundamentalForm<N> + ?Sized,
+        SMatrix<f64, N, N>: ProjectPsd,
+    {
         let slots = self.pattern.slots;
+        let vertex_slots = slots.min(6);
+        let with_angles = self.director.is_some();
         let (grad_stride, hess_stride) = (self.pattern.grad_stride, self.pattern.hess_stride);
         let stencils = &self.stencils;
         let copy_gradient = want.gradient || want.hessian.is_some();
-        // Exact Hessians of both parts are summed first; the projection acts on the sum.
-        let part_want = Want {
-            gradient: want.gradient,
-            hessian: want.hessian.map(|m| match m {
-                HessianMode::ProjectedPsd => HessianMode::Exact,
-                other => other,
-            }),
-        };
-        // Local 21-dof index of (slot, axis): positions 3s + a, edge angle 18 + e (axis 0).
+        // Local dof of (slot, axis): positions 3s + a, edge angle 18 + e (axis 0).
         let local = |s: usize, a: usize| -> Option<usize> {
             if s < 6 {
                 Some(3 * s + a)
@@ -405,74 +346,62 @@ impl Assembler {
             .zip(self.hess_buffer.par_chunks_mut(hess_stride))
             .zip(self.energies.par_iter_mut())
             .enumerate()
-            .map_init(
-                || (FaceEval::default(), DirectorFaceEval::default()),
-                |(fe, de), (f, ((grad, hess), energy))| {
-                    let stencil = stencils.stencil(f, x);
-                    let (face_rest, face_damping) = face_data(rest, damping, f);
-                    eval_face_parts(
-                        None,
-                        &model.material,
-                        &stencil,
-                        &face_rest,
-                        face_damping.as_ref(),
-                        model.terms,
-                        part_want,
-                        fe,
-                    );
-                    eval_director_b_terms(
-                        form,
-                        &model.material,
-                        &stencil,
-                        &stencils.angles(f, phi),
-                        &face_rest,
-                        face_damping.as_ref(),
-                        part_want,
-                        de,
-                    );
-                    *energy = EnergyTerms {
-                        stretch: fe.energy.stretch,
-                        bend: de.energy,
-                        damping: fe.energy.damping + de.damping,
-                    };
-                    let mut finite = energy.total().is_finite();
-                    if copy_gradient {
-                        grad.fill(0.0);
-                        for s in 0..slots {
-                            for a in 0..3 {
-                                if let Some(i) = local(s, a) {
-                                    let membrane = if i < 18 { fe.gradient[i] } else { 0.0 };
-                                    grad[3 * s + a] = de.gradient[i] + membrane;
-                                }
-                            }
-                        }
-                        finite &= all_finite(grad);
+            .map_init(FaceEval::<N>::default, |fe, (f, ((grad, hess), energy))| {
+                let stencil = if with_angles {
+                    stencils.stencil_at(f, x, phi)
+                } else {
+                    stencils.stencil(f, x)
+                };
+                let (face_rest, face_damping) = face_data(rest, damping, f);
+                eval_face(
+                    form,
+                    &model.material,
+                    &stencil,
+                    &face_rest,
+                    face_damping.as_ref(),
+                    model.terms,
+                    want,
+                    fe,
+                );
+                *energy = fe.energy;
+                let mut finite = fe.energy.total().is_finite();
+                if copy_gradient {
+                    let g = fe.gradient.as_slice();
+                    grad[..3 * vertex_slots].copy_from_slice(&g[..3 * vertex_slots]);
+                    for s in 6..slots {
+                        grad[3 * s] = g[18 + s - 6];
+                        grad[3 * s + 1] = 0.0;
+                        grad[3 * s + 2] = 0.0;
                     }
-                    if want.hessian.is_some() {
-                        let mut h = de.hessian;
-                        let mut pos = h.fixed_view_mut::<18, 18>(0, 0);
-                        pos += fe.hessian;
-                        if want.hessian == Some(HessianMode::ProjectedPsd) {
-                            project_psd(&mut h);
-                        }
-                        for s1 in 0..slots {
-                            for s2 in 0..=s1 {
-                                let b = &mut hess[9 * pair(s1, s2)..9 * pair(s1, s2) + 9];
+                    finite &= all_finite(grad);
+                }
+                if want.hessian.is_some() {
+                    // nalgebra is column-major: column 3 s2 + c holds rows 3 s1 .. 3 s1 + 3.
+                    let h = fe.hessian.as_slice();
+                    for s1 in 0..slots {
+                        for s2 in 0..=s1 {
+                            let b = &mut hess[9 * pair(s1, s2)..9 * pair(s1, s2) + 9];
+                            if s1 < 6 {
                                 for c in 0..3 {
-                                    for a in 0..3 {
-                                        b[3 * c + a] = match (local(s1, a), local(s2, c)) {
-                                            (Some(i), Some(j)) => h[(i, j)],
-                                            _ => 0.0,
-                                        };
-                                    }
+                                    let col = N * (3 * s2 + c) + 3 * s1;
+                                    b[3 * c..3 * c + 3].copy_from_slice(&h[col..col + 3]);
+                                }
+                                continue;
+                            }
+                            for c in 0..3 {
+                                for a in 0..3 {
+                                    b[3 * c + a] = match (local(s1, a), local(s2, c)) {
+                                        (Some(i), Some(j)) => h[N * j + i],
+                                        _ => 0.0,
+                                    };
                                 }
                             }
                         }
-                        finite &= all_finite(hess);
                     }
-                    (!finite).then_some(f)
-                },
-            )
+                    finite &= all_finite(hess);
+                }
+                (!finite).then_some(f)
+            })
             .flatten()
             .min();
         match bad_face {

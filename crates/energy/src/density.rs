@@ -1,12 +1,7 @@
 //! Quadratic SV-norm densities c·‖A⁻¹(M − B)‖²_SV in the three form entries (m11, m12, m22).
 
+pub use crate::linalg::{inv2, sym_entries};
 use nalgebra::{Matrix2, Matrix3, Vector3};
-
-/// Independent entries (m11, m12, m22) of a symmetric 2×2 matrix.
-#[inline]
-pub fn sym_entries(m: &Matrix2<f64>) -> Vector3<f64> {
-    Vector3::new(m[(0, 0)], 0.5 * (m[(0, 1)] + m[(1, 0)]), m[(1, 1)])
-}
 
 /// Matrix K of the quadratic form d ↦ c·‖A⁻¹D‖²_SV = dᵀ K d, with D = [[d11, d12], [d12, d22]].
 ///
@@ -33,14 +28,6 @@ pub fn sv_quadratic(a_inv: &Matrix2<f64>, alpha: f64, beta: f64, c: f64) -> Matr
         cc * cc,
     );
     (g * g.transpose()) * (c * 0.5 * alpha) + q * (c * beta)
-}
-
-/// Inverse of a symmetric 2×2 matrix (no check: callers guarantee positive definiteness;
-/// a singular input gives non-finite entries, which `eval_face` callers detect).
-#[inline]
-pub fn inv2(m: &Matrix2<f64>) -> Matrix2<f64> {
-    let det = m[(0, 0)] * m[(1, 1)] - m[(0, 1)] * m[(1, 0)];
-    Matrix2::new(m[(1, 1)], -m[(0, 1)], -m[(1, 0)], m[(0, 0)]) / det
 }
 
 /// Reference SV norm ‖M‖²_SV = α/2 tr(M)² + β tr(M²) of a general 2×2 matrix (for tests).

@@ -1,19 +1,12 @@
-//! Per-face energy kernel: energy, 18-gradient and 18×18 Hessian of one face stencil.
+//! The per-face kernel: energy, N-gradient and N×N Hessian of one face for any second
+//! fundamental form (N face dofs) and any material law, by one chain rule through the forms.
 
-use crate::density::{inv2, sv_quadratic, sym_entries};
-use crate::material::Material;
+use crate::density::sv_quadratic;
+use crate::linalg::{ProjectPsd, inv2, sym_entries};
+use crate::material::{FaceGeometry, LawEval, Material, Order};
 use crate::sff::SecondFundamentalForm;
+use crate::stencil::FaceStencil;
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
-
-/// Positions of a face stencil (m). `x[0..3]`: face vertices in stored order; `x[3 + e]`: flap
-/// vertex across local edge e (the edge opposite local vertex e), ignored when `!flap[e]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FaceStencil {
-    /// Stencil positions (m).
-    pub x: [Vector3<f64>; 6],
-    /// `flap[e]`: edge e is interior (has a flap vertex).
-    pub flap: [bool; 3],
-}
 
 /// Which energy terms are evaluated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -33,6 +26,13 @@ impl Terms {
         bend: true,
         damping: true,
     };
+
+    /// Stretching and bending, no damping (static solves reject damping).
+    pub const ELASTIC: Terms = Terms {
+        stretch: true,
+        bend: true,
+        damping: false,
+    };
 }
 
 /// How the Hessian is formed.
@@ -40,7 +40,8 @@ impl Terms {
 pub enum HessianMode {
     /// Exact second derivatives.
     Exact,
-    /// Only first-derivative products Jᵀ (∂²E/∂form²) J (PSD by construction).
+    /// Only first-derivative products Jᵀ (∂²E/∂form²) J (PSD for the quadratic laws StVK and
+    /// bilayer; for neo-Hookean only where ∂²E/∂form² is).
     GaussNewton,
     /// Exact face Hessian projected to PSD (symmetric eigen-decomposition, negatives clamped to 0).
     ProjectedPsd,
@@ -101,18 +102,19 @@ pub struct Want {
     pub hessian: Option<HessianMode>,
 }
 
-/// Output of [`eval_face`]; dofs ordered x0, x1, x2, flap0, flap1, flap2 (3 coordinates each).
+/// Output of [`eval_face`] over the form's N face dofs: x0, x1, x2, flap0, flap1, flap2
+/// (3 coordinates each), then the form's extra unknowns (φ_0, φ_1, φ_2 for N = 21).
 #[derive(Clone, Debug, PartialEq)]
-pub struct FaceEval {
+pub struct FaceEval<const N: usize = 18> {
     /// Energies (J).
     pub energy: EnergyTerms,
-    /// Gradient (N); zero unless requested.
-    pub gradient: SVector<f64, 18>,
-    /// Hessian (N/m), symmetric; zero unless requested.
-    pub hessian: SMatrix<f64, 18, 18>,
+    /// Gradient (N for positions, J/rad for angles); unspecified unless requested.
+    pub gradient: SVector<f64, N>,
+    /// Hessian (N/m, N/rad, J/rad²), symmetric; unspecified unless requested.
+    pub hessian: SMatrix<f64, N, N>,
 }
 
-impl Default for FaceEval {
+impl<const N: usize> Default for FaceEval<N> {
     fn default() -> Self {
         Self {
             energy: EnergyTerms::default(),
@@ -122,205 +124,225 @@ impl Default for FaceEval {
     }
 }
 
-/// Energy of one face (model.md §2), with A = √det ā and ‖M‖²_SV = α/2 tr(M)² + β tr(M²):
+/// Energy of one face (model.md §2) with b from `form` over its N dofs and the elastic energy
+/// of `material`'s law ([`crate::ElasticLaw`]: stretching and bending as functions of the form
+/// entries a, b), plus Kelvin–Voigt damping, with A = √det ā and ‖M‖²_SV = α/2 tr(M)² + β tr(M²)
+/// (α, β, h, E, η of `material`):
 ///
-/// - stretch = h/8 · ‖ā⁻¹a − I‖²_SV · A  (first 9 dofs only),
-/// - bend = h³/24 · ‖ā⁻¹(b − b̄)‖²_SV · A,
-/// - damping = (η/E)/Δt · (h/8 ‖a_prev⁻¹(a − a_prev)‖²_SV + h³/24 ‖a_prev⁻¹(b − b_prev)‖²_SV) · A
-///   (= (η/E) Δt (… ‖·/Δt‖² …) A); skipped when `damping` is `None`.
+/// damping = (η/E)/Δt · (h/8 ‖a_prev⁻¹(a − a_prev)‖²_SV + h³/24 ‖a_prev⁻¹(b − b_prev)‖²_SV) · A
+/// (= (η/E) Δt (… ‖·/Δt‖² …) A), skipped when `damping` is `None`.
 ///
-/// Each is a quadratic dᵀKd in the three form entries (see [`crate::density::sv_quadratic`]); the
-/// stretch and damping-stretch quadratics in a, and the bend and damping-bend quadratics in b,
-/// are summed before the chain rule H = Jᵀ(∂²E/∂m²)J + Σ_k (∂E/∂m_k) ∇²m_k, so b, its Jacobian and
-/// its contracted Hessian are computed once. Only switched-on terms are evaluated. `out` is
-/// overwritten (gradient/Hessian zero when not requested). Requesting a Hessian implies the gradient.
+/// One chain rule for every term: with m = (a, b) the six form entries, E(m) the law's energy
+/// plus the damping quadratics, J_a (3×9, the face vertices) and J_b (3×N, from the form),
+///
+/// ∇E = J_aᵀ ∂E/∂a + J_bᵀ ∂E/∂b,
+/// ∇²E = Jᵀ (∂²E/∂m²) J + Σ_k (∂E/∂a_k) ∇²a_k + Σ_k (∂E/∂b_k) ∇²b_k,
+///
+/// b, its Jacobian and its contracted Hessian computed once (the last two terms dropped for
+/// [`HessianMode::GaussNewton`]; [`HessianMode::ProjectedPsd`] projects the exact face Hessian).
+/// The gradient alone goes through b in reverse mode, without the Jacobian. Only switched-on
+/// terms are evaluated: with bending and damping off, the flap slots and the form are not read.
+/// `out.energy` is overwritten, and `out.gradient` / `out.hessian` when requested (a Hessian
+/// implies the gradient); unrequested ones are left as they are.
 #[allow(clippy::too_many_arguments)] // the kernel's inputs are independent plain data
-pub fn eval_face(
-    sff: &dyn SecondFundamentalForm,
+pub fn eval_face<const N: usize, F>(
+    form: &F,
     material: &Material,
     stencil: &FaceStencil,
     rest: &FaceRest,
     damping: Option<&FaceDamping>,
     terms: Terms,
     want: Want,
-    out: &mut FaceEval,
-) {
-    eval_face_parts(
-        Some(sff),
-        material,
-        stencil,
-        rest,
-        damping,
-        terms,
-        want,
-        out,
-    );
-    if want.hessian == Some(HessianMode::ProjectedPsd) {
-        project_psd(&mut out.hessian);
-    }
-}
-
-/// [`eval_face`] without the PSD projection; with `sff = None` only the membrane terms
-/// (stretching and the membrane part of damping) are evaluated, for callers that evaluate the
-/// b-dependent terms with another form (the edge directors).
-#[allow(clippy::too_many_arguments)] // the kernel's inputs are independent plain data
-pub(crate) fn eval_face_parts(
-    sff: Option<&dyn SecondFundamentalForm>,
-    material: &Material,
-    stencil: &FaceStencil,
-    rest: &FaceRest,
-    damping: Option<&FaceDamping>,
-    terms: Terms,
-    want: Want,
-    out: &mut FaceEval,
-) {
+    out: &mut FaceEval<N>,
+) where
+    F: SecondFundamentalForm<N> + ?Sized,
+    SMatrix<f64, N, N>: ProjectPsd,
+{
+    let mode = want.hessian;
+    let need_grad = want.gradient || mode.is_some();
     out.energy = EnergyTerms::default();
-    out.gradient.fill(0.0);
-    out.hessian.fill(0.0);
+    if need_grad {
+        out.gradient.fill(0.0);
+    }
+    if mode.is_some() {
+        out.hessian.fill(0.0);
+    }
+    let law = material.model.law();
     let damping = if terms.damping { damping } else { None };
     let (h, alpha, beta) = (material.thickness, material.alpha(), material.beta());
     let area = rest.a_bar.determinant().sqrt();
-    let a_bar_inv = inv2(&rest.a_bar);
+    let face = FaceGeometry {
+        a_bar: sym_entries(&rest.a_bar),
+        b_bar: sym_entries(&rest.b_bar),
+        a_bar_inv: inv2(&rest.a_bar),
+        area,
+    };
+    // Damping quadratics (K, centre) in a and in b.
     let damp = damping.map(|d| {
+        let ap_inv = inv2(&d.a_prev);
+        let c = material.viscosity / material.young / d.dt * area;
         (
-            inv2(&d.a_prev),
-            material.viscosity / material.young / d.dt,
-            d,
+            (
+                sv_quadratic(&ap_inv, alpha, beta, c * h / 8.0),
+                sym_entries(&d.a_prev),
+            ),
+            (
+                sv_quadratic(&ap_inv, alpha, beta, c * h * h * h / 24.0),
+                sym_entries(&d.b_prev),
+            ),
         )
     });
-    let need_grad = want.gradient || want.hessian.is_some();
-    let mode = want.hessian;
+    let uses_b = terms.bend || damp.is_some();
+    let coupled = law.coupled() && terms.bend;
+    let uses_a = terms.stretch || damp.is_some() || coupled;
+    let x = &stencil.x;
+    let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
+    let a = Vector3::new(e1.dot(&e1), e1.dot(&e2), e2.dot(&e2));
+    let order = match (need_grad, mode) {
+        (_, Some(_)) => Order::Hessian,
+        (true, None) => Order::Gradient,
+        (false, None) => Order::Energy,
+    };
+    let mut le = LawEval::default();
+    // ∂E/∂b of the law plus the damping quadratic in b, at b.
+    let grad_b = |le: &LawEval, b: &Vector3<f64>| match &damp {
+        Some((_, (k, c))) => le.gb + k * (b - c) * 2.0,
+        None => le.gb,
+    };
 
-    // Membrane part: a(x0, x1, x2).
-    if terms.stretch || damp.is_some() {
-        let x = &stencil.x;
-        let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
-        let a = Vector3::new(e1.dot(&e1), e1.dot(&e2), e2.dot(&e2));
-        let mut k_sum = Matrix3::zeros();
-        let mut g = Vector3::zeros();
-        if terms.stretch {
-            let k = sv_quadratic(&a_bar_inv, alpha, beta, h / 8.0 * area);
-            let d = a - sym_entries(&rest.a_bar);
-            let kd = k * d;
-            out.energy.stretch = d.dot(&kd);
-            g += kd * 2.0;
-            k_sum += k;
+    // b and the b-part of the derivatives.
+    let b = if !uses_b {
+        face.b_bar
+    } else if !need_grad {
+        sym_entries(&form.b(stencil))
+    } else if mode.is_none() {
+        // Gradient only: reverse mode through b, no Jacobian.
+        let weights = |bm: &Matrix2<f64>| {
+            let b = sym_entries(bm);
+            let mut le = LawEval::default();
+            law.eval(material, &face, &a, &b, terms, Order::Gradient, &mut le);
+            grad_b(&le, &b)
+        };
+        let (bm, _, g) = form.b_and_weighted_gradient(stencil, &weights);
+        out.gradient += g;
+        sym_entries(&bm)
+    } else {
+        // The contracted Hessian's weights need ∂E/∂b, hence b, first.
+        let exact = mode != Some(HessianMode::GaussNewton);
+        let (d, b) = if exact {
+            let b = sym_entries(&form.b(stencil));
+            law.eval(material, &face, &a, &b, terms, order, &mut le);
+            let gb = grad_b(&le, &b);
+            (
+                form.b_derivatives(stencil, Some((&gb, &mut out.hessian))),
+                b,
+            )
+        } else {
+            let d = form.b_derivatives(stencil, None);
+            let b = sym_entries(&d.b);
+            (d, b)
+        };
+        if !exact {
+            law.eval(material, &face, &a, &b, terms, order, &mut le);
         }
-        if let Some((ap_inv, c, fd)) = &damp {
-            let k = sv_quadratic(ap_inv, alpha, beta, c * h / 8.0 * area);
-            let d = a - sym_entries(&fd.a_prev);
-            let kd = k * d;
-            out.energy.damping += d.dot(&kd);
-            g += kd * 2.0;
-            k_sum += k;
+        let gb = grad_b(&le, &b);
+        out.gradient += d.jacobian.transpose() * gb;
+        let mut hbb = le.hbb;
+        if let Some((_, (k, _))) = &damp {
+            hbb += k * 2.0;
         }
-        if need_grad {
-            // Jacobian of a: rows a11, a12, a22; blocks x0, x1, x2 (same pattern as b with n → e).
-            let rows = [
-                [-2.0 * e1, 2.0 * e1, Vector3::zeros()],
-                [-(e1 + e2), e2, e1],
-                [-2.0 * e2, Vector3::zeros(), 2.0 * e2],
-            ];
-            let mut ja = SMatrix::<f64, 3, 9>::zeros();
-            for (k, r) in rows.iter().enumerate() {
-                for (b, v) in r.iter().enumerate() {
-                    ja.fixed_view_mut::<1, 3>(k, 3 * b)
-                        .copy_from(&v.transpose());
-                }
-            }
-            let grad = ja.transpose() * g;
-            out.gradient.fixed_rows_mut::<9>(0).copy_from(&grad);
-            if mode.is_some() {
-                let kj = (k_sum * 2.0) * ja;
-                let mut hb = out.hessian.fixed_view_mut::<9, 9>(0, 0);
-                hb += ja.transpose() * kj;
-                if mode != Some(HessianMode::GaussNewton) {
-                    // Σ_k g_k ∇²a_k = (Sᵀ C S) ⊗ I, C = [[2g11, g12], [g12, 2g22]], S = [e1; e2] selector.
-                    let sel = [(-1.0, -1.0), (1.0, 0.0), (0.0, 1.0)];
-                    for (i, si) in sel.iter().enumerate() {
-                        for (j, sj) in sel.iter().enumerate() {
-                            let c = 2.0 * g[0] * si.0 * sj.0
-                                + g[1] * (si.0 * sj.1 + si.1 * sj.0)
-                                + 2.0 * g[2] * si.1 * sj.1;
-                            for t in 0..3 {
-                                out.hessian[(3 * i + t, 3 * j + t)] += c;
-                            }
-                        }
+        let kj = hbb * d.jacobian;
+        out.hessian += d.jacobian.transpose() * kj;
+        if coupled {
+            // J_aᵀ H_ab J_b and its transpose; J_a only touches the first 9 dofs.
+            let ja = membrane_jacobian(&e1, &e2);
+            let cross = ja.transpose() * (le.hab * d.jacobian);
+            let mut top = out.hessian.fixed_rows_mut::<9>(0);
+            top += cross;
+            let mut left = out.hessian.fixed_columns_mut::<9>(0);
+            left += cross.transpose();
+        }
+        b
+    };
+    if !(uses_b && mode.is_some()) {
+        // The Hessian branch above has evaluated the law already.
+        law.eval(material, &face, &a, &b, terms, order, &mut le);
+    }
+    out.energy.stretch = le.stretch;
+    out.energy.bend = le.bend;
+    if let Some(((ka, ca), (kb, cb))) = &damp {
+        let (da, db) = (a - ca, b - cb);
+        out.energy.damping = da.dot(&(ka * da)) + db.dot(&(kb * db));
+    }
+
+    // The a-part: a(x0, x1, x2).
+    if uses_a && need_grad {
+        add_membrane_part(&le, &damp, &a, &e1, &e2, mode, out);
+    }
+    if mode == Some(HessianMode::ProjectedPsd) {
+        out.hessian.project_psd();
+    }
+}
+
+/// Damping quadratics (K, centre) of a face in a and in b.
+type DampQuads = Option<((Matrix3<f64>, Vector3<f64>), (Matrix3<f64>, Vector3<f64>))>;
+
+/// Adds J_aᵀ ∂E/∂a to the gradient and, with a Hessian, J_aᵀ (∂²E/∂a²) J_a plus (unless
+/// Gauss–Newton) Σ_k (∂E/∂a_k) ∇²a_k.
+fn add_membrane_part<const N: usize>(
+    le: &LawEval,
+    damp: &DampQuads,
+    a: &Vector3<f64>,
+    e1: &Vector3<f64>,
+    e2: &Vector3<f64>,
+    mode: Option<HessianMode>,
+    out: &mut FaceEval<N>,
+) {
+    let mut g = le.ga;
+    let mut k_sum = le.haa;
+    if let Some(((ka, ca), _)) = damp {
+        g += ka * (a - ca) * 2.0;
+        k_sum += ka * 2.0;
+    }
+    let ja = membrane_jacobian(e1, e2);
+    let grad = ja.transpose() * g;
+    let mut gr = out.gradient.fixed_rows_mut::<9>(0);
+    gr += grad;
+    if mode.is_some() {
+        let kj = k_sum * ja;
+        let mut hb = out.hessian.fixed_view_mut::<9, 9>(0, 0);
+        hb += ja.transpose() * kj;
+        if mode != Some(HessianMode::GaussNewton) {
+            // Σ_k g_k ∇²a_k = (Sᵀ C S) ⊗ I, C = [[2g11, g12], [g12, 2g22]], S = [e1; e2] selector.
+            let sel = [(-1.0, -1.0), (1.0, 0.0), (0.0, 1.0)];
+            for (i, si) in sel.iter().enumerate() {
+                for (j, sj) in sel.iter().enumerate() {
+                    let c = 2.0 * g[0] * si.0 * sj.0
+                        + g[1] * (si.0 * sj.1 + si.1 * sj.0)
+                        + 2.0 * g[2] * si.1 * sj.1;
+                    for t in 0..3 {
+                        out.hessian[(3 * i + t, 3 * j + t)] += c;
                     }
                 }
             }
         }
     }
-
-    // Bending part: b(stencil).
-    let Some(sff) = sff else { return };
-    if terms.bend || damp.is_some() {
-        let h3 = h * h * h / 24.0;
-        let mut k_sum = Matrix3::zeros();
-        let mut center = Vector3::zeros(); // Σ K_i c_i
-        let mut quads: [Option<(Matrix3<f64>, Vector3<f64>)>; 2] = [None, None];
-        if terms.bend {
-            quads[0] = Some((
-                sv_quadratic(&a_bar_inv, alpha, beta, h3 * area),
-                sym_entries(&rest.b_bar),
-            ));
-        }
-        if let Some((ap_inv, c, fd)) = &damp {
-            quads[1] = Some((
-                sv_quadratic(ap_inv, alpha, beta, c * h3 * area),
-                sym_entries(&fd.b_prev),
-            ));
-        }
-        for (k, c) in quads.iter().flatten() {
-            k_sum += k;
-            center += k * c;
-        }
-        let energies = |b: &Vector3<f64>, out: &mut EnergyTerms| {
-            if let Some((k, c)) = &quads[0] {
-                let d = b - c;
-                out.bend = d.dot(&(k * d));
-            }
-            if let Some((k, c)) = &quads[1] {
-                let d = b - c;
-                out.damping += d.dot(&(k * d));
-            }
-        };
-        if !need_grad {
-            let b = sym_entries(&sff.b(stencil));
-            energies(&b, &mut out.energy);
-        } else if mode.is_none() {
-            // Gradient only: reverse mode through b, no Jacobian.
-            let weights = |b: &Matrix2<f64>| (k_sum * sym_entries(b) - center) * 2.0;
-            let (b, _, g) = sff.b_and_weighted_gradient(stencil, &weights);
-            energies(&sym_entries(&b), &mut out.energy);
-            out.gradient += g;
-        } else {
-            // Gradient in b first needs b; the contracted Hessian needs that gradient as weights,
-            // so for the exact Hessian b is evaluated once cheaply, then derivatives with weights.
-            let exact = matches!(mode, Some(HessianMode::Exact | HessianMode::ProjectedPsd));
-            let (d, gb) = if exact {
-                let b = sym_entries(&sff.b(stencil));
-                let gb = (k_sum * b - center) * 2.0;
-                let d = sff.b_derivatives(stencil, Some((&gb, &mut out.hessian)));
-                (d, gb)
-            } else {
-                let d = sff.b_derivatives(stencil, None);
-                let b = sym_entries(&d.b);
-                let gb = (k_sum * b - center) * 2.0;
-                (d, gb)
-            };
-            let b = sym_entries(&d.b);
-            energies(&b, &mut out.energy);
-            out.gradient += d.jacobian.transpose() * gb;
-            if mode.is_some() {
-                let kj = (k_sum * 2.0) * d.jacobian;
-                out.hessian += d.jacobian.transpose() * kj;
-            }
-        }
-    }
 }
 
-/// Replaces a symmetric matrix by its PSD projection V max(Λ, 0) Vᵀ.
-pub fn project_psd(h: &mut SMatrix<f64, 18, 18>) {
-    crate::director::project_psd_18(h);
+/// Jacobian of a = (a11, a12, a22) w.r.t. (x0, x1, x2), e1 = x1 − x0, e2 = x2 − x0.
+#[inline]
+fn membrane_jacobian(e1: &Vector3<f64>, e2: &Vector3<f64>) -> SMatrix<f64, 3, 9> {
+    let rows = [
+        [-2.0 * e1, 2.0 * e1, Vector3::zeros()],
+        [-(e1 + e2), *e2, *e1],
+        [-2.0 * e2, Vector3::zeros(), 2.0 * e2],
+    ];
+    let mut ja = SMatrix::<f64, 3, 9>::zeros();
+    for (k, r) in rows.iter().enumerate() {
+        for (b, v) in r.iter().enumerate() {
+            ja.fixed_view_mut::<1, 3>(k, 3 * b)
+                .copy_from(&v.transpose());
+        }
+    }
+    ja
 }

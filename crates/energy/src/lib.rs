@@ -2,13 +2,16 @@
 //! Kelvin–Voigt damping of a triangle mesh, with exact gradients and Hessians.
 //!
 //! Two layers:
-//! - **per-face kernels** — pure functions on fixed-size arrays: [`first_fundamental_form`],
-//!   the [`SecondFundamentalForm`] trait ([`MidEdgeAverage`]), the quadratic energy densities
-//!   ([`density`]) and [`eval_face`], which returns a face's energy, 18-gradient and 18×18
-//!   Hessian (exact, Gauss–Newton or projected to PSD, [`HessianMode`]); the edge-director
-//!   form [`EdgeDirector`] (model.md §1.1, one angle per edge) with its bending kernel
-//!   [`eval_director_bend`] over 21 face dofs and the edge signs [`edge_signs`], selected for a
-//!   whole mesh by [`SffKind::EdgeDirector`];
+//! - **per-face kernels** — pure functions on fixed-size arrays, in dependency order:
+//!   [`stencil`] (the plain face data: [`FaceStencil`] with positions, flap flags and
+//!   [`EdgeAngles`]); [`sff`] (the [`SecondFundamentalForm`]`<N>` trait giving b, its 3×N
+//!   Jacobian and contracted Hessian over a face's N dofs: [`MidEdgeAverage`], N = 18, and the
+//!   edge directors [`EdgeDirector`], N = 21 with one angle per edge, model.md §1.1; chosen by
+//!   [`SffKind`]); [`material`] (the [`ElasticLaw`] trait — energy, 6-gradient and 6×6 Hessian
+//!   in the form entries a, b — with [`StVK`], [`NeoHookean`] and [`Bilayer`], chosen by
+//!   [`MaterialModel`]); and [`eval_face`], the one chain rule from (form, law) to a face's
+//!   energy, N-gradient and N×N Hessian (exact, Gauss–Newton or projected to PSD,
+//!   [`HessianMode`]);
 //! - **whole mesh** — [`RestState`] (ā, b̄ per face), [`DampingState`], [`lumped_mass`],
 //!   [`DofMap`] (pinned coordinates; edge angles with [`DofMap::with_edges`]) and
 //!   [`Assembler`] ([`Assembler::for_model`] for edge directors), which builds the lower-triangular
@@ -30,7 +33,7 @@
 //! let mesh = generators::icosphere(0.1, 2)?; // 162 vertices, 320 faces, radius 0.1 m
 //! let sff = SffKind::MidEdgeAverage;
 //! let rest = RestState::from_mesh(&mesh, mesh.positions(), sff)?; // stress-free as built
-//! let terms = Terms { stretch: true, bend: true, damping: false };
+//! let terms = Terms::ELASTIC;
 //! let model = ShellModel { material: Material::paper(), terms, sff };
 //! let mut assembler = Assembler::new(&mesh, &DofMap::all_free(mesh.n_vertices()), terms)?;
 //!
@@ -51,46 +54,61 @@
 //!
 //! ```
 //! use nalgebra::{Matrix2, Vector3};
-//! use thinshell_energy::{eval_face, FaceEval, FaceRest, FaceStencil, HessianMode, Material, SffKind, Terms, Want};
+//! use thinshell_energy::{
+//!     eval_face, DirectorVariant, EdgeDirector, FaceEval, FaceRest, FaceStencil, HessianMode,
+//!     Material, MaterialModel, MidEdgeAverage, Terms, Want,
+//! };
 //! let x = [Vector3::zeros(), Vector3::x(), Vector3::y(), Vector3::new(1.0, 1.0, 0.0),
 //!          Vector3::new(-1.0, 1.0, 0.0), Vector3::new(1.0, -1.0, 0.0)];
-//! let stencil = FaceStencil { x, flap: [true; 3] };
+//! let stencil = FaceStencil::new(x, [true; 3]);
 //! let rest = FaceRest { a_bar: Matrix2::identity(), b_bar: Matrix2::zeros() };
+//! let want = Want { gradient: true, hessian: Some(HessianMode::Exact) };
+//! // Mid-edge average form (18 dofs), neo-Hookean material.
+//! let material = Material::paper().with_model(MaterialModel::NeoHookean);
 //! let mut out = FaceEval::default();
-//! eval_face(SffKind::MidEdgeAverage.as_dyn(), &Material::paper(), &stencil, &rest, None, Terms::ALL,
-//!           Want { gradient: true, hessian: Some(HessianMode::Exact) }, &mut out);
+//! eval_face(&MidEdgeAverage, &material, &stencil, &rest, None, Terms::ELASTIC, want, &mut out);
 //! assert!(out.energy.total().abs() < 1e-12); // flat sheet at rest
+//! // Edge-director form (21 dofs: positions, then the three edge angles).
+//! let mut out21 = FaceEval::<21>::default();
+//! let form = EdgeDirector { variant: DirectorVariant::Tan };
+//! eval_face(&form, &Material::paper(), &stencil, &rest, None, Terms::ELASTIC, want, &mut out21);
+//! assert!(out21.gradient.norm() < 1e-9);
 //! ```
 
 pub mod assembly;
 pub mod density;
-pub mod director;
 pub mod dofs;
 pub mod error;
 pub mod forms;
 pub mod kernel;
+pub mod linalg;
 pub mod mass;
 pub mod material;
 pub mod rest;
 pub mod sff;
 pub mod shell;
+pub mod stencil;
 pub mod stencils;
 
 pub use assembly::{Assembler, EvalOutput};
-pub use director::{DirectorFaceEval, edge_signs, eval_director_bend};
 pub use dofs::DofMap;
 pub use error::EnergyError;
 pub use forms::first_fundamental_form;
 pub use kernel::{
-    EnergyTerms, FaceDamping, FaceEval, FaceRest, FaceStencil, HessianMode, Terms, Want, eval_face,
+    EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want, eval_face,
 };
+pub use linalg::{ProjectPsd, project_psd};
 pub use mass::lumped_mass;
-pub use material::Material;
+pub use material::{
+    Bilayer, ElasticLaw, FaceGeometry, LawEval, Layer, Material, MaterialModel, NeoHookean, Order,
+    StVK,
+};
 pub use rest::{DampingState, RestState};
 pub use sff::{
-    DirectorVariant, EdgeAngles, EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind,
+    DIRECTOR_DOFS, DirectorVariant, EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind,
 };
 pub use shell::ShellModel;
+pub use stencil::{EdgeAngles, FaceStencil, edge_signs};
 pub use stencils::Stencils;
 
 /// The README's example, compiled and run as a doctest so that it cannot go stale.

@@ -49,16 +49,17 @@ fn forms_of(
         });
     }
     let stencils = Stencils::new(mesh);
-    let b_form = sff.as_dyn();
     let mut a = Vec::with_capacity(mesh.n_faces());
     let mut b = Vec::with_capacity(mesh.n_faces());
     for f in 0..mesh.n_faces() {
         let st = stencils.stencil(f, x);
         a.push(first_fundamental_form(&[st.x[0], st.x[1], st.x[2]]));
-        b.push(match sff.director() {
-            Some(d) if !phi.is_empty() => d.b_with_angles(&st, &stencils.angles(f, phi)),
-            _ => b_form.b(&st),
-        });
+        let st = if phi.is_empty() {
+            st
+        } else {
+            stencils.stencil_at(f, x, phi)
+        };
+        b.push(sff.b(&st));
     }
     Ok(RestState { a_bar: a, b_bar: b })
 }

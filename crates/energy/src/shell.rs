@@ -7,7 +7,7 @@ use crate::sff::SffKind;
 /// Material, the energy terms to evaluate and the second-fundamental-form discretisation.
 #[derive(Clone, Copy, Debug)]
 pub struct ShellModel {
-    /// Material parameters (SI).
+    /// Material parameters (SI) and elastic model.
     pub material: Material,
     /// Which energy terms are evaluated (must equal the terms the [`crate::Assembler`] was
     /// built for).

@@ -1,8 +1,7 @@
 //! Per-face stencils (face vertices + flap vertices, and the face's edges with their
 //! orientation signs for edge-director unknowns) from the mesh topology, built once.
 
-use crate::kernel::FaceStencil;
-use crate::sff::EdgeAngles;
+use crate::stencil::{EdgeAngles, FaceStencil, edge_signs};
 use nalgebra::Vector3;
 use thinshell_mesh::{EdgeId, FaceId, Mesh, VertexId};
 
@@ -14,7 +13,7 @@ pub struct Stencils {
     flap: Vec<[bool; 3]>,
     /// Edge of each local edge (opposite local vertex e).
     edges: Vec<[EdgeId; 3]>,
-    /// σ per local edge ([`crate::edge_signs`]).
+    /// σ per local edge ([`edge_signs`]).
     signs: Vec<[f64; 3]>,
 }
 
@@ -46,7 +45,7 @@ impl Stencils {
             vertices,
             flap,
             edges,
-            signs: crate::director::edge_signs(mesh),
+            signs: edge_signs(mesh),
         }
     }
 
@@ -86,8 +85,26 @@ impl Stencils {
     }
 
     /// The kernel stencil of face `f` at positions `x` (length checked by the caller; a
-    /// missing flap slot repeats the opposite face vertex so that it stays finite).
+    /// missing flap slot repeats the opposite face vertex so that it stays finite), with all
+    /// edge angles 0 and the face's orientation signs.
     pub fn stencil(&self, f: usize, x: &[Vector3<f64>]) -> FaceStencil {
+        self.stencil_with(
+            f,
+            x,
+            EdgeAngles {
+                phi: [0.0; 3],
+                sigma: self.signs[f],
+            },
+        )
+    }
+
+    /// [`Stencils::stencil`] with the edge angles `phi` (rad, one per mesh edge, length checked
+    /// by the caller).
+    pub fn stencil_at(&self, f: usize, x: &[Vector3<f64>], phi: &[f64]) -> FaceStencil {
+        self.stencil_with(f, x, self.angles(f, phi))
+    }
+
+    fn stencil_with(&self, f: usize, x: &[Vector3<f64>], angles: EdgeAngles) -> FaceStencil {
         let v = &self.vertices[f];
         FaceStencil {
             x: [
@@ -99,6 +116,7 @@ impl Stencils {
                 x[v[5].idx()],
             ],
             flap: self.flap[f],
+            angles,
         }
     }
 }

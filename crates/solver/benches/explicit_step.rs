@@ -30,6 +30,7 @@ fn setup(sff: SffKind) -> (ShellSystem, State) {
             poisson: 0.3,
             density: 1000.0,
             viscosity: 0.0,
+            model: thinshell_energy::MaterialModel::StVK,
         },
         terms: Terms {
             stretch: true,

@@ -301,6 +301,7 @@ fn simply_supported_plate_frequency_with_the_default_form() {
         poisson: 0.3,
         density: 8000.0,
         viscosity: 0.0,
+        model: thinshell_energy::MaterialModel::StVK,
     };
     let m = &material;
     let d = m.young * m.thickness.powi(3) / (12.0 * (1.0 - m.poisson * m.poisson));
@@ -349,6 +350,7 @@ fn explicit_euler_with_the_default_form_matches_implicit() {
         poisson: 0.3,
         density: 1000.0,
         viscosity: 0.0,
+        model: thinshell_energy::MaterialModel::StVK,
     };
     let model = ShellModel {
         material,

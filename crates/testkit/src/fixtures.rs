@@ -9,7 +9,7 @@
 use std::path::PathBuf;
 
 use nalgebra::{Matrix2, Vector2, Vector3};
-use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
+use thinshell_energy::{Material, MaterialModel, RestState, SffKind, ShellModel, Terms};
 use thinshell_growth::{FaceStimulus, Growth, Prescribed, Swelling};
 use thinshell_mesh::{Mesh, generators};
 use thinshell_solver::{Boundary, Loads, ShellSystem, State, Static};
@@ -24,6 +24,7 @@ pub fn unit_material(viscosity: f64) -> Material {
         poisson: 0.3,
         density: 1.0,
         viscosity,
+        model: MaterialModel::StVK,
     }
 }
 
@@ -36,6 +37,7 @@ pub fn soft_material() -> Material {
         poisson: 0.3,
         density: 1.0,
         viscosity: 20.0,
+        model: MaterialModel::StVK,
     }
 }
 
@@ -47,6 +49,7 @@ pub const BEAM_MATERIAL: Material = Material {
     poisson: 0.0,
     density: 1000.0,
     viscosity: 0.0,
+    model: MaterialModel::StVK,
 };
 
 /// [`Material::paper`] (E = 2 GPa, ν = 0.3) with thickness `h` (m).

@@ -44,7 +44,7 @@ pub fn stencil_strategy() -> impl Strategy<Value = FaceStencil> {
                 let away = (mid - x[e]).normalize();
                 x[3 + e] = mid + away * out[e] + n * heights[e];
             }
-            FaceStencil { x, flap }
+            FaceStencil::new(x, flap)
         })
 }
 

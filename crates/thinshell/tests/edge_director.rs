@@ -19,6 +19,7 @@ fn material() -> Material {
         poisson: 0.3,
         density: 250.0,
         viscosity: 0.0,
+        model: thinshell_energy::MaterialModel::StVK,
     }
 }
 

@@ -21,7 +21,7 @@
 
 use super::mid_edge_average::{cross_normal, normalize_hess, normalize_jac, skew};
 use super::{SecondFundamentalForm, SffDerivatives};
-use crate::kernel::FaceStencil;
+use crate::stencil::{EdgeAngles, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
 /// Number of face dofs of the director form: 18 positions, then the three edge angles.
@@ -59,24 +59,9 @@ impl DirectorVariant {
     }
 }
 
-/// Edge angles of a face, in local-edge order (edge e opposite vertex e).
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub struct EdgeAngles {
-    /// φ_e (rad): rotation of edge e's director about the edge, in the edge's stored direction.
-    pub phi: [f64; 3],
-    /// σ_e = +1 when the edge's stored direction agrees with the face's orientation, else −1
-    /// (see [`crate::director::edge_signs`]).
-    pub sigma: [f64; 3],
-}
-
-/// Output of [`EdgeDirector::derivatives`].
-#[derive(Clone, Debug)]
-pub struct DirectorDerivatives {
-    /// b (m), symmetric.
-    pub b: Matrix2<f64>,
-    /// Rows b11, b12, b22 w.r.t. the 21 dofs: 18 positions (dimensionless), 3 angles (m/rad).
-    pub jacobian: SMatrix<f64, 3, DIRECTOR_DOFS>,
-}
+/// Output of [`EdgeDirector::derivatives`]: b and its Jacobian over the 21 dofs (18 positions,
+/// dimensionless; 3 angles, m/rad).
+pub type DirectorDerivatives = SffDerivatives<DIRECTOR_DOFS>;
 
 /// Edge-director second fundamental form; as a [`SecondFundamentalForm`] it is evaluated at
 /// φ = 0 (where σ does not matter).
@@ -388,29 +373,19 @@ fn form_of(ii: &[f64; 3]) -> Matrix2<f64> {
     Matrix2::new(-(ii[0] + ii[1]), b12, b12, -(ii[0] + ii[2]))
 }
 
-impl SecondFundamentalForm for EdgeDirector {
+impl SecondFundamentalForm<DIRECTOR_DOFS> for EdgeDirector {
     fn b(&self, s: &FaceStencil) -> Matrix2<f64> {
-        self.b_with_angles(s, &EdgeAngles::default())
+        self.b_with_angles(s, &s.angles)
     }
 
     fn b_derivatives(
         &self,
         s: &FaceStencil,
-        hessian: Option<(&Vector3<f64>, &mut SMatrix<f64, 18, 18>)>,
-    ) -> SffDerivatives {
-        let angles = EdgeAngles::default();
-        let d = match hessian {
-            Some((w, h)) => {
-                let mut h21 = SMatrix::<f64, DIRECTOR_DOFS, DIRECTOR_DOFS>::zeros();
-                let d = self.derivatives(s, &angles, Some((w, &mut h21)));
-                *h += h21.fixed_view::<18, 18>(0, 0);
-                d
-            }
-            None => self.derivatives(s, &angles, None),
-        };
-        SffDerivatives {
-            b: d.b,
-            jacobian: d.jacobian.fixed_view::<3, 18>(0, 0).into_owned(),
-        }
+        hessian: Option<(
+            &Vector3<f64>,
+            &mut SMatrix<f64, DIRECTOR_DOFS, DIRECTOR_DOFS>,
+        )>,
+    ) -> DirectorDerivatives {
+        self.derivatives(s, &s.angles, hessian)
     }
 }

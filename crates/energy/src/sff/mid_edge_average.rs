@@ -12,7 +12,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::{SecondFundamentalForm, SffDerivatives};
-use crate::kernel::FaceStencil;
+use crate::stencil::FaceStencil;
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
 /// Normalised average of the two unit face normals per interior edge; face normal on a boundary edge.
@@ -111,7 +111,7 @@ fn add_jt_m_j<const N: usize>(
     }
 }
 
-impl SecondFundamentalForm for MidEdgeAverage {
+impl SecondFundamentalForm<18> for MidEdgeAverage {
     fn b(&self, s: &FaceStencil) -> Matrix2<f64> {
         let x = &s.x;
         let nf = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
@@ -214,7 +214,7 @@ impl SecondFundamentalForm for MidEdgeAverage {
         &self,
         s: &FaceStencil,
         hessian: Option<(&Vector3<f64>, &mut SMatrix<f64, 18, 18>)>,
-    ) -> SffDerivatives {
+    ) -> SffDerivatives<18> {
         let x = &s.x;
         let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
         let face_idx = [0usize, 1, 2];

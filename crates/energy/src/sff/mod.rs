@@ -3,47 +3,51 @@
 mod edge_director;
 mod mid_edge_average;
 
-pub use edge_director::{
-    DIRECTOR_DOFS, DirectorDerivatives, DirectorVariant, EdgeAngles, EdgeDirector,
-};
+pub use edge_director::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
 pub use mid_edge_average::MidEdgeAverage;
 
-use crate::kernel::FaceStencil;
+use crate::stencil::FaceStencil;
 use nalgebra::{Matrix2, SMatrix, SVector, Vector3};
 
 /// Output of [`SecondFundamentalForm::b_derivatives`].
 #[derive(Clone, Debug)]
-pub struct SffDerivatives {
+pub struct SffDerivatives<const N: usize> {
     /// b (m), symmetric.
     pub b: Matrix2<f64>,
-    /// Jacobian: rows b11, b12, b22 w.r.t. the 18 stencil dofs (dimensionless).
-    pub jacobian: SMatrix<f64, 3, 18>,
+    /// Jacobian: rows b11, b12, b22 w.r.t. the form's N face dofs (18 positions in stencil
+    /// order — dimensionless —, then any edge angles, m/rad).
+    pub jacobian: SMatrix<f64, 3, N>,
 }
 
-/// A discrete second fundamental form b of a face (basis (e1, e2), sign of model.md §1:
-/// b ≈ −a/r on a sphere of radius r with outward normals).
-pub trait SecondFundamentalForm: Sync {
+/// A discrete second fundamental form b of a face over its N dofs: the 18 stencil positions
+/// (x0, x1, x2, flap0, flap1, flap2, three coordinates each), then the form's extra per-face
+/// unknowns (the three edge angles for N = 21). Sign of model.md §1: b ≈ −a/r on a sphere of
+/// radius r with outward normals.
+///
+/// A new discretisation is one type implementing this trait (plus an [`SffKind`] variant and
+/// its dispatch in the assembler); [`crate::eval_face`] does the chain rule for every energy.
+pub trait SecondFundamentalForm<const N: usize>: Sync {
     /// b of the face (no derivatives). `stencil.x[3+e]` is ignored when `!stencil.flap[e]`
     /// (boundary edge: the face normal is used).
     fn b(&self, stencil: &FaceStencil) -> Matrix2<f64>;
 
-    /// b and its Jacobian (rows b11, b12, b22 w.r.t. the 18 stencil dofs). When `hessian` is
-    /// `Some((w, h))`, ADDS the contracted Hessian Σ_k w_k ∇²b_k (18×18, w = (w11, w12, w22))
+    /// b and its Jacobian (rows b11, b12, b22 w.r.t. the N dofs). When `hessian` is
+    /// `Some((w, h))`, ADDS the contracted Hessian Σ_k w_k ∇²b_k (N×N, w = (w11, w12, w22))
     /// to `h`; the third-order tensor is never formed.
     fn b_derivatives(
         &self,
         stencil: &FaceStencil,
-        hessian: Option<(&nalgebra::Vector3<f64>, &mut SMatrix<f64, 18, 18>)>,
-    ) -> SffDerivatives;
+        hessian: Option<(&Vector3<f64>, &mut SMatrix<f64, N, N>)>,
+    ) -> SffDerivatives<N>;
 
-    /// b and the gradient of w·b = Σ_k w_k b_k (18 entries) for weights w = (w11, w12, w22)
-    /// computed from b by `weights`. Implementations should avoid forming the Jacobian (reverse
+    /// b, the weights w = (w11, w12, w22) computed from b by `weights`, and the gradient of
+    /// w·b = Σ_k w_k b_k (N entries). Implementations may avoid forming the Jacobian (reverse
     /// mode); the default goes through [`b_derivatives`](Self::b_derivatives).
     fn b_and_weighted_gradient(
         &self,
         stencil: &FaceStencil,
         weights: &dyn Fn(&Matrix2<f64>) -> Vector3<f64>,
-    ) -> (Matrix2<f64>, Vector3<f64>, SVector<f64, 18>) {
+    ) -> (Matrix2<f64>, Vector3<f64>, SVector<f64, N>) {
         let d = self.b_derivatives(stencil, None);
         let w = weights(&d.b);
         (d.b, w, d.jacobian.transpose() * w)
@@ -99,13 +103,6 @@ impl Default for DirectorVariant {
     }
 }
 
-static DIRECTOR_SIN: EdgeDirector = EdgeDirector {
-    variant: DirectorVariant::Sin,
-};
-static DIRECTOR_TAN: EdgeDirector = EdgeDirector {
-    variant: DirectorVariant::Tan,
-};
-
 impl SffKind {
     /// The three discretisations, cheapest first.
     pub const ALL: [SffKind; 3] = [
@@ -114,13 +111,12 @@ impl SffKind {
         SffKind::EdgeDirector(DirectorVariant::Tan),
     ];
 
-    /// The implementation as a trait object over the 18 stencil positions; an edge-director
-    /// form is evaluated with all edge angles 0 (used for rest forms of a given shape).
-    pub fn as_dyn(self) -> &'static dyn SecondFundamentalForm {
+    /// b of a face with this form, at the stencil's edge angles (all 0 for a stencil from
+    /// [`FaceStencil::new`]: used for rest forms of a given shape).
+    pub fn b(self, stencil: &FaceStencil) -> Matrix2<f64> {
         match self {
-            SffKind::MidEdgeAverage => &MidEdgeAverage,
-            SffKind::EdgeDirector(DirectorVariant::Sin) => &DIRECTOR_SIN,
-            SffKind::EdgeDirector(DirectorVariant::Tan) => &DIRECTOR_TAN,
+            SffKind::MidEdgeAverage => MidEdgeAverage.b(stencil),
+            SffKind::EdgeDirector(variant) => EdgeDirector { variant }.b(stencil),
         }
     }
 

@@ -14,7 +14,7 @@
 //!     kind = "static"
 //! "#;
 //! let scene = Scene::from_toml(text, "example.toml", std::path::Path::new(".")).unwrap();
-//! assert_eq!(scene.file.material.young, 2e9); // paper by default
+//! assert_eq!(scene.file.material.young(), 2e9); // paper by default
 //! ```
 
 pub mod schema;

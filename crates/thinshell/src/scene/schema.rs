@@ -205,53 +205,116 @@ pub struct WrapCylinder {
     pub center_x: Option<f64>,
 }
 
-/// Material parameters, SI units.
+/// Material parameters, SI units (`docs/scenes.md`, `[material]`).
+///
+/// `thickness`, `young` and `poisson` belong to the single-layer models (`stvk`,
+/// `neo_hookean`); `bottom` and `top` to `bilayer`, which takes its thickness and moduli from
+/// its layers. Keys of one model are refused for another (`validate`).
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialSpec {
-    /// Thickness h, m (default 1e-4).
-    #[serde(default = "default_thickness")]
-    pub thickness: f64,
-    /// Young's modulus E, Pa (default 2e9).
-    #[serde(default = "default_young")]
-    pub young: f64,
-    /// Poisson ratio ν (default 0.3).
-    #[serde(default = "default_poisson")]
-    pub poisson: f64,
+    /// Elastic model (default `stvk`).
+    #[serde(default)]
+    pub model: MaterialModelName,
+    /// Thickness h, m (default 1e-4; single-layer models).
+    #[serde(default)]
+    pub thickness: Option<f64>,
+    /// Young's modulus E, Pa (default 2e9; single-layer models).
+    #[serde(default)]
+    pub young: Option<f64>,
+    /// Poisson ratio ν (default 0.3; single-layer models).
+    #[serde(default)]
+    pub poisson: Option<f64>,
     /// Density ρ, kg/m³ (default 250).
     #[serde(default = "default_density")]
     pub density: f64,
     /// Viscosity η, Pa·s (default 5e-13, the seed's value: practically no damping).
     #[serde(default = "default_viscosity")]
     pub viscosity: f64,
-}
-
-fn default_thickness() -> f64 {
-    1e-4
-}
-fn default_young() -> f64 {
-    2e9
-}
-fn default_poisson() -> f64 {
-    0.3
-}
-fn default_density() -> f64 {
-    250.0
-}
-fn default_viscosity() -> f64 {
-    5e-13
+    /// `bilayer`: the layer on the −z side (z ∈ [−h/2, −h/2 + h₁]).
+    #[serde(default)]
+    pub bottom: Option<LayerSpec>,
+    /// `bilayer`: the layer on the +z side (the side the unit normal points to).
+    #[serde(default)]
+    pub top: Option<LayerSpec>,
 }
 
 impl Default for MaterialSpec {
     fn default() -> Self {
         MaterialSpec {
-            thickness: default_thickness(),
-            young: default_young(),
-            poisson: default_poisson(),
+            model: MaterialModelName::default(),
+            thickness: None,
+            young: None,
+            poisson: None,
             density: default_density(),
             viscosity: default_viscosity(),
+            bottom: None,
+            top: None,
         }
     }
+}
+
+impl MaterialSpec {
+    /// Thickness h (m) of a single-layer model, default 1e-4.
+    pub fn thickness(&self) -> f64 {
+        self.thickness.unwrap_or(1e-4)
+    }
+
+    /// Young's modulus E (Pa) of a single-layer model, default 2e9.
+    pub fn young(&self) -> f64 {
+        self.young.unwrap_or(2e9)
+    }
+
+    /// Poisson ratio ν of a single-layer model, default 0.3.
+    pub fn poisson(&self) -> f64 {
+        self.poisson.unwrap_or(0.3)
+    }
+}
+
+/// Elastic model of `[material]` (`thinshell_energy::MaterialModel`).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MaterialModelName {
+    /// St. Venant–Kirchhoff, the paper's quadratic energies (`docs/model.md` §2). Default.
+    #[default]
+    Stvk,
+    /// Compressible neo-Hookean stretching, bending in the current metric (§2.1).
+    NeoHookean,
+    /// Two bonded layers with their own moduli and eigenstrains (§2.2): keys `bottom`, `top`.
+    Bilayer,
+}
+
+impl MaterialModelName {
+    /// The name as written in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            MaterialModelName::Stvk => "stvk",
+            MaterialModelName::NeoHookean => "neo_hookean",
+            MaterialModelName::Bilayer => "bilayer",
+        }
+    }
+}
+
+/// One layer of a `bilayer` material; every key is required.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct LayerSpec {
+    /// Layer thickness, m (> 0).
+    pub thickness: f64,
+    /// Young's modulus, Pa (> 0).
+    pub young: f64,
+    /// Poisson ratio, in [0, 0.5).
+    pub poisson: f64,
+    /// Isotropic eigenstrain ε (> −1): the layer is stress-free at (1 + ε)² times the rest
+    /// metric (thermal α ΔT, swelling).
+    pub eigenstrain: f64,
+}
+
+fn default_density() -> f64 {
+    250.0
+}
+fn default_viscosity() -> f64 {
+    5e-13
 }
 
 /// Where the rest forms (ā, b̄) come from before any growth.

@@ -275,22 +275,56 @@ fn initial(i: &InitialSpec) -> Check {
 }
 
 fn material(m: &MaterialSpec) -> Check {
-    positive("material.thickness", m.thickness)?;
-    positive("material.young", m.young)?;
-    positive("material.density", m.density)?;
-    finite("material.poisson", m.poisson)?;
-    if !(0.0..0.5).contains(&m.poisson) {
-        return Err(problem(
-            "material.poisson",
-            format!("must be in [0, 0.5), got {}", m.poisson),
-        ));
+    let model = m.model.name();
+    let single = |key: &str, v: &Option<f64>| match v {
+        Some(_) if m.model == MaterialModelName::Bilayer => Err(problem(
+            key,
+            "does not apply to model = \"bilayer\" (set it per layer in `bottom` and `top`)",
+        )),
+        _ => Ok(()),
+    };
+    single("material.thickness", &m.thickness)?;
+    single("material.young", &m.young)?;
+    single("material.poisson", &m.poisson)?;
+    if m.model == MaterialModelName::Bilayer {
+        for (key, layer) in [("material.bottom", &m.bottom), ("material.top", &m.top)] {
+            let Some(l) = layer else {
+                return Err(problem(key, "is required with model = \"bilayer\""));
+            };
+            positive(&format!("{key}.thickness"), l.thickness)?;
+            positive(&format!("{key}.young"), l.young)?;
+            poisson(&format!("{key}.poisson"), l.poisson)?;
+            finite(&format!("{key}.eigenstrain"), l.eigenstrain)?;
+            if l.eigenstrain <= -1.0 {
+                return Err(problem(
+                    format!("{key}.eigenstrain"),
+                    format!("must be > -1, got {}", l.eigenstrain),
+                ));
+            }
+        }
+    } else {
+        let why = format!("to model = \"{model}\" (only to \"bilayer\")");
+        absent("material.bottom", &m.bottom, &why)?;
+        absent("material.top", &m.top, &why)?;
+        positive("material.thickness", m.thickness())?;
+        positive("material.young", m.young())?;
+        poisson("material.poisson", m.poisson())?;
     }
+    positive("material.density", m.density)?;
     finite("material.viscosity", m.viscosity)?;
     if m.viscosity < 0.0 {
         return Err(problem(
             "material.viscosity",
             format!("must be ≥ 0, got {}", m.viscosity),
         ));
+    }
+    Ok(())
+}
+
+fn poisson(key: &str, v: f64) -> Check {
+    finite(key, v)?;
+    if !(0.0..0.5).contains(&v) {
+        return Err(problem(key, format!("must be in [0, 0.5), got {v}")));
     }
     Ok(())
 }

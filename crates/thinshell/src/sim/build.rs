@@ -2,7 +2,8 @@
 
 use nalgebra::{Matrix2, Vector3};
 use thinshell_energy::{
-    DirectorVariant, EnergyError, HessianMode, Material, RestState, SffKind, ShellModel, Terms,
+    DirectorVariant, EnergyError, HessianMode, Layer, Material, MaterialModel, RestState, SffKind,
+    ShellModel, Terms,
 };
 use thinshell_mesh::{Mesh, MeshError, VertexId, generators, io};
 use thinshell_solver::{
@@ -20,8 +21,9 @@ use super::Simulation;
 use crate::reference::{map_xy, wrap_cylinder};
 use crate::scene::Scene;
 use crate::scene::schema::{
-    BendingForm, Effect, GrowthModelKind, GrowthSpec, HessianSpec, IntegratorKind, LoadRamp,
-    MeshSpec, RegionSpec, RestSource, StimulusKind, Surface as SceneSurface,
+    BendingForm, Effect, GrowthModelKind, GrowthSpec, HessianSpec, IntegratorKind, LayerSpec,
+    LoadRamp, MaterialModelName, MaterialSpec, MeshSpec, RegionSpec, RestSource, StimulusKind,
+    Surface as SceneSurface,
 };
 
 /// Why a scene could not be turned into a simulation.
@@ -213,15 +215,7 @@ impl Simulation {
             .map_or(Vector3::zeros(), |v| Vector3::new(v[0], v[1], v[2]));
         let v = vec![v0; n];
 
-        let mat = &s.material;
-        let material = Material {
-            thickness: mat.thickness,
-            young: mat.young,
-            poisson: mat.poisson,
-            density: mat.density,
-            viscosity: mat.viscosity,
-        };
-        material.validate().map_err(energy_err)?;
+        let material = material_of(&s.material).map_err(energy_err)?;
         let terms = Terms {
             stretch: on(Effect::Stretching),
             bend: on(Effect::Bending),
@@ -614,4 +608,44 @@ fn elastic_energy(
             hessian: None,
         },
     )
+}
+
+/// The energy crate's material of a `[material]` table, validated.
+fn material_of(mat: &MaterialSpec) -> Result<Material, EnergyError> {
+    let single = |model| Material {
+        thickness: mat.thickness(),
+        young: mat.young(),
+        poisson: mat.poisson(),
+        density: mat.density,
+        viscosity: mat.viscosity,
+        model,
+    };
+    let material = match mat.model {
+        MaterialModelName::Stvk => single(MaterialModel::StVK),
+        MaterialModelName::NeoHookean => single(MaterialModel::NeoHookean),
+        MaterialModelName::Bilayer => {
+            // Scene validation requires both layers; a missing one is still a typed error.
+            let layer = |name: &'static str, l: &Option<LayerSpec>| {
+                l.map(|l| Layer {
+                    thickness: l.thickness,
+                    young: l.young,
+                    poisson: l.poisson,
+                    eigenstrain: l.eigenstrain,
+                })
+                .ok_or(EnergyError::InvalidParameter {
+                    name,
+                    value: f64::NAN,
+                    reason: "is required with model = \"bilayer\"",
+                })
+            };
+            Material::bilayer(
+                layer("material.bottom", &mat.bottom)?,
+                layer("material.top", &mat.top)?,
+                mat.density,
+                mat.viscosity,
+            )
+        }
+    };
+    material.validate()?;
+    Ok(material)
 }

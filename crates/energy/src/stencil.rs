@@ -1,0 +1,62 @@
+//! The plain data a per-face kernel reads: stencil positions, flap flags and edge angles, and the
+//! edge orientation signs σ the edge angles need from the mesh topology.
+
+use nalgebra::Vector3;
+use thinshell_mesh::{FaceId, Mesh};
+
+/// Edge angles of a face, in local-edge order (edge e opposite vertex e), for second fundamental
+/// forms with one unknown per edge (model.md §1.1); ignored by forms without.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct EdgeAngles {
+    /// φ_e (rad): rotation of edge e's director about the edge, in the edge's stored direction.
+    pub phi: [f64; 3],
+    /// σ_e = +1 when the edge's stored direction agrees with the face's orientation, else −1
+    /// (see [`edge_signs`]).
+    pub sigma: [f64; 3],
+}
+
+/// One face's stencil. `x[0..3]`: face vertices in stored order; `x[3 + e]`: flap vertex across
+/// local edge e (the edge opposite local vertex e), ignored when `!flap[e]`; `angles`: the
+/// face's edge angles (read only by forms with edge unknowns, [`crate::EdgeDirector`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FaceStencil {
+    /// Stencil positions (m).
+    pub x: [Vector3<f64>; 6],
+    /// `flap[e]`: edge e is interior (has a flap vertex).
+    pub flap: [bool; 3],
+    /// Edge angles and orientation signs of the face's three edges.
+    pub angles: EdgeAngles,
+}
+
+impl FaceStencil {
+    /// A stencil with all edge angles 0 (and signs 0: the angles are not unknowns).
+    pub fn new(x: [Vector3<f64>; 6], flap: [bool; 3]) -> FaceStencil {
+        FaceStencil {
+            x,
+            flap,
+            angles: EdgeAngles::default(),
+        }
+    }
+}
+
+/// σ_{f,e} for every face f and local edge e (opposite local vertex e): +1 when the edge's
+/// stored direction (`Edge::vertices[0] → [1]`) is the direction f runs it
+/// (`f[e+1] → f[e+2]`), else −1. The two faces of an interior edge get opposite signs on a
+/// consistently oriented mesh.
+pub fn edge_signs(mesh: &Mesh) -> Vec<[f64; 3]> {
+    let topo = mesh.topology();
+    mesh.faces()
+        .iter()
+        .enumerate()
+        .map(|(f, face)| {
+            let ids = topo.face_edges(FaceId::new(f));
+            std::array::from_fn(|e| {
+                if topo.edge(ids[e]).vertices[0] == face[(e + 1) % 3] {
+                    1.0
+                } else {
+                    -1.0
+                }
+            })
+        })
+        .collect()
+}
