@@ -10,6 +10,8 @@ mod accuracy;
 mod bench_sphere;
 mod bench_square;
 mod hard_cases;
+#[cfg(test)]
+mod one_build;
 mod plot;
 mod render;
 

@@ -597,7 +597,7 @@ fn face_data(
 /// The edge-director form whose angles are unknowns of `model`: a director form with bending on
 /// (without bending the angles would not enter the energy).
 fn edge_director(model: &ShellModel) -> Option<EdgeDirector> {
-    model.sff.director().filter(|_| model.terms.bend)
+    model.sff.director().filter(|_| model.has_edge_unknowns())
 }
 
 /// Whether every entry is finite. `x · 0` is 0 for finite x and NaN for NaN or ±inf (and, unlike

@@ -90,14 +90,7 @@ impl RestState {
         check_form("a_xy", &a_xy, true)?;
         check_form("b_xy", &b_xy, false)?;
         let x = mesh.positions();
-        let (lo, hi) = x.iter().fold(
-            (
-                Vector3::repeat(f64::INFINITY),
-                Vector3::repeat(f64::NEG_INFINITY),
-            ),
-            |(lo, hi), p| (lo.inf(p), hi.sup(p)),
-        );
-        let tol = PLANAR_TOLERANCE * (hi - lo).norm();
+        let tol = PLANAR_TOLERANCE * mesh.bounding_box().diagonal();
         let z0 = x.first().map_or(0.0, |p| p.z);
         if let Some(v) = x.iter().position(|p| (p.z - z0).abs() > tol) {
             return Err(EnergyError::NotPlanar {

@@ -15,3 +15,12 @@ pub struct ShellModel {
     /// Discretisation of the second fundamental form.
     pub sff: SffKind,
 }
+
+impl ShellModel {
+    /// Whether the model's unknowns include one angle per edge: an edge-director second
+    /// fundamental form with bending on (without bending the angles do not enter the energy).
+    /// The one definition of the test, used by the assembler and the solver.
+    pub fn has_edge_unknowns(&self) -> bool {
+        self.sff.director().is_some() && self.terms.bend
+    }
+}

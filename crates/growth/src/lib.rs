@@ -72,3 +72,8 @@ pub use model::{
 };
 pub use region::Region;
 pub use stimulus::FaceStimulus;
+
+/// The README's example, compiled and run as a doctest so that it cannot go stale.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

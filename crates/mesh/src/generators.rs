@@ -11,6 +11,10 @@ use crate::delaunay;
 use crate::error::MeshError;
 use crate::mesh::Mesh;
 
+mod catalogue;
+
+pub use catalogue::{Generator, Param, Value};
+
 fn positive(name: &'static str, value: f64) -> Result<(), MeshError> {
     if value.is_finite() && value > 0.0 {
         Ok(())
@@ -440,7 +444,17 @@ pub fn seed_square() -> Result<Mesh, MeshError> {
 /// `2^level`, i.e. the icosahedron with every face split into `4^level` triangles.
 /// `10·4^level + 2` vertices, `20·4^level` faces (level 2: 162 / 320, level 5:
 /// 10 242 / 20 480); outward normals; `level ≤ 10`.
+///
+/// Not the textbook recursive icosphere ([`icosphere_recursive`]): the same counts and, up to
+/// level 1, the same points, but from level 2 on the vertices lie elsewhere on the sphere
+/// (split in one step, then projected, instead of projected after every halving), so energies
+/// published for "an icosphere of level k" are reproduced with [`icosphere_recursive`].
 pub fn icosphere(radius: f64, level: usize) -> Result<Mesh, MeshError> {
+    max_level(level)?;
+    geodesic_sphere(radius, 1 << level)
+}
+
+fn max_level(level: usize) -> Result<(), MeshError> {
     if level > 10 {
         return Err(MeshError::InvalidParameter {
             name: "level",
@@ -448,28 +462,14 @@ pub fn icosphere(radius: f64, level: usize) -> Result<Mesh, MeshError> {
             reason: "must be <= 10",
         });
     }
-    geodesic_sphere(radius, 1 << level)
+    Ok(())
 }
 
-/// Geodesic sphere of `radius` (m): every face of an icosahedron is split into a regular
-/// grid of `frequency²` triangles in one step and the grid points are projected radially onto
-/// the sphere. `10 f² + 2` vertices, `20 f²` faces, outward normals, `1 ≤ frequency ≤ 1024`.
-///
-/// One-step splitting (rather than repeated halving with projection after every step) makes
-/// the vertex distribution a smooth image of the flat grid inside each icosahedron face, so
-/// geometric quantities such as mid-edge normals converge at second order in the mesh size.
-pub fn geodesic_sphere(radius: f64, frequency: usize) -> Result<Mesh, MeshError> {
-    positive("radius", radius)?;
-    at_least("frequency", frequency, 1)?;
-    if frequency > 1024 {
-        return Err(MeshError::InvalidParameter {
-            name: "frequency",
-            value: frequency as f64,
-            reason: "must be <= 1024",
-        });
-    }
+/// The regular icosahedron inscribed in the unit sphere: 12 unit vectors and 20 faces with
+/// outward normals.
+fn icosahedron() -> ([Vector3<f64>; 12], [[usize; 3]; 20]) {
     let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let corners: Vec<Vector3<f64>> = [
+    let corners = [
         [-1.0, t, 0.0],
         [1.0, t, 0.0],
         [-1.0, -t, 0.0],
@@ -483,10 +483,8 @@ pub fn geodesic_sphere(radius: f64, frequency: usize) -> Result<Mesh, MeshError>
         [-t, 0.0, -1.0],
         [-t, 0.0, 1.0],
     ]
-    .iter()
-    .map(|p| Vector3::from(*p).normalize())
-    .collect();
-    let ico: [[usize; 3]; 20] = [
+    .map(|p| Vector3::from(p).normalize());
+    let faces = [
         [0, 11, 5],
         [0, 5, 1],
         [0, 1, 7],
@@ -508,6 +506,76 @@ pub fn geodesic_sphere(radius: f64, frequency: usize) -> Result<Mesh, MeshError>
         [8, 6, 7],
         [9, 8, 1],
     ];
+    (corners, faces)
+}
+
+/// The standard recursive icosphere of `radius` (m): the regular icosahedron, then `level`
+/// times every triangle split into four by its edge midpoints, each new midpoint projected
+/// radially onto the sphere before the next split. `10·4^level + 2` vertices, `20·4^level`
+/// faces, outward normals, `level ≤ 10`; vertices 0–11 are the icosahedron's corners and each
+/// level appends its midpoints.
+///
+/// This is the icosphere of most graphics and simulation codes. Compared with [`icosphere`]
+/// (one-step split), its triangles vary a little more in size, and its geometry is not a
+/// smooth image of a flat grid inside each icosahedron face.
+///
+/// ```
+/// use thinshell_mesh::generators;
+///
+/// let sphere = generators::icosphere_recursive(2.0, 3)?;
+/// assert_eq!((sphere.n_vertices(), sphere.n_faces()), (642, 1280));
+/// assert!(sphere.positions().iter().all(|p| (p.norm() - 2.0).abs() < 1e-12));
+/// # Ok::<(), thinshell_mesh::MeshError>(())
+/// ```
+pub fn icosphere_recursive(radius: f64, level: usize) -> Result<Mesh, MeshError> {
+    positive("radius", radius)?;
+    max_level(level)?;
+    let (corners, ico) = icosahedron();
+    let mut unit: Vec<Vector3<f64>> = corners.to_vec();
+    let mut faces: Vec<[usize; 3]> = ico.to_vec();
+    for _ in 0..level {
+        // Each edge is shared by two faces: its midpoint is made once, keyed by its ends.
+        let mut midpoint: HashMap<(usize, usize), usize> =
+            HashMap::with_capacity(faces.len() * 3 / 2);
+        let mut mid = |a: usize, b: usize, unit: &mut Vec<Vector3<f64>>| -> usize {
+            *midpoint.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                unit.push((unit[a] + unit[b]).normalize());
+                unit.len() - 1
+            })
+        };
+        let mut next = Vec::with_capacity(4 * faces.len());
+        for &[a, b, c] in &faces {
+            let (ab, bc, ca) = (
+                mid(a, b, &mut unit),
+                mid(b, c, &mut unit),
+                mid(c, a, &mut unit),
+            );
+            next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        faces = next;
+    }
+    let positions = unit.iter().map(|p| p * radius).collect();
+    Mesh::new(positions, faces)
+}
+
+/// Geodesic sphere of `radius` (m): every face of an icosahedron is split into a regular
+/// grid of `frequency²` triangles in one step and the grid points are projected radially onto
+/// the sphere. `10 f² + 2` vertices, `20 f²` faces, outward normals, `1 ≤ frequency ≤ 1024`.
+///
+/// One-step splitting (rather than repeated halving with projection after every step) makes
+/// the vertex distribution a smooth image of the flat grid inside each icosahedron face, so
+/// geometric quantities such as mid-edge normals converge at second order in the mesh size.
+pub fn geodesic_sphere(radius: f64, frequency: usize) -> Result<Mesh, MeshError> {
+    positive("radius", radius)?;
+    at_least("frequency", frequency, 1)?;
+    if frequency > 1024 {
+        return Err(MeshError::InvalidParameter {
+            name: "frequency",
+            value: frequency as f64,
+            reason: "must be <= 1024",
+        });
+    }
+    let (corners, ico) = icosahedron();
     let n = frequency;
     let mut positions: Vec<Vector3<f64>> = corners.iter().map(|c| c * radius).collect();
     // Points on icosahedron edges are shared by two faces: key (low corner, high corner,

@@ -51,8 +51,13 @@ pub mod mesh;
 mod orient;
 pub mod topology;
 
+/// The linear-algebra crate of the public API (positions are `nalgebra::Vector3<f64>`).
+pub use nalgebra;
+
 pub use error::MeshError;
-pub use geometry::{check_scale, face_areas, face_normal, face_normals, mid_edge_normals};
+pub use geometry::{
+    BoundingBox, check_scale, face_areas, face_normal, face_normals, mid_edge_normals,
+};
 pub use ids::{EdgeId, FaceId, VertexId};
 pub use mesh::{BuildReport, DEGENERATE_TOLERANCE, Mesh};
 pub use topology::{Edge, Topology};

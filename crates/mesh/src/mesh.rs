@@ -5,6 +5,7 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 
 use crate::error::MeshError;
+use crate::geometry::BoundingBox;
 use crate::ids::{FaceId, VertexId};
 use crate::orient;
 use crate::topology::{self, Topology};
@@ -310,6 +311,44 @@ impl Mesh {
     /// Faces as `usize` triples (for handing to other tools).
     pub fn faces_usize(&self) -> Vec<[usize; 3]> {
         self.faces.iter().map(|t| t.map(VertexId::idx)).collect()
+    }
+
+    /// Axis-aligned bounding box of the vertex positions (m); its
+    /// [`diagonal`](BoundingBox::diagonal) is the mesh's length scale.
+    pub fn bounding_box(&self) -> BoundingBox {
+        // A mesh has at least one face, hence at least three vertices.
+        BoundingBox::from_points(&*self.positions).unwrap_or(BoundingBox {
+            min: Vector3::zeros(),
+            max: Vector3::zeros(),
+        })
+    }
+
+    /// The vertex closest to `p` (Euclidean distance, m); ties go to the lowest index.
+    ///
+    /// A linear scan: O(n_vertices) per call, meant for picking a few vertices (pins, probes).
+    /// A non-finite `p` gives vertex 0.
+    ///
+    /// ```
+    /// use thinshell_mesh::{generators, VertexId};
+    /// use thinshell_mesh::nalgebra::Vector3;
+    ///
+    /// // 3 × 3 cells of 1 m: vertex (i, j) has index 4 j + i.
+    /// let mesh = generators::rectangle(3.0, 3.0, 3, 3)?;
+    /// assert_eq!(mesh.nearest_vertex(&Vector3::new(2.1, 0.9, 0.5)), VertexId(6));
+    /// // Equidistant from vertices 0 and 1: the lower index wins.
+    /// assert_eq!(mesh.nearest_vertex(&Vector3::new(0.5, 0.0, 0.0)), VertexId(0));
+    /// # Ok::<(), thinshell_mesh::MeshError>(())
+    /// ```
+    pub fn nearest_vertex(&self, p: &Vector3<f64>) -> VertexId {
+        let mut best = (0, f64::INFINITY);
+        for (v, q) in self.positions.iter().enumerate() {
+            let d2 = (q - p).norm_squared();
+            // Strictly smaller: on a tie the earlier (lower) index stays.
+            if d2 < best.1 {
+                best = (v, d2);
+            }
+        }
+        VertexId::new(best.0)
     }
 }
 

@@ -11,3 +11,8 @@ pub mod reference;
 pub mod scene;
 pub mod sim;
 pub mod vtk;
+
+/// The README's example, compiled and run as a doctest so that it cannot go stale.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

@@ -51,14 +51,7 @@ pub fn mesh_info(mesh: &Mesh) -> MeshInfo {
     let x = mesh.positions();
     let topo = mesh.topology();
     let report = mesh.build_report();
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in x {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
+    let bb = mesh.bounding_box();
     let (mut lmin, mut lsum, mut lmax) = (f64::INFINITY, 0.0, 0.0f64);
     for e in topo.edges() {
         let l = (x[e.vertices[1].idx()] - x[e.vertices[0].idx()]).norm();
@@ -124,7 +117,7 @@ pub fn mesh_info(mesh: &Mesh) -> MeshInfo {
         euler_characteristic: mesh.euler_characteristic(),
         flipped_faces: report.n_flipped(),
         dropped_vertices: dropped,
-        bounding_box: (lo, hi),
+        bounding_box: (bb.min.into(), bb.max.into()),
         area,
         edge_length: [lmin, lsum / n_edges.max(1) as f64, lmax],
         min_angle_deg: min_angle,

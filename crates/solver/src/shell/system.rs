@@ -125,7 +125,7 @@ impl ShellSystem {
     /// not enter the energy). The one definition of the test, for callers that need it before
     /// a system exists (the scene runner's initial energy).
     pub fn has_edge_unknowns_for(model: &ShellModel) -> bool {
-        model.sff.director().is_some() && model.terms.bend
+        model.has_edge_unknowns()
     }
 
     /// Whether the unknowns include one edge-director angle per edge.
@@ -237,14 +237,7 @@ impl ShellSystem {
 
     /// Bounding-box diagonal of the reference mesh (m).
     pub fn length_scale(&self) -> f64 {
-        let p = self.mesh.positions();
-        let mut lo = Vector3::repeat(f64::INFINITY);
-        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-        for q in p {
-            lo = lo.inf(q);
-            hi = hi.sup(q);
-        }
-        let d = (hi - lo).norm();
+        let d = self.mesh.bounding_box().diagonal();
         if d.is_finite() && d > 0.0 { d } else { 1.0 }
     }
 

@@ -5,6 +5,7 @@
 //! [`super::validate`].
 
 use serde::{Deserialize, Serialize};
+use thinshell_mesh::generators::Value;
 
 /// A whole scene file.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
@@ -125,8 +126,9 @@ pub struct MeshSpec {
     /// OBJ file, relative to the scene file.
     #[serde(default)]
     pub obj: Option<String>,
-    /// Generator name: `seed_square`, `rectangle`, `irregular_rectangle`, `icosphere`,
-    /// `cylinder_patch`, `disc`, `annulus`.
+    /// Generator name: one of [`thinshell_mesh::generators::Generator::ALL`] (`seed_square`,
+    /// `rectangle`, `irregular_rectangle`, `icosphere`, `icosphere_recursive`,
+    /// `cylinder_patch`, `disc`, `annulus`); its keys and defaults are listed there.
     #[serde(default)]
     pub generator: Option<String>,
     /// Width in m (`rectangle`, `irregular_rectangle`; default 1).
@@ -147,10 +149,10 @@ pub struct MeshSpec {
     /// Seed of the jitter (`irregular_rectangle`; default 1).
     #[serde(default)]
     pub seed: Option<u64>,
-    /// Radius in m (`icosphere`, `cylinder_patch`, `disc`; default 1).
+    /// Radius in m (`icosphere`, `icosphere_recursive`, `cylinder_patch`, `disc`; default 1).
     #[serde(default)]
     pub radius: Option<f64>,
-    /// Subdivision level (`icosphere`; default 2 = 320 faces).
+    /// Subdivision level (`icosphere`, `icosphere_recursive`; default 2 = 320 faces).
     #[serde(default)]
     pub level: Option<u32>,
     /// Opening angle in rad (`cylinder_patch`).
@@ -174,6 +176,37 @@ pub struct MeshSpec {
     /// Outer radius in m (`annulus`).
     #[serde(default)]
     pub outer_radius: Option<f64>,
+}
+
+impl MeshSpec {
+    /// The generator keys this spec sets, with their values, in a fixed order (the order
+    /// validation reports keys that do not apply in).
+    pub fn given(&self) -> Vec<(&'static str, Value)> {
+        let real = |key, v: Option<f64>| v.map(|v| (key, Value::Real(v)));
+        let int = |key, v: Option<u64>| v.map(|v| (key, Value::Int(v)));
+        // usize and u32 always fit in u64 on supported targets (64-bit usize at most).
+        let count = |key, v: Option<usize>| int(key, v.map(|v| v as u64));
+        [
+            real("width", self.width),
+            real("height", self.height),
+            count("nx", self.nx),
+            count("ny", self.ny),
+            count("n", self.n),
+            int("seed", self.seed),
+            real("radius", self.radius),
+            int("level", self.level.map(u64::from)),
+            real("angle", self.angle),
+            real("length", self.length),
+            count("n_around", self.n_around),
+            count("n_along", self.n_along),
+            count("n_rings", self.n_rings),
+            real("inner_radius", self.inner_radius),
+            real("outer_radius", self.outer_radius),
+        ]
+        .into_iter()
+        .flatten()
+        .collect()
+    }
 }
 
 /// Maps the mesh to the start state. Applied in the order: `linear_xy`, `scale`, `wrap_cylinder`.

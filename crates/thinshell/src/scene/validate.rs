@@ -5,6 +5,8 @@
 
 use std::collections::BTreeSet;
 
+use thinshell_mesh::generators::Generator;
+
 use super::schema::*;
 
 /// One problem found in a scene: the key it concerns and what is wrong.
@@ -113,42 +115,8 @@ fn effects(s: &SceneFile) -> Result<BTreeSet<Effect>, Problem> {
     Ok(set)
 }
 
-/// The generator names and the keys each one reads.
-const GENERATORS: &[(&str, &[&str])] = &[
-    ("seed_square", &[]),
-    ("rectangle", &["width", "height", "nx", "ny"]),
-    ("irregular_rectangle", &["width", "height", "n", "seed"]),
-    ("icosphere", &["radius", "level"]),
-    (
-        "cylinder_patch",
-        &["radius", "angle", "length", "n_around", "n_along"],
-    ),
-    ("disc", &["radius", "n_rings"]),
-    (
-        "annulus",
-        &["inner_radius", "outer_radius", "n_rings", "n_around"],
-    ),
-];
-
 fn mesh(m: &MeshSpec) -> Check {
-    let given: Vec<(&str, bool)> = vec![
-        ("width", m.width.is_some()),
-        ("height", m.height.is_some()),
-        ("nx", m.nx.is_some()),
-        ("ny", m.ny.is_some()),
-        ("n", m.n.is_some()),
-        ("seed", m.seed.is_some()),
-        ("radius", m.radius.is_some()),
-        ("level", m.level.is_some()),
-        ("angle", m.angle.is_some()),
-        ("length", m.length.is_some()),
-        ("n_around", m.n_around.is_some()),
-        ("n_along", m.n_along.is_some()),
-        ("n_rings", m.n_rings.is_some()),
-        ("inner_radius", m.inner_radius.is_some()),
-        ("outer_radius", m.outer_radius.is_some()),
-    ];
-    let allowed: &[&str] = match (&m.obj, &m.generator) {
+    let allowed: Vec<&str> = match (&m.obj, &m.generator) {
         (Some(_), Some(_)) => {
             return Err(problem(
                 "mesh",
@@ -160,12 +128,12 @@ fn mesh(m: &MeshSpec) -> Check {
             if path.trim().is_empty() {
                 return Err(problem("mesh.obj", "is an empty path"));
             }
-            &[]
+            Vec::new()
         }
-        (None, Some(g)) => match GENERATORS.iter().find(|(name, _)| name == g) {
-            Some((_, keys)) => keys,
+        (None, Some(g)) => match Generator::from_name(g) {
+            Some(generator) => generator.params().iter().map(|p| p.name).collect(),
             None => {
-                let names: Vec<&str> = GENERATORS.iter().map(|(n, _)| *n).collect();
+                let names: Vec<&str> = Generator::ALL.iter().map(|g| g.name()).collect();
                 return Err(problem(
                     "mesh.generator",
                     format!("unknown generator `{g}`; known: {}", names.join(", ")),
@@ -177,8 +145,8 @@ fn mesh(m: &MeshSpec) -> Check {
         Some(g) => format!("to generator `{g}`"),
         None => "to an OBJ mesh".to_string(),
     };
-    for (key, is_given) in given {
-        if is_given && !allowed.contains(&key) {
+    for (key, _) in m.given() {
+        if !allowed.contains(&key) {
             return Err(problem(
                 format!("mesh.{key}"),
                 format!("does not apply {what}"),
@@ -232,7 +200,13 @@ fn mesh(m: &MeshSpec) -> Check {
     // The generator's defaults take part too: `inner_radius = 2` alone is as wrong as with an
     // explicit `outer_radius = 1`.
     if m.inner_radius.is_some() || m.outer_radius.is_some() {
-        let (a, b) = (m.inner_radius.unwrap_or(0.5), m.outer_radius.unwrap_or(1.0));
+        let default = |key| {
+            Generator::Annulus
+                .default_of(key)
+                .map_or(f64::NAN, |v| v.as_real())
+        };
+        let a = m.inner_radius.unwrap_or_else(|| default("inner_radius"));
+        let b = m.outer_radius.unwrap_or_else(|| default("outer_radius"));
         if a >= b {
             return Err(problem(
                 "mesh.inner_radius",

@@ -5,7 +5,8 @@ use thinshell_energy::{
     DirectorVariant, EnergyError, HessianMode, Layer, Material, MaterialModel, RestState, SffKind,
     ShellModel, Terms,
 };
-use thinshell_mesh::{Mesh, MeshError, VertexId, generators, io};
+use thinshell_mesh::generators::Generator;
+use thinshell_mesh::{Mesh, MeshError, VertexId, io};
 use thinshell_solver::{
     Boundary, ExplicitEuler, HessianPolicy, ImplicitEuler, Integrator, Loads, NewtonSettings,
     Prescribed, ShellSystem, SolverError, State, Static,
@@ -93,38 +94,17 @@ fn make_mesh(scene: &Scene, spec: &MeshSpec) -> Result<Mesh, MeshError> {
     if let Some(path) = &spec.obj {
         return io::load_obj(scene.base_dir.join(path));
     }
-    let g = spec.generator.as_deref().unwrap_or("");
-    let w = spec.width.unwrap_or(1.0);
-    let h = spec.height.unwrap_or(1.0);
-    let r = spec.radius.unwrap_or(1.0);
-    match g {
-        "seed_square" => generators::seed_square(),
-        "rectangle" => generators::rectangle(w, h, spec.nx.unwrap_or(10), spec.ny.unwrap_or(10)),
-        "irregular_rectangle" => {
-            generators::irregular_rectangle(w, h, spec.n.unwrap_or(10), spec.seed.unwrap_or(1))
-        }
-        "icosphere" => generators::icosphere(r, spec.level.unwrap_or(2) as usize),
-        "cylinder_patch" => generators::cylinder_patch(
-            r,
-            spec.angle.unwrap_or(std::f64::consts::PI),
-            spec.length.unwrap_or(1.0),
-            spec.n_around.unwrap_or(16),
-            spec.n_along.unwrap_or(8),
-        ),
-        "disc" => generators::disc(r, spec.n_rings.unwrap_or(8)),
-        "annulus" => generators::annulus(
-            spec.inner_radius.unwrap_or(0.5),
-            spec.outer_radius.unwrap_or(1.0),
-            spec.n_rings.unwrap_or(4),
-            spec.n_around.unwrap_or(32),
-        ),
-        // Unknown names are rejected by scene validation already.
-        _ => Err(MeshError::InvalidParameter {
+    let generator = spec.generator.as_deref().and_then(Generator::from_name);
+    // Unknown names are rejected by scene validation already.
+    let Some(generator) = generator else {
+        return Err(MeshError::InvalidParameter {
             name: "generator",
             value: f64::NAN,
             reason: "unknown generator",
-        }),
-    }
+        });
+    };
+    let given = spec.given();
+    generator.build(|key| given.iter().find(|(k, _)| *k == key).map(|&(_, v)| v))
 }
 
 /// Vertices of the reference mesh inside a region.
