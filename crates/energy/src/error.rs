@@ -93,9 +93,9 @@ pub enum EnergyError {
     #[error("terms mismatch: assembler built for {assembler:?}, model asks for {model:?}")]
     TermsMismatch {
         /// Terms of the assembler.
-        assembler: crate::kernel::Terms,
+        assembler: crate::terms::Terms,
         /// Terms of the model.
-        model: crate::kernel::Terms,
+        model: crate::terms::Terms,
     },
     /// Damping is switched on but no damping state was given.
     #[error("damping is on but no DampingState was given")]

@@ -6,72 +6,8 @@ use crate::linalg::{ProjectPsd, inv2, sym_entries};
 use crate::material::{FaceGeometry, LawEval, Material, Order};
 use crate::sff::SecondFundamentalForm;
 use crate::stencil::FaceStencil;
+pub use crate::terms::{EnergyTerms, HessianMode, Terms};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
-
-/// Which energy terms are evaluated.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Terms {
-    /// Stretching (membrane) energy.
-    pub stretch: bool,
-    /// Bending energy.
-    pub bend: bool,
-    /// Kelvin–Voigt damping (needs a [`FaceDamping`]).
-    pub damping: bool,
-}
-
-impl Terms {
-    /// All three terms.
-    pub const ALL: Terms = Terms {
-        stretch: true,
-        bend: true,
-        damping: true,
-    };
-
-    /// Stretching and bending, no damping (static solves reject damping).
-    pub const ELASTIC: Terms = Terms {
-        stretch: true,
-        bend: true,
-        damping: false,
-    };
-}
-
-/// How the Hessian is formed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum HessianMode {
-    /// Exact second derivatives.
-    Exact,
-    /// Only first-derivative products Jᵀ (∂²E/∂form²) J (PSD for the quadratic laws StVK and
-    /// bilayer; for neo-Hookean only where ∂²E/∂form² is).
-    GaussNewton,
-    /// Exact face Hessian projected to PSD (symmetric eigen-decomposition, negatives clamped to 0).
-    ProjectedPsd,
-}
-
-/// Energies per term (J).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct EnergyTerms {
-    /// Stretching energy (J).
-    pub stretch: f64,
-    /// Bending energy (J).
-    pub bend: f64,
-    /// Damping pseudo-energy (J).
-    pub damping: f64,
-}
-
-impl EnergyTerms {
-    /// Sum of the terms (J).
-    pub fn total(&self) -> f64 {
-        self.stretch + self.bend + self.damping
-    }
-}
-
-impl std::ops::AddAssign for EnergyTerms {
-    fn add_assign(&mut self, o: Self) {
-        self.stretch += o.stretch;
-        self.bend += o.bend;
-        self.damping += o.damping;
-    }
-}
 
 /// Rest forms of a face: ā (m², SPD) and b̄ (m, symmetric), barycentric basis.
 #[derive(Clone, Copy, Debug, PartialEq)]

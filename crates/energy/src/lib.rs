@@ -89,6 +89,7 @@ pub mod sff;
 pub mod shell;
 pub mod stencil;
 pub mod stencils;
+pub mod terms;
 
 pub use assembly::{Assembler, EvalOutput};
 pub use dofs::DofMap;

@@ -1,8 +1,8 @@
 //! The shell model handed to the assembler: material, active terms, discretisation of b.
 
-use crate::kernel::Terms;
 use crate::material::Material;
 use crate::sff::SffKind;
+use crate::terms::Terms;
 
 /// Material, the energy terms to evaluate and the second-fundamental-form discretisation.
 #[derive(Clone, Copy, Debug)]

@@ -3,7 +3,7 @@
 use super::{ElasticLaw, FaceGeometry, LawEval, Material, Order};
 use crate::density::sv_quadratic;
 use crate::error::EnergyError;
-use crate::kernel::Terms;
+use crate::terms::Terms;
 use nalgebra::Vector3;
 
 /// One layer of a [`Bilayer`] (SI units).

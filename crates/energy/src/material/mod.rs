@@ -17,7 +17,7 @@ pub use neo_hookean::NeoHookean;
 pub use stvk::StVK;
 
 use crate::error::EnergyError;
-use crate::kernel::Terms;
+use crate::terms::Terms;
 use nalgebra::{Matrix2, Matrix3, Vector3};
 
 /// What a law computes besides the energies.

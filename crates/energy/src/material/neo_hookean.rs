@@ -3,7 +3,7 @@
 use super::dual::{Dual, DualMat, mat_mul, sv_norm_sq};
 use super::{ElasticLaw, FaceGeometry, LawEval, Material, Order};
 use crate::error::EnergyError;
-use crate::kernel::Terms;
+use crate::terms::Terms;
 use nalgebra::Vector3;
 
 /// Compressible neo-Hookean shell: with A = √det ā, α = Eν/(1−ν²), β = E/(2(1+ν)) (the

@@ -3,7 +3,7 @@
 use super::{ElasticLaw, FaceGeometry, LawEval, Material, Order};
 use crate::density::sv_quadratic;
 use crate::error::EnergyError;
-use crate::kernel::Terms;
+use crate::terms::Terms;
 use nalgebra::Vector3;
 
 /// St. Venant–Kirchhoff: with A = √det ā and ‖M‖²_SV = α/2 tr(M)² + β tr(M²)
