@@ -22,11 +22,7 @@ use thinshell_energy::{
 use thinshell_mesh::{Mesh, generators};
 
 fn bench(c: &mut Criterion) {
-    let terms = Terms {
-        stretch: true,
-        bend: true,
-        damping: false,
-    };
+    let terms = Terms::ELASTIC;
     let model = ShellModel {
         material: Material::paper(),
         terms,
@@ -229,11 +225,7 @@ fn director(c: &mut Criterion) {
     let sff = SffKind::EdgeDirector(thinshell_energy::DirectorVariant::Tan);
     let model = ShellModel {
         material: Material::paper(),
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     };
     let mesh = generators::icosphere(1.0, 5).unwrap();

@@ -28,11 +28,7 @@ const ALL: Terms = Terms {
     bend: true,
     damping: true,
 };
-const ELASTIC: Terms = Terms {
-    stretch: true,
-    bend: true,
-    damping: false,
-};
+const ELASTIC: Terms = Terms::ELASTIC;
 
 /// A curved rest shape (irregular rectangle bent into a bump), perturbed positions `x`, and
 /// previous positions `x_prev` for damping.

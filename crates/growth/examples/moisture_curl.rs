@@ -86,11 +86,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         thickness: h,
         ..Material::paper()
     };
-    let terms = Terms {
-        stretch: true,
-        bend: true,
-        damping: false,
-    };
+    let terms = Terms::ELASTIC;
     let model = ShellModel {
         material,
         terms,

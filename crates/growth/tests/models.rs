@@ -189,11 +189,7 @@ fn similarity_growth_of_a_sphere_costs_no_energy() {
         thickness: H,
         ..Material::paper()
     };
-    let terms = Terms {
-        stretch: true,
-        bend: true,
-        damping: false,
-    };
+    let terms = Terms::ELASTIC;
     let model = ShellModel {
         material,
         terms,

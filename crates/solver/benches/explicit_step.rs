@@ -32,11 +32,7 @@ fn setup(sff: SffKind) -> (ShellSystem, State) {
             viscosity: 0.0,
             model: thinshell_energy::MaterialModel::StVK,
         },
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     };
     let boundary = Boundary {

@@ -49,11 +49,7 @@ fn setup(level: usize, par: Par) -> Problem {
     let sff = SffKind::MidEdgeAverage;
     let mut rest = RestState::from_mesh(&mesh, &x, sff).unwrap();
     rest.a_bar.iter_mut().for_each(|a| *a *= 0.9);
-    let terms = Terms {
-        stretch: true,
-        bend: true,
-        damping: false,
-    };
+    let terms = Terms::ELASTIC;
     let model = ShellModel {
         material: Material::paper(),
         terms,

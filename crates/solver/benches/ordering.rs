@@ -22,11 +22,7 @@ use thinshell_solver::{Ordering, SparseCholesky};
 fn shell_matrix(mesh: &Mesh) -> (SparseColMat<usize, f64>, Vec<[f64; 3]>) {
     let n_v = mesh.n_vertices();
     let dofs = DofMap::all_free(n_v);
-    let terms = Terms {
-        stretch: true,
-        bend: true,
-        damping: false,
-    };
+    let terms = Terms::ELASTIC;
     let mut h = Assembler::new(mesh, &dofs, terms)
         .unwrap()
         .hessian_template();

@@ -136,6 +136,20 @@ pub enum SolverError {
 }
 
 impl SolverError {
+    /// [`SolverError::InvalidSetting`] for the field `name` with the bad `value` and the
+    /// requirement it breaks.
+    pub(crate) fn invalid_setting(
+        name: &'static str,
+        value: f64,
+        requirement: &'static str,
+    ) -> SolverError {
+        SolverError::InvalidSetting {
+            name,
+            value,
+            requirement,
+        }
+    }
+
     /// Wraps an objective's own error (its type stays reachable through
     /// [`source`](std::error::Error::source)).
     pub fn objective(e: impl std::error::Error + Send + Sync + 'static) -> SolverError {

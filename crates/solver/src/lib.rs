@@ -29,7 +29,7 @@
 //! let rest = RestState::from_mesh(&mesh, mesh.positions(), sff)?;
 //! let model = ShellModel {
 //!     material: Material::paper(),
-//!     terms: Terms { stretch: true, bend: true, damping: false },
+//!     terms: Terms::ELASTIC,
 //!     sff,
 //! };
 //! let boundary = Boundary {

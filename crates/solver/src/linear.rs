@@ -57,13 +57,7 @@ impl RegularizationParams {
     /// Checks every parameter; the error names the first bad one (as the flat names
     /// `regularization_initial`, … of the scene and of earlier versions).
     pub fn validate(&self) -> Result<(), SolverError> {
-        fn bad(name: &'static str, value: f64, requirement: &'static str) -> SolverError {
-            SolverError::InvalidSetting {
-                name,
-                value,
-                requirement,
-            }
-        }
+        let bad = SolverError::invalid_setting;
         if !(self.initial.is_finite() && self.initial > 0.0) {
             return Err(bad(
                 "regularization_initial",

@@ -145,13 +145,7 @@ impl Default for NewtonSettings {
 impl NewtonSettings {
     /// Checks every parameter; the error names the first bad one.
     pub fn validate(&self) -> Result<(), SolverError> {
-        fn bad(name: &'static str, value: f64, requirement: &'static str) -> SolverError {
-            SolverError::InvalidSetting {
-                name,
-                value,
-                requirement,
-            }
-        }
+        let bad = SolverError::invalid_setting;
         if self.max_iterations == 0 {
             return Err(bad("max_iterations", 0.0, "must be at least 1"));
         }

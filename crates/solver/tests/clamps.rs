@@ -42,11 +42,7 @@ fn tip_deflection(sff: SffKind, nx: usize, ny: usize) -> f64 {
     let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
     let model = ShellModel {
         material: BEAM_MATERIAL,
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     };
     let tip: Vec<VertexId> = (0..mesh.n_vertices())

@@ -217,11 +217,7 @@ fn lowest_frequency(mesh: &Mesh, material: Material, sff: SffKind) -> f64 {
     let n = mesh.n_vertices();
     let model = ShellModel {
         material,
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     };
     let rest = RestState::from_mesh(mesh, mesh.positions(), sff).unwrap();
@@ -354,11 +350,7 @@ fn explicit_euler_with_the_default_form_matches_implicit() {
     };
     let model = ShellModel {
         material,
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     };
     let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();

@@ -11,11 +11,7 @@ use thinshell_solver::{Boundary, Integrator, Loads, ShellSystem, State, Static};
 fn model(material: Material) -> ShellModel {
     ShellModel {
         material,
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff: SffKind::MidEdgeAverage,
     }
 }

@@ -20,11 +20,7 @@ fn energy_errors_keep_their_type() {
     let rest = RestState::from_mesh(&other, other.positions(), sff).unwrap();
     let model = ShellModel {
         material: Material::paper(),
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     };
     let err =

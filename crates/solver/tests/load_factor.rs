@@ -15,11 +15,7 @@ fn system(loads: Loads, boundary: Boundary) -> ShellSystem {
     let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
     let model = ShellModel {
         material: BEAM_MATERIAL,
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     };
     ShellSystem::new(mesh, model, rest, boundary, loads).unwrap()

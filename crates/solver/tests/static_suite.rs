@@ -27,11 +27,7 @@ const THICK: f64 = 1e-2;
 fn model(sff: SffKind, material: Material) -> ShellModel {
     ShellModel {
         material,
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     }
 }

@@ -16,11 +16,7 @@ fn sagging_sheet() -> (ShellSystem, Vec<Vector3<f64>>) {
     let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
     let model = ShellModel {
         material: Material::paper(),
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     };
     let boundary = Boundary {

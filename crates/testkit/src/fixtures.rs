@@ -131,11 +131,7 @@ pub fn swelling_strip(model: Swelling, ny: usize) -> SwellingStrip {
         Growth::new(Box::new(model), Box::new(ramp), initial.clone(), h).expect("growth set-up");
     let shell = ShellModel {
         material: paper(h),
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     };
     let system = ShellSystem::new(mesh, shell, initial, Boundary::default(), Loads::default())
@@ -163,11 +159,7 @@ pub fn shrinking_sphere(level: usize, sff: SffKind) -> (ShellSystem, State) {
     rest.a_bar.iter_mut().for_each(|a| *a *= 0.9);
     let model = ShellModel {
         material: Material::paper(),
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     };
     let sys = ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default())

@@ -27,11 +27,7 @@ fn material() -> Material {
 fn elastic_model(sff: SffKind) -> ShellModel {
     ShellModel {
         material: material(),
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     }
 }

@@ -81,11 +81,7 @@ pub(super) fn shell(
 ) -> Result<ShellSystem> {
     let model = ShellModel {
         material,
-        terms: Terms {
-            stretch: true,
-            bend: true,
-            damping: false,
-        },
+        terms: Terms::ELASTIC,
         sff,
     };
     Ok(ShellSystem::new(mesh, model, rest, boundary, loads)?)

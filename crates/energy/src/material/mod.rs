@@ -95,8 +95,11 @@ pub trait ElasticLaw: std::fmt::Debug + Send + Sync {
     fn name(&self) -> &'static str;
 
     /// Checks the model's own parameters against the shared ones (called by
-    /// [`Material::validate`] after the shared checks).
-    fn validate(&self, material: &Material) -> Result<(), EnergyError>;
+    /// [`Material::validate`] after the shared checks). Default: nothing beyond the shared
+    /// h, E, ν, ρ, η checks.
+    fn validate(&self, _material: &Material) -> Result<(), EnergyError> {
+        Ok(())
+    }
 
     /// Whether the energy mixes a and b (a nonzero ∂²E/∂a∂b or bending that depends on a). When
     /// `false` the kernel skips the a–b blocks.

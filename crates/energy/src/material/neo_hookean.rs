@@ -2,7 +2,6 @@
 
 use super::dual::{Dual, DualMat, mat_mul, sv_norm_sq};
 use super::{ElasticLaw, FaceGeometry, LawEval, Material, Order};
-use crate::error::EnergyError;
 use crate::terms::Terms;
 use nalgebra::Vector3;
 
@@ -24,10 +23,6 @@ pub struct NeoHookean;
 impl ElasticLaw for NeoHookean {
     fn name(&self) -> &'static str {
         "neo_hookean"
-    }
-
-    fn validate(&self, _material: &Material) -> Result<(), EnergyError> {
-        Ok(()) // h, E, ν are checked by `Material::validate` for every model
     }
 
     fn coupled(&self) -> bool {

@@ -2,7 +2,6 @@
 
 use super::{ElasticLaw, FaceGeometry, LawEval, Material, Order};
 use crate::density::sv_quadratic;
-use crate::error::EnergyError;
 use crate::terms::Terms;
 use nalgebra::Vector3;
 
@@ -19,10 +18,6 @@ pub struct StVK;
 impl ElasticLaw for StVK {
     fn name(&self) -> &'static str {
         "stvk"
-    }
-
-    fn validate(&self, _material: &Material) -> Result<(), EnergyError> {
-        Ok(()) // h, E, ν are checked by `Material::validate` for every model
     }
 
     fn coupled(&self) -> bool {

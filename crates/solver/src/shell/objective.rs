@@ -381,11 +381,7 @@ mod tests {
                 thickness: 1e-2,
                 ..Material::paper()
             },
-            terms: Terms {
-                stretch: true,
-                bend: true,
-                damping: false,
-            },
+            terms: Terms::ELASTIC,
             sff,
         };
         let loads = Loads {
