@@ -91,6 +91,10 @@ pub mod stencil;
 pub mod stencils;
 pub mod terms;
 
+/// The linear-algebra crates of this crate's public types (`Vector3`, `Matrix2`, `SparseColMat`),
+/// re-exported so that downstream code uses the same versions and features.
+pub use faer;
+pub use nalgebra;
 pub use assembly::{Assembler, EvalOutput};
 pub use dofs::DofMap;
 pub use error::EnergyError;

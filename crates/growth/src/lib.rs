@@ -62,6 +62,10 @@ mod model;
 mod region;
 mod stimulus;
 
+/// The linear-algebra crates of this crate's public types (`Vector3`, `Matrix2`, `SparseColMat`),
+/// re-exported so that downstream code uses the same versions and features.
+pub use faer;
+pub use nalgebra;
 pub use coupling::Growth;
 pub use diffusion::{Diffusion, DiffusionSettings, DiffusionSource, SourceKind, Surface};
 pub use error::GrowthError;
