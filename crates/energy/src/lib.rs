@@ -91,13 +91,12 @@ pub mod stencil;
 pub mod stencils;
 pub mod terms;
 
-/// The linear-algebra crates of this crate's public types (`Vector3`, `Matrix2`, `SparseColMat`),
-/// re-exported so that downstream code uses the same versions and features.
-pub use faer;
-pub use nalgebra;
 pub use assembly::{Assembler, EvalOutput};
 pub use dofs::DofMap;
 pub use error::EnergyError;
+/// The linear-algebra crates of this crate's public types (`Vector3`, `Matrix2`, `SparseColMat`),
+/// re-exported so that downstream code uses the same versions and features.
+pub use faer;
 pub use forms::first_fundamental_form;
 pub use kernel::{
     EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want, eval_face,
@@ -108,6 +107,7 @@ pub use material::{
     Bilayer, ElasticLaw, FaceGeometry, LawEval, Layer, Material, MaterialModel, NeoHookean, Order,
     StVK,
 };
+pub use nalgebra;
 pub use rest::{DampingState, RestState};
 pub use sff::{
     DIRECTOR_DOFS, DirectorVariant, EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind,

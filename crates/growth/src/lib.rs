@@ -62,18 +62,18 @@ mod model;
 mod region;
 mod stimulus;
 
-/// The linear-algebra crates of this crate's public types (`Vector3`, `Matrix2`, `SparseColMat`),
-/// re-exported so that downstream code uses the same versions and features.
-pub use faer;
-pub use nalgebra;
 pub use coupling::Growth;
 pub use diffusion::{Diffusion, DiffusionSettings, DiffusionSource, SourceKind, Surface};
 pub use error::GrowthError;
+/// The linear-algebra crates of this crate's public types (`Vector3`, `Matrix2`, `SparseColMat`),
+/// re-exported so that downstream code uses the same versions and features.
+pub use faer;
 pub use field::{DirectedHeat, Prescribed, StimulusField, StimulusFn};
 pub use mass::mass_with_uptake;
 pub use model::{
     Anisotropy, GrowthModel, Isotropic, NoGrowth, Profile, Swelling, apply_growth, blend_rest,
 };
+pub use nalgebra;
 pub use region::Region;
 pub use stimulus::FaceStimulus;
 

@@ -36,7 +36,8 @@ pub struct Layer {
 /// E = Σ_l m0 u_lᵀK_l u_l − 4 m1 u_lᵀK_l v + 4 m2 vᵀK_l v,
 ///
 /// a quadratic in (a, b) with an a–b coupling block −4 Σ m1 K_l. The first term is reported
-/// as stretching, the other two as bending. One layer of thickness h with ε = 0 (m1 = 0,
+/// as stretching, the other two as bending (the coupling is negative when the sheet curls as the
+/// mismatch drives it, so a curled bilayer's "bend" can be negative; the total is ≥ 0). One layer of thickness h with ε = 0 (m1 = 0,
 /// m2 = h³/12) is exactly [`StVK`](super::StVK). Minimising over a flat sheet's membrane strain
 /// and curvature gives Timoshenko's bimetal curvature for the mismatch
 /// Δε = (s_top − s_bottom)/2 (= ε_top − ε_bottom to first order) when ν₁ = ν₂.
