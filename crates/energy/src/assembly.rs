@@ -550,6 +550,13 @@ impl Assembler {
         Ok(())
     }
 
+    /// Whether `h` has exactly this assembler's Hessian pattern (size, column pointers, row
+    /// indices): a matrix made by [`Assembler::hessian_template`] of this or an identical
+    /// assembler. Costs one comparison of the pattern arrays, no allocation.
+    pub fn has_pattern(&self, h: &SparseColMat<usize, f64>) -> bool {
+        self.check_pattern(h).is_ok()
+    }
+
     /// `Err` unless `h` has exactly this assembler's pattern.
     fn check_pattern(&self, h: &SparseColMat<usize, f64>) -> Result<(), EnergyError> {
         let (mine, theirs) = (self.pattern.symbolic.as_ref(), h.symbolic());

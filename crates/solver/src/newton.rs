@@ -361,6 +361,12 @@ impl NewtonWorkspace {
         self.ordering == settings.ordering && self.parallel == settings.parallel
     }
 
+    /// The Hessian matrix the workspace was analysed for (its pattern; values of the last
+    /// evaluation).
+    pub fn hessian(&self) -> &SparseColMat<usize, f64> {
+        &self.hessian
+    }
+
     /// Number of stored entries of the Hessian pattern (lower triangle).
     pub fn nnz(&self) -> usize {
         self.hessian.val().len()

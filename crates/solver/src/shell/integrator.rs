@@ -106,7 +106,7 @@ pub(crate) fn check_state(system: &ShellSystem, state: &mut State) -> Result<(),
 
 /// An integrator's cached Newton workspace (symbolic factorisation, Hessian storage),
 /// rebuilt when anything it was built from changed: the number of unknowns, the Hessian
-/// pattern's size (another system), [`NewtonSettings::ordering`] or
+/// pattern (another system), [`NewtonSettings::ordering`] or
 /// [`NewtonSettings::parallel`]. [`Default`] is empty (built at the first solve).
 #[derive(Debug, Default)]
 pub struct NewtonCache(Option<NewtonWorkspace>);
@@ -125,7 +125,7 @@ impl NewtonCache {
     ) -> Result<&mut NewtonWorkspace, SolverError> {
         if self.0.as_ref().is_some_and(|ws| {
             ws.n_dofs() != objective.n_dofs()
-                || ws.nnz() != objective.sys.assembler.nnz()
+                || !objective.sys.assembler.has_pattern(ws.hessian())
                 || !ws.matches(settings)
         }) {
             self.0 = None;
