@@ -94,9 +94,6 @@ pub mod terms;
 pub use assembly::{Assembler, EvalOutput};
 pub use dofs::DofMap;
 pub use error::EnergyError;
-/// The linear-algebra crates of this crate's public types (`Vector3`, `Matrix2`, `SparseColMat`),
-/// re-exported so that downstream code uses the same versions and features.
-pub use faer;
 pub use forms::first_fundamental_form;
 pub use kernel::{
     EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want, eval_face,
@@ -107,7 +104,6 @@ pub use material::{
     Bilayer, ElasticLaw, FaceGeometry, LawEval, Layer, Material, MaterialModel, NeoHookean, Order,
     StVK,
 };
-pub use nalgebra;
 pub use rest::{DampingState, RestState};
 pub use sff::{
     DIRECTOR_DOFS, DirectorVariant, EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind,
@@ -115,6 +111,11 @@ pub use sff::{
 pub use shell::ShellModel;
 pub use stencil::{EdgeAngles, FaceStencil, edge_signs};
 pub use stencils::Stencils;
+
+// The linear-algebra crates of the public types (nalgebra vectors and forms, faer sparse
+// matrices), re-exported so that a dependent crate uses the same versions and features.
+pub use faer;
+pub use nalgebra;
 
 /// The README's example, compiled and run as a doctest so that it cannot go stale.
 #[doc = include_str!("../README.md")]

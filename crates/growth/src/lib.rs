@@ -65,17 +65,18 @@ mod stimulus;
 pub use coupling::Growth;
 pub use diffusion::{Diffusion, DiffusionSettings, DiffusionSource, SourceKind, Surface};
 pub use error::GrowthError;
-/// The linear-algebra crates of this crate's public types (`Vector3`, `Matrix2`, `SparseColMat`),
-/// re-exported so that downstream code uses the same versions and features.
-pub use faer;
 pub use field::{DirectedHeat, Prescribed, StimulusField, StimulusFn};
 pub use mass::mass_with_uptake;
 pub use model::{
     Anisotropy, GrowthModel, Isotropic, NoGrowth, Profile, Swelling, apply_growth, blend_rest,
 };
-pub use nalgebra;
 pub use region::Region;
 pub use stimulus::FaceStimulus;
+
+// The linear-algebra crates of the public types (nalgebra vectors and forms, faer sparse
+// matrices), re-exported so that a dependent crate uses the same versions and features.
+pub use faer;
+pub use nalgebra;
 
 /// The README's example, compiled and run as a doctest so that it cannot go stale.
 #[doc = include_str!("../README.md")]
