@@ -6,6 +6,7 @@
 use nalgebra::{Matrix2, SMatrix, SVector, Vector3};
 use proptest::prelude::*;
 use thinshell_energy::*;
+use thinshell_testkit::strategies;
 
 /// E = 1, ν = 0.3, h = 0.1 (stiff enough for bending to matter on O(1) stencils).
 fn base() -> Material {
@@ -47,39 +48,19 @@ fn models() -> [(&'static str, Material); 3] {
     ]
 }
 
-/// Well-shaped triangle with flap vertices lifted out of plane, any boundary mask, and random
-/// edge angles (read by the director form only).
+/// The testkit's face stencil (any boundary mask) with random edge angles (read by the director
+/// form only).
 fn stencil_strategy() -> impl Strategy<Value = FaceStencil> {
     (
-        prop::array::uniform6(-0.15f64..0.15),
-        prop::array::uniform3(-0.5f64..0.5),
-        prop::array::uniform3(any::<bool>()),
+        strategies::stencil_strategy(),
         prop::array::uniform3(-0.3f64..0.3),
     )
-        .prop_map(|(jit, heights, flap, phi)| {
-            let base = [
-                Vector3::new(0.0, 0.0, 0.05),
-                Vector3::new(1.0, 0.0, -0.05),
-                Vector3::new(0.45, 0.9, 0.0),
-            ];
-            let mut x = [Vector3::zeros(); 6];
-            for i in 0..3 {
-                x[i] = base[i] + Vector3::new(jit[2 * i], jit[2 * i + 1], 0.0);
-            }
-            let n = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
-            for e in 0..3 {
-                let (p, q) = (x[(e + 1) % 3], x[(e + 2) % 3]);
-                let mid = (p + q) * 0.5;
-                x[3 + e] = mid + (mid - x[e]).normalize() * 0.6 + n * heights[e];
-            }
-            FaceStencil {
-                x,
-                flap,
-                angles: EdgeAngles {
-                    phi,
-                    sigma: [1.0, -1.0, 1.0],
-                },
-            }
+        .prop_map(|(s, phi)| FaceStencil {
+            angles: EdgeAngles {
+                phi,
+                sigma: [1.0, -1.0, 1.0],
+            },
+            ..s
         })
 }
 
@@ -209,7 +190,7 @@ where
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(32))]
+    #![proptest_config(ProptestConfig::with_cases(strategies::cases_or(32)))]
 
     /// Every material, both forms, all terms and the elastic terms alone: exact derivatives.
     #[test]

@@ -267,6 +267,19 @@ fn planar_delaunay(
 /// step is quadratic).
 pub const MAX_DELAUNAY_POINTS: usize = 20_000;
 
+/// `InvalidParameter` on `n` when a Delaunay generator would place more than
+/// [`MAX_DELAUNAY_POINTS`] points.
+fn delaunay_size(points: usize, n: usize) -> Result<(), MeshError> {
+    if points > MAX_DELAUNAY_POINTS {
+        return Err(MeshError::InvalidParameter {
+            name: "n",
+            value: n as f64,
+            reason: "too fine: more than 20 000 vertices (the Delaunay step is quadratic)",
+        });
+    }
+    Ok(())
+}
+
 /// Well-shaped irregular triangulation of `[0, width] × [0, height]` (m).
 ///
 /// Starts from a staggered lattice of near-equilateral triangles with `n` intervals across
@@ -295,13 +308,7 @@ pub fn irregular_rectangle(
         (((height / (dx * row_ratio)).round() as usize).max(1), n)
     };
     let n_points = (rows + 1) * (m + 1);
-    if n_points > MAX_DELAUNAY_POINTS {
-        return Err(MeshError::InvalidParameter {
-            name: "n",
-            value: n as f64,
-            reason: "too fine: more than 20 000 vertices (the Delaunay step is quadratic)",
-        });
-    }
+    delaunay_size(n_points, n)?;
     let dy = height / rows as f64;
     let (mut pts, interior) = staggered(width, height, rows, m);
     let dx = width / m as f64;
@@ -343,13 +350,7 @@ pub fn scattered_rectangle(
     let s = width.min(height) / n as f64;
     let (mx, my) = ((width / s).ceil() as usize, (height / s).ceil() as usize);
     let target = (width * height / (0.5 * 3f64.sqrt() * s * s)).ceil() as usize;
-    if target + 2 * (mx + my) > MAX_DELAUNAY_POINTS {
-        return Err(MeshError::InvalidParameter {
-            name: "n",
-            value: n as f64,
-            reason: "too fine: more than 20 000 vertices (the Delaunay step is quadratic)",
-        });
-    }
+    delaunay_size(target + 2 * (mx + my), n)?;
     // Counter-clockwise around the boundary, corners once.
     let mut pts: Vec<[f64; 2]> = Vec::with_capacity(target + 2 * (mx + my));
     pts.extend((0..mx).map(|i| [lattice(width, i, mx), 0.0]));
