@@ -5,6 +5,7 @@
 //! - `bench-sphere`: the seed's two sphere experiments with energy plots and rendered shapes.
 //! - `hard-cases`: heavy variants of the numerical hard cases (issue #8, docs/robustness.md).
 //! - `accuracy`: error against known answers vs wall time for every accuracy knob.
+//! - `test`: every test of the project (the README's test command).
 
 mod accuracy;
 mod bench_sphere;
@@ -14,6 +15,7 @@ mod hard_cases;
 mod one_build;
 mod plot;
 mod render;
+mod test;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -68,6 +70,13 @@ enum Task {
         #[arg(long)]
         only: Option<String>,
     },
+    /// Every test of the project: the Rust tests, then the stages that need outside tools
+    /// (installed on first use). The README's test command; `.ci/run` calls it.
+    Test {
+        /// Only the Rust tests.
+        #[arg(long)]
+        rust_only: bool,
+    },
 }
 
 /// Where tasks write their results: `<workspace>/target/xtask`.
@@ -104,6 +113,7 @@ fn main() -> ExitCode {
             json_path: json.unwrap_or_else(|| out_dir().join("accuracy.json")),
             only,
         }),
+        Task::Test { rust_only } => test::run(&test::Options { rust_only }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,55 @@
+//! `cargo xtask test`: every test of the project, in one command (the README's test command and
+//! what `.ci/run` calls after fmt and clippy).
+//!
+//! Stages run in order and the first failure stops the run with a non-zero exit:
+//! 1. `cargo test --workspace --release`: the Rust tests (unit, integration, doc, property).
+//!
+//! A stage that needs something from outside the Rust toolchain (a Python environment, a browser)
+//! installs it itself on first use, from the package registries, into project-local folders, so a
+//! fresh clone needs nothing installed by hand.
+
+use std::process::Command;
+
+use anyhow::{Context, Result, bail};
+
+use crate::workspace_root;
+
+/// Options of `cargo xtask test`.
+pub struct Options {
+    /// Only the Rust tests (skip the stages that install outside tools).
+    pub rust_only: bool,
+}
+
+/// Runs every stage; stops at the first that fails.
+pub fn run(opts: &Options) -> Result<()> {
+    rust_stage()?;
+    if opts.rust_only {
+        println!("xtask test: --rust-only: the other stages were skipped");
+        return Ok(());
+    }
+    println!("xtask test: all stages passed");
+    Ok(())
+}
+
+/// The Rust tests, exactly as before this command existed.
+fn rust_stage() -> Result<()> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    run_stage(
+        "cargo test --workspace --release",
+        Command::new(cargo)
+            .args(["test", "--workspace", "--release"])
+            .current_dir(workspace_root()),
+    )
+}
+
+/// Runs one stage's command, echoing it first, and turns a failure into an error naming it.
+pub fn run_stage(label: &str, cmd: &mut Command) -> Result<()> {
+    println!("== {label}");
+    let status = cmd
+        .status()
+        .with_context(|| format!("could not start `{label}`"))?;
+    if !status.success() {
+        bail!("`{label}` failed ({status})");
+    }
+    Ok(())
+}
