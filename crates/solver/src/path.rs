@@ -17,8 +17,10 @@
 //!   `ΔuᵀΔu + ψ²Δλ² = Δs²`, solved exactly for δλ (a quadratic; of its two roots the one
 //!   whose increment makes the smaller angle with the current increment; complex roots cut
 //!   the step);
-//! - displacement control of dof k: `Δu_k = Δ` (then `δλ = (Δ − Δu_k − δu_R,k)/δu_q,k`; it
-//!   fails where `δu_q,k` vanishes, at a snap-back of that dof).
+//! - displacement control of dof k: `Δu_k = Δ` (then `δλ = (Δ − Δu_k − δu_R,k)/δu_q,k`). It
+//!   cannot pass a snap-back of that dof (a turning point of u_k): there Newton would land on
+//!   a distant branch; a converged increment more than 10 times longer than its predictor is
+//!   refused as such a jump, so the step is cut back and finally fails.
 //!
 //! Δu, Δλ are increments from the last converged point. **Sign rule**: the predictor
 //! `±(δu_q, 1)/√(δu_qᵀδu_q + ψ²)·Δs` takes the sign that continues the previous converged
@@ -44,6 +46,10 @@ use faer::sparse::SparseColMat;
 use crate::error::PathFailure;
 use crate::ldlt::SparseLdlt;
 use crate::{Objective, Ordering, SolverError};
+
+/// Displacement control: a converged increment longer than this × its predictor is a jump to
+/// another branch, refused (the step is cut back, and fails at a snap-back of the dof).
+const JUMP_FACTOR: f64 = 10.0;
 
 /// An [`Objective`] `Π(u, λ) = E(u) − λ·W(u)` whose load factor λ can be set: `value`,
 /// `gradient` and `hessian` are those of Π at the current λ (the Hessian must be the exact
@@ -640,6 +646,23 @@ impl PathTracer {
                 obj.gradient(u, &mut r)
                     .map_err(|e| fail(e.to_string(), &residuals))?;
                 residuals.push(r.iter().fold(0.0f64, |m, x| m.max(x.abs())) / force);
+                if let PathControl::Displacement { .. } = self.settings.control {
+                    // The constraint does not bound the other unknowns: past a turning point
+                    // of the controlled dof Newton lands on a distant branch. Refuse the jump.
+                    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    let (got, predicted) = (norm(&du), norm(&predictor_dir.0));
+                    if got > JUMP_FACTOR * predicted {
+                        return Err(fail(
+                            format!(
+                                "the converged increment is {:.0}× the predictor's: the path \
+                                 does not continue in the controlled dof (it turns back there, \
+                                 a snap-back); use arc length",
+                                got / predicted
+                            ),
+                            &residuals,
+                        ));
+                    }
+                }
                 if let PathControl::ArcLength { .. } = self.settings.control {
                     let forward = du
                         .iter()
