@@ -363,8 +363,17 @@ impl PathTracer {
         loop {
             let ds = self.step_length.unwrap_or(self.first_step);
             match self.attempt(obj, u, &u0, lambda0, &v, v_norm2, ds) {
-                Ok((iterations, residuals, dl)) => {
-                    let value = obj.value(u)?;
+                Ok((iterations, residuals, du, dl)) => {
+                    let value = match obj.value(u) {
+                        Ok(v) => v,
+                        Err(e) => {
+                            u.copy_from_slice(&u0);
+                            obj.set_load_factor(lambda0)?;
+                            self.tangent_current = false;
+                            return Err(e);
+                        }
+                    };
+                    self.previous = Some((du, dl));
                     let negative = match self.factorize(obj, u) {
                         Ok(()) => self.factor.as_ref().map(|f| f.negative_pivots()),
                         Err(_) => None,
@@ -507,7 +516,8 @@ impl PathTracer {
     }
 
     /// One attempt of a step of size `ds` from (u0, λ0); returns the iterations, the
-    /// residual history and Δλ. On failure `u` and λ are garbage (the caller restores them).
+    /// residual history, Δu and Δλ. On failure `u` and λ are garbage (the caller restores
+    /// them).
     #[allow(clippy::too_many_arguments)]
     fn attempt<O: LoadedObjective + ?Sized>(
         &mut self,
@@ -518,7 +528,7 @@ impl PathTracer {
         v: &[f64],
         v_norm2: f64,
         ds: f64,
-    ) -> Result<(usize, Vec<f64>, f64), Attempt> {
+    ) -> Result<(usize, Vec<f64>, Vec<f64>, f64), Attempt> {
         let n = u.len();
         let psi2 = self.psi * self.psi;
         let length = obj.length_scale();
@@ -677,8 +687,7 @@ impl PathTracer {
                         ));
                     }
                 }
-                self.previous = Some((du, dl));
-                return Ok((iteration + 1, residuals, dl));
+                return Ok((iteration + 1, residuals, du, dl));
             }
         }
         Err(fail(
