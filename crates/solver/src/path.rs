@@ -242,6 +242,60 @@ impl PathPoint {
 /// Traces an equilibrium path step by step; keeps the previous increment (for the sign rule),
 /// the adapted step size and the factorised tangent of the last point. One tracer per path:
 /// the objective must be the same between steps (call [`PathTracer::reset`] after changing it).
+///
+/// A one-dof softening spring `Π(u, λ) = u²/2 − u⁴/4 − λu`: equilibria `λ = u − u³`, a limit
+/// point at `u = 1/√3`, where load control would jump; arc length passes it:
+///
+/// ```
+/// use faer::sparse::{SparseColMat, Triplet};
+/// use thinshell_solver::{LoadedObjective, Objective, PathSettings, PathTracer, SolverError};
+///
+/// struct Spring { lambda: f64 }
+/// impl Objective for Spring {
+///     fn n_dofs(&self) -> usize { 1 }
+///     fn value(&mut self, u: &[f64]) -> Result<f64, SolverError> {
+///         Ok(u[0].powi(2) / 2.0 - u[0].powi(4) / 4.0 - self.lambda * u[0])
+///     }
+///     fn gradient(&mut self, u: &[f64], g: &mut [f64]) -> Result<f64, SolverError> {
+///         g[0] = u[0] - u[0].powi(3) - self.lambda;
+///         self.value(u)
+///     }
+///     fn hessian(&mut self, u: &[f64], h: &mut SparseColMat<usize, f64>) -> Result<(), SolverError> {
+///         h.val_mut()[0] = 1.0 - 3.0 * u[0] * u[0];
+///         Ok(())
+///     }
+///     fn hessian_template(&self) -> SparseColMat<usize, f64> {
+///         SparseColMat::try_new_from_triplets(1, 1, &[Triplet::new(0, 0, 0.0)]).unwrap()
+///     }
+///     fn force_scale(&self) -> f64 { 1.0 }
+/// }
+/// impl LoadedObjective for Spring {
+///     fn load_factor(&self) -> f64 { self.lambda }
+///     fn set_load_factor(&mut self, lambda: f64) -> Result<(), SolverError> {
+///         self.lambda = lambda;
+///         Ok(())
+///     }
+///     fn load_vector(&mut self, _u: &[f64], q: &mut [f64]) -> Result<(), SolverError> {
+///         q[0] = 1.0; // dead load
+///         Ok(())
+///     }
+/// }
+///
+/// let mut spring = Spring { lambda: 0.0 };
+/// let mut u = [0.0];
+/// let mut tracer = PathTracer::new(PathSettings::default());
+/// let mut lambda_max = 0.0f64;
+/// while u[0] < 0.9 {
+///     let p = tracer.step(&mut spring, &mut u)?;
+///     assert!((p.load_factor - (u[0] - u[0].powi(3))).abs() < 1e-9); // on the path
+///     assert_eq!(p.stable(), 1.0 - 3.0 * u[0] * u[0] > 0.0); // unstable past the limit
+///     lambda_max = lambda_max.max(p.load_factor);
+/// }
+/// // Through the limit point λ_max = 2/(3√3) ≈ 0.385 and down the other side.
+/// assert!(lambda_max > 0.37 && lambda_max <= 2.0 / (3.0 * 3f64.sqrt()));
+/// assert!(spring.lambda < 0.2);
+/// # Ok::<(), SolverError>(())
+/// ```
 #[derive(Debug)]
 pub struct PathTracer {
     /// The settings (read at every step; [`PathTracer::reset`] after changing the control).
