@@ -14,6 +14,7 @@
 //! ```
 
 mod build;
+mod rest_edit;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -26,6 +27,7 @@ use thinshell_mesh::Mesh;
 use thinshell_solver::{Integrator, IterationHessian, ShellSystem, SolverError, State, StepKind};
 
 pub use build::BuildError;
+pub use rest_edit::RestEditError;
 
 use crate::scene::schema::{Effect, IntegratorKind, LoadRamp};
 
