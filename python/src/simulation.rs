@@ -19,6 +19,8 @@ use crate::{convert, errors};
 /// The simulation and what the wrapper adds up over the steps taken through it.
 struct Inner {
     sim: Simulation,
+    /// The simulation's own thread pool (`threads=`), else rayon's global pool.
+    pool: Option<rayon::ThreadPool>,
     newton_iterations: usize,
     gauss_newton_iterations: usize,
     stable: Option<bool>,
@@ -92,8 +94,12 @@ impl PySimulation {
 
     /// One step with the GIL released; the record, or a `SimulationError`.
     fn step_inner(&self, py: Python<'_>, inner: &mut Inner) -> PyResult<StepRecord> {
-        let sim = &mut inner.sim;
-        match py.detach(|| sim.step()) {
+        let Inner { sim, pool, .. } = inner;
+        let result = py.detach(|| match pool {
+            Some(pool) => pool.install(|| sim.step()),
+            None => sim.step(),
+        });
+        match result {
             Ok(r) => {
                 inner.record(&r);
                 Ok(r)
@@ -110,15 +116,29 @@ impl PySimulation {
 #[pymethods]
 impl PySimulation {
     /// Builds the simulation a scene describes (`Scene`, dict, or path to a TOML file).
+    /// `threads`: the number of threads its steps use (its own pool); default: the shared
+    /// pool of all cores (`RAYON_NUM_THREADS`).
     #[new]
-    fn new(py: Python<'_>, scene: &Bound<'_, PyAny>) -> PyResult<Self> {
+    #[pyo3(signature = (scene, threads=None))]
+    fn new(py: Python<'_>, scene: &Bound<'_, PyAny>, threads: Option<usize>) -> PyResult<Self> {
         let scene = scene_of(scene)?;
+        let pool = match threads {
+            Some(0) => return Err(PyValueError::new_err("threads must be at least 1")),
+            Some(n) => Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .map_err(|e| PyRuntimeError::new_err(format!("thread pool: {e}")))?,
+            ),
+            None => None,
+        };
         let sim = py
             .detach(|| Simulation::build(&scene))
             .map_err(build_error)?;
         Ok(PySimulation {
             inner: Mutex::new(Inner {
                 sim,
+                pool,
                 newton_iterations: 0,
                 gauss_newton_iterations: 0,
                 stable: None,
