@@ -1,6 +1,7 @@
 """Type stubs of the extension module (the classes are re-exported by ``thinshell``)."""
 
 from os import PathLike
+from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
@@ -88,7 +89,7 @@ class Scene:
     @property
     def overrides(self) -> list[str]: ...
     @property
-    def base_dir(self) -> str: ...
+    def base_dir(self) -> Path: ...
     def with_overrides(self, overrides: Sequence[str]) -> Scene:
         """This scene with further ``key=value`` overrides."""
 
