@@ -16,6 +16,9 @@ use crate::mesh::PyMesh;
 use crate::scene::PyScene;
 use crate::{convert, errors};
 
+/// `(a_bar, b_bar)`, each m × 2 × 2.
+type Forms<'py> = (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>);
+
 /// The simulation and what the wrapper adds up over the steps taken through it.
 struct Inner {
     sim: Simulation,
@@ -332,10 +335,7 @@ impl PySimulation {
     /// The rest forms the next step solves against: `(a_bar, b_bar)`, each m × 2 × 2 (ā in m²,
     /// b̄ in m), in each face's basis (x_j − x_i, x_k − x_i).
     #[getter]
-    fn rest_forms<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>)> {
+    fn rest_forms<'py>(&self, py: Python<'py>) -> PyResult<Forms<'py>> {
         let inner = self.lock()?;
         let r = inner.sim.rest();
         Ok((
