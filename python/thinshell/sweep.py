@@ -157,7 +157,9 @@ def sweep(
     client : a ``dask.distributed.Client``: the runs are submitted to its cluster (a
         ``LocalCluster``, or an HPC cluster through dask-jobqueue). None: a local process
         pool of ``max_workers`` processes (default: the CPU count); ``max_workers=1`` runs
-        them one after the other in this process.
+        them one after the other in this process. The pool starts its workers with Python's
+        "spawn" method, so a script that calls ``sweep`` needs the usual
+        ``if __name__ == "__main__":`` guard (notebooks need nothing).
 
     Returns
     -------
