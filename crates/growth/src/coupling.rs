@@ -114,6 +114,19 @@ impl Growth {
         Ok(changed)
     }
 
+    /// Replaces the stimulus of every face by `values` (one per face, in the stimulus' unit),
+    /// held constant from now on: the field the coupling was built with (time law, directed
+    /// heat, diffusion) is dropped. Rest forms and masses are recomputed at the next
+    /// [`update_rest`](Growth::update_rest) / [`update_mass`](Growth::update_mass). Errors on a
+    /// wrong length or a non-finite value (nothing is changed then).
+    pub fn set_stimulus(&mut self, values: Vec<FaceStimulus>) -> Result<(), GrowthError> {
+        crate::error::check_len("stimulus", self.initial.n_faces(), values.len())?;
+        self.field = Box::new(crate::field::Prescribed::constant(values)?);
+        self.rest_stale = true;
+        self.mass_stale = true;
+        Ok(())
+    }
+
     /// The current per-face stimulus.
     pub fn stimulus(&self) -> &[FaceStimulus] {
         self.field.values()

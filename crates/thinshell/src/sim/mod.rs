@@ -15,6 +15,7 @@
 
 mod build;
 mod path;
+mod rest_edit;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -28,6 +29,7 @@ use thinshell_solver::{Integrator, IterationHessian, ShellSystem, SolverError, S
 
 pub use build::BuildError;
 pub use path::{Monitor, PathRecord, csv_extra_header, csv_extra_row};
+pub use rest_edit::RestEditError;
 
 use crate::scene::schema::{Effect, IntegratorKind, LoadRamp};
 

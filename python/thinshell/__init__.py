@@ -1,0 +1,135 @@
+"""thinshell from Python: thin elastic shells whose rest shape changes with heat, moisture or
+growth (discrete Kirchhoff-Love shells, Chen et al. 2018), numpy in, numpy out.
+
+Units are SI throughout: positions in m, time in s, energies in J, forces in N, Young's modulus
+in Pa. Rest forms are 2 x 2 matrices per face in the face's basis (x_j - x_i, x_k - x_i): a_bar
+in m^2, b_bar in m.
+
+- :class:`Mesh` - a validated triangle mesh from ``V (n x 3)``, ``F (m x 3)`` or an OBJ file.
+- :class:`Scene` - a scene (docs/scenes.md) from a TOML file, a TOML string or a dict.
+- :class:`Simulation` - a built scene: ``step()``, ``run()``, ``positions``, ``energies``, ...;
+  the GIL is released while a step runs, so threads stepping different simulations run in
+  parallel.
+- :func:`energy` - energy, gradient and Hessian (``scipy.sparse.csc_matrix``) of a mesh.
+- :func:`sweep` - every combination of a parameter grid, in a local process pool or on Dask.
+
+Errors are :class:`ThinshellError` subclasses whose message is what the ``thinshell`` CLI
+prints: :class:`MeshError`, :class:`SceneError`, :class:`SimulationError`, :class:`EnergyError`.
+"""
+
+from __future__ import annotations
+
+from typing import Iterable, Mapping, NamedTuple, Sequence
+
+import numpy as np
+
+from . import _thinshell
+from ._thinshell import (
+    EnergyError,
+    Mesh,
+    MeshError,
+    Scene,
+    SceneError,
+    Simulation,
+    SimulationError,
+    ThinshellError,
+)
+from .sweep import sweep
+
+__version__: str = _thinshell.__version__
+
+__all__ = [
+    "EnergyError",
+    "EnergyResult",
+    "Mesh",
+    "MeshError",
+    "Scene",
+    "SceneError",
+    "Simulation",
+    "SimulationError",
+    "ThinshellError",
+    "energy",
+    "load_scene",
+    "sweep",
+]
+
+
+def load_scene(
+    source: "str | bytes | Mapping[str, object] | Scene | object",
+    overrides: Sequence[str] = (),
+) -> Scene:
+    """A :class:`Scene` from a file path (str or os.PathLike), a dict, or a Scene (returned
+    with ``overrides`` applied). TOML text goes through :meth:`Scene.from_toml`.
+
+    ``overrides`` are ``"key=value"`` strings with TOML values, as the CLI's ``--set``.
+    """
+    if isinstance(source, Scene):
+        return source.with_overrides(list(overrides)) if overrides else source
+    if isinstance(source, Mapping):
+        return Scene.from_dict(dict(source), list(overrides))
+    return Scene.from_file(source, list(overrides))
+
+
+class EnergyResult(NamedTuple):
+    """What :func:`energy` returns."""
+
+    energy: float
+    """Total elastic energy (stretch + bend), J."""
+    stretch: float
+    """Stretching energy, J."""
+    bend: float
+    """Bending energy, J."""
+    gradient: np.ndarray
+    """dE/dx, N: 3 n entries vertex-major (x0, y0, z0, x1, ...), then dE/dphi_e (J/rad) per
+    edge with an edge-director form."""
+    hessian: "object | None"
+    """d2E/dx2 as a full symmetric ``scipy.sparse.csc_matrix`` (N/m), same ordering as the
+    gradient; None when ``hessian=False``."""
+
+
+def energy(
+    V: np.ndarray,
+    F: np.ndarray,
+    rest: "np.ndarray | tuple[np.ndarray, np.ndarray]",
+    material: "Mapping[str, float | str] | None" = None,
+    form: str = "mid_edge_average",
+    terms: Iterable[str] = ("stretching", "bending"),
+    edge_angles: "np.ndarray | None" = None,
+    hessian: bool = True,
+) -> EnergyResult:
+    """Elastic energy of the shell ``(V, F)`` at positions ``V`` against ``rest``, with its
+    gradient and Hessian, for use in your own solver.
+
+    Parameters
+    ----------
+    V : (n, 3) float array, m. The positions at which to evaluate.
+    F : (m, 3) int array. Faces; they must be consistently oriented and use every vertex
+        (:class:`Mesh` fixes both; its ``vertices``/``faces`` can be passed here).
+    rest : rest positions (n, 3) - the rest forms are that shape's - or a tuple
+        ``(a_bar, b_bar)`` of (m, 2, 2) arrays (m^2 and m, in each face's basis).
+    material : dict with any of ``thickness`` (m), ``young`` (Pa), ``poisson``, ``density``
+        (kg/m^3), ``viscosity`` (Pa s), ``model`` ("stvk" or "neo_hookean"); the rest are
+        paper's (h = 1e-4 m, E = 2e9 Pa, nu = 0.3).
+    form : discrete second fundamental form: "mid_edge_average" (positions only),
+        "edge_director_sin" or "edge_director_tan" (one angle unknown per edge).
+    terms : "stretching" and/or "bending".
+    edge_angles : edge-director angles (rad, one per edge); default all 0.
+    hessian : whether to assemble the Hessian.
+    """
+    import scipy.sparse
+
+    stretch, bend, grad, rows, cols, vals, n = _thinshell.energy_parts(
+        V,
+        F,
+        rest,
+        dict(material) if material is not None else None,
+        form,
+        list(terms),
+        None if edge_angles is None else np.ascontiguousarray(edge_angles, dtype=np.float64),
+        hessian,
+    )
+    H = None
+    if hessian:
+        H = scipy.sparse.csc_matrix((vals, (rows, cols)), shape=(n, n))
+        H.sort_indices()
+    return EnergyResult(stretch + bend, stretch, bend, grad, H)
