@@ -298,9 +298,8 @@ fn browser_shell_covers_the_canvas_and_the_last_frame_matches_the_final_obj() {
         .count();
     let wire = b.rect("#wire");
     b.click(wire[0] + wire[2] / 2.0, wire[1] + wire[3] / 2.0);
-    b.wait_for("String(window.thinshell.state.wire)", |w| w == "true");
-    b.wait_ready();
-    std::thread::sleep(std::time::Duration::from_millis(200));
+    // `data-wire` is set when a frame with the wireframe has been drawn.
+    b.wait_for("document.body.dataset.wire", |w| w == "true");
     let img = b.screenshot();
     let after = canvas_mask(&mut b, &img, 0, dark)
         .0
@@ -308,6 +307,7 @@ fn browser_shell_covers_the_canvas_and_the_last_frame_matches_the_final_obj() {
         .filter(|m| **m)
         .count();
     let shell = silhouette.iter().filter(|m| **m).count();
+    eprintln!("wireframe click: dark pixels {before} → {after} (shell {shell})");
     assert!(
         before == 0 && after as f64 > 0.03 * shell as f64,
         "dark pixels {before} → {after} of {shell}"

@@ -496,9 +496,20 @@ void main() {
         }
       }
     }
-    render();
+    // Draw only when something visible changed: software WebGL (no GPU) spends most of a
+    // tick rasterising, and redrawing an unchanged frame would halve the playback rate.
+    const key = JSON.stringify([state.frame, state.field, state.wire, state.light, state.camera,
+      window.innerWidth, window.innerHeight,
+      views.map((v) => { const i = frameOf(v, state.frame); return [v.cache.has(i), v.errors.has(i)]; })]);
+    if (key !== lastKey) {
+      lastKey = key;
+      render();
+    } else {
+      for (const v of views) prefetch(v, frameOf(v, state.frame));
+    }
     if (state.playing) schedule();
   }
+  let lastKey = '';
 
   function render() {
     const field = currentField();
@@ -527,6 +538,7 @@ void main() {
     drawChart();
     stats.shown++;
     document.body.dataset.frame = String(state.frame);
+    document.body.dataset.wire = String(state.wire);
     document.body.dataset.ready = allReady ? '1' : '0';
   }
 
