@@ -3,6 +3,7 @@
 //!
 //! Stages run in order and the first failure stops the run with a non-zero exit:
 //! 1. `cargo test --workspace --release`: the Rust tests (unit, integration, doc, property).
+//! 2. browser: `thinshell view` end to end in headless Chromium ([`browser`]).
 //!
 //! A stage that needs something from outside the Rust toolchain (a Python environment, a browser)
 //! installs it itself on first use, from the package registries, into project-local folders, so a
@@ -13,6 +14,8 @@ use std::process::Command;
 use anyhow::{Context, Result, bail};
 
 use crate::workspace_root;
+
+mod browser;
 
 /// Options of `cargo xtask test`.
 pub struct Options {
@@ -27,6 +30,7 @@ pub fn run(opts: &Options) -> Result<()> {
         println!("xtask test: --rust-only: the other stages were skipped");
         return Ok(());
     }
+    browser::run()?;
     println!("xtask test: all stages passed");
     Ok(())
 }

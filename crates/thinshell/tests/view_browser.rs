@@ -502,7 +502,11 @@ fn bench_playback_20k_faces() {
     );
     let url = serve(&[&dir]);
     let mut b = Browser::start(WIDTH, HEIGHT);
-    assert_eq!(b.open(&format!("{url}?field=bend_density&fps=30")), "1");
+    let query = std::env::var("VIEW_BENCH_QUERY").unwrap_or_default();
+    assert_eq!(
+        b.open(&format!("{url}?field=bend_density&fps=30{query}")),
+        "1"
+    );
     b.eval("window.thinshell.setPlaying(true)");
     std::thread::sleep(std::time::Duration::from_secs(10));
     let stats = b.eval("window.thinshell.stats()");

@@ -39,14 +39,24 @@ formats = ["vtk", "obj"]
 fn root() -> &'static PathBuf {
     static ROOT: OnceLock<PathBuf> = OnceLock::new();
     ROOT.get_or_init(|| {
-        let root = std::env::temp_dir().join(format!("thinshell-view-endpoints-{}", std::process::id()));
+        let root =
+            std::env::temp_dir().join(format!("thinshell-view-endpoints-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&root);
         std::fs::create_dir_all(&root).expect("temp dir");
         std::fs::write(root.join("strip.toml"), SCENE).expect("scene");
         let stop = AtomicBool::new(false);
-        for (name, set) in [("vtk", vec![]), ("obj", vec!["output.formats=[\"obj\"]".to_string()])] {
-            thinshell::cli::run(&root.join("strip.toml"), Some(&root.join(name)), &set, true, &stop)
-                .unwrap_or_else(|e| panic!("run: {e:?}"));
+        for (name, set) in [
+            ("vtk", vec![]),
+            ("obj", vec!["output.formats=[\"obj\"]".to_string()]),
+        ] {
+            thinshell::cli::run(
+                &root.join("strip.toml"),
+                Some(&root.join(name)),
+                &set,
+                true,
+                &stop,
+            )
+            .unwrap_or_else(|e| panic!("run: {e:?}"));
         }
         root
     })
@@ -81,14 +91,31 @@ fn run_list_frames_and_fields() {
     let runs = json(&r.body);
     let run = &runs[0];
     assert_eq!(run["name"], "small strip");
-    assert_eq!((run["n_vertices"].as_u64(), run["n_faces"].as_u64()), (Some(18), Some(20)));
+    assert_eq!(
+        (run["n_vertices"].as_u64(), run["n_faces"].as_u64()),
+        (Some(18), Some(20))
+    );
     // Frames at steps 0, 2, 4 with the integrator's times.
     let frames = run["frames"].as_array().expect("frames");
     let steps: Vec<u64> = frames.iter().filter_map(|f| f["step"].as_u64()).collect();
     assert_eq!(steps, [0, 2, 4]);
     assert!((frames[2]["time"].as_f64().unwrap_or(0.0) - 0.04).abs() < 1e-12);
-    let keys: Vec<&str> = run["fields"].as_array().expect("fields").iter().filter_map(|f| f["key"].as_str()).collect();
-    assert_eq!(keys, ["displacement", "mean_curvature", "gaussian_curvature", "stretch_density", "bend_density"]);
+    let keys: Vec<&str> = run["fields"]
+        .as_array()
+        .expect("fields")
+        .iter()
+        .filter_map(|f| f["key"].as_str())
+        .collect();
+    assert_eq!(
+        keys,
+        [
+            "displacement",
+            "mean_curvature",
+            "gaussian_curvature",
+            "stretch_density",
+            "bend_density"
+        ]
+    );
     assert_eq!(run["fields"][4]["unit"], "J/m²");
 }
 
@@ -98,7 +125,10 @@ fn frame_bytes_hold_the_positions_and_fields_of_the_frame() {
     let viewer = Viewer::load(&[&dir]).expect("load");
     let run = &viewer.runs()[0];
     let r = viewer.respond("/api/run/0/frame/2");
-    assert_eq!((r.status, r.content_type), (200, "application/octet-stream"));
+    assert_eq!(
+        (r.status, r.content_type),
+        (200, "application/octet-stream")
+    );
     let v = f32s(&r.body);
     let (nv, nf) = (18, 20);
     assert_eq!(v.len(), 3 * nv + 3 * nv + 2 * nf);
@@ -138,12 +168,21 @@ fn steps_are_read_by_column_name_and_extra_columns_are_kept() {
     // A future writer with more columns, in another order.
     let mut out = String::new();
     for (k, line) in text.lines().enumerate() {
-        out += &if k == 0 { format!("checkpoint_s,{line}\n") } else { format!("0.5,{line}\n") };
+        out += &if k == 0 {
+            format!("checkpoint_s,{line}\n")
+        } else {
+            format!("0.5,{line}\n")
+        };
     }
     std::fs::write(dir.join("steps.csv"), out).expect("csv");
     let viewer = Viewer::load(&[&dir]).expect("load");
     let s = json(&viewer.respond("/api/run/0/steps").body);
-    let columns: Vec<&str> = s["columns"].as_array().expect("columns").iter().filter_map(|c| c.as_str()).collect();
+    let columns: Vec<&str> = s["columns"]
+        .as_array()
+        .expect("columns")
+        .iter()
+        .filter_map(|c| c.as_str())
+        .collect();
     assert_eq!(columns[0], "checkpoint_s");
     let k = columns.iter().position(|c| *c == "time_s").expect("time_s");
     assert!((s["values"][k][3].as_f64().unwrap_or(0.0) - 0.04).abs() < 1e-12);
@@ -155,10 +194,16 @@ fn obj_only_runs_have_the_geometric_fields_and_times_from_steps_csv() {
     let viewer = Viewer::load(&[&root().join("obj")]).expect("load");
     let run = &viewer.runs()[0];
     let keys: Vec<&str> = run.fields.iter().map(|f| f.key).collect();
-    assert_eq!(keys, ["displacement", "mean_curvature", "gaussian_curvature"]);
+    assert_eq!(
+        keys,
+        ["displacement", "mean_curvature", "gaussian_curvature"]
+    );
     assert!(run.fields.iter().all(|f| f.location == Location::Vertex));
     let times: Vec<f64> = run.frames.iter().map(|f| f.time).collect();
-    assert!((times[1] - 0.02).abs() < 1e-12 && (times[2] - 0.04).abs() < 1e-12, "{times:?}");
+    assert!(
+        (times[1] - 0.02).abs() < 1e-12 && (times[2] - 0.04).abs() < 1e-12,
+        "{times:?}"
+    );
     let r = viewer.respond("/api/run/0/frame/1");
     assert_eq!(r.status, 200);
     assert_eq!(r.body.len(), 4 * (3 * 18 + 3 * 18));
@@ -173,21 +218,57 @@ fn missing_and_malformed_frames_are_named() {
     let bad = viewer.respond("/api/run/0/frame/1");
     assert_eq!(bad.status, 422);
     let e = json(&bad.body)["error"].as_str().unwrap_or("").to_string();
-    assert!(e.contains("frame 1 (step 2") && e.contains("frame_000002.vtu") && e.contains("not valid XML"), "{e}");
-    let gone = json(&viewer.respond("/api/run/0/frame/2").body)["error"].as_str().unwrap_or("").to_string();
-    assert!(gone.contains("frame 2 (step 4") && gone.contains("No such file"), "{gone}");
+    assert!(
+        e.contains("frame 1 (step 2")
+            && e.contains("frame_000002.vtu")
+            && e.contains("not valid XML"),
+        "{e}"
+    );
+    let gone = json(&viewer.respond("/api/run/0/frame/2").body)["error"]
+        .as_str()
+        .unwrap_or("")
+        .to_string();
+    assert!(
+        gone.contains("frame 2 (step 4") && gone.contains("No such file"),
+        "{gone}"
+    );
     let past = viewer.respond("/api/run/0/frame/9");
     assert_eq!(past.status, 404);
-    assert!(json(&past.body)["error"].as_str().unwrap_or("").contains("the run has 3"));
+    assert!(
+        json(&past.body)["error"]
+            .as_str()
+            .unwrap_or("")
+            .contains("the run has 3")
+    );
     assert_eq!(viewer.respond("/api/run/5/mesh").status, 404);
     assert_eq!(viewer.respond("/nothing").status, 404);
     // A frame from another mesh.
     let other = copy("vtk", "other_mesh");
     let small = thinshell_mesh::generators::rectangle(0.1, 0.04, 2, 2).expect("mesh");
-    let frame = thinshell::vtk::Frame { mesh: &small, points: small.positions(), point_vectors: vec![], cell_scalars: vec![] };
-    std::fs::write(other.join("frame_000002.vtu"), thinshell::vtk::vtu_string(&frame).expect("vtu")).expect("write");
-    let e = json(&Viewer::load(&[&other]).expect("load").respond("/api/run/0/frame/1").body);
-    assert!(e["error"].as_str().unwrap_or("").contains("9 vertices, the first frame has 18"), "{e}");
+    let frame = thinshell::vtk::Frame {
+        mesh: &small,
+        points: small.positions(),
+        point_vectors: vec![],
+        cell_scalars: vec![],
+    };
+    std::fs::write(
+        other.join("frame_000002.vtu"),
+        thinshell::vtk::vtu_string(&frame).expect("vtu"),
+    )
+    .expect("write");
+    let e = json(
+        &Viewer::load(&[&other])
+            .expect("load")
+            .respond("/api/run/0/frame/1")
+            .body,
+    );
+    assert!(
+        e["error"]
+            .as_str()
+            .unwrap_or("")
+            .contains("9 vertices, the first frame has 18"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -196,7 +277,9 @@ fn a_directory_that_is_not_a_run_is_refused() {
     std::fs::create_dir_all(&empty).expect("dir");
     let e = Viewer::load(&[&empty]).err().expect("refused");
     assert!(e.contains("not a thinshell run output"), "{e}");
-    let e = Viewer::load(&[Path::new("/nonexistent/run")]).err().expect("refused");
+    let e = Viewer::load(&[Path::new("/nonexistent/run")])
+        .err()
+        .expect("refused");
     assert!(e.contains("not a directory"), "{e}");
     // The command exits 2 with the message.
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_thinshell"))
@@ -227,9 +310,16 @@ fn served_over_http_on_loopback() {
     // The script is inlined and no data embedded: the page loads nothing else but the API.
     assert!(page.contains("webgl2") && page.contains("type=\"application/json\">null</script>"));
     let frame = get("/api/run/0/frame/0");
-    let head_end = frame.windows(4).position(|w| w == b"\r\n\r\n").expect("headers") + 4;
+    let head_end = frame
+        .windows(4)
+        .position(|w| w == b"\r\n\r\n")
+        .expect("headers")
+        + 4;
     let head = String::from_utf8_lossy(&frame[..head_end]);
-    assert!(head.contains(&format!("Content-Length: {}", 4 * (6 * 18 + 2 * 20))), "{head}");
+    assert!(
+        head.contains(&format!("Content-Length: {}", 4 * (6 * 18 + 2 * 20))),
+        "{head}"
+    );
     assert!(String::from_utf8_lossy(&get("/api/run/0/frame/x")).starts_with("HTTP/1.1 404"));
 }
 
@@ -239,12 +329,16 @@ fn html_embeds_every_frame() {
     use base64::Engine as _;
     let viewer = Viewer::load(&[&root().join("vtk")]).expect("load");
     let page = thinshell::view::html::page(&viewer);
-    let start = page.find("type=\"application/json\">").expect("data") + "type=\"application/json\">".len();
+    let start =
+        page.find("type=\"application/json\">").expect("data") + "type=\"application/json\">".len();
     let end = start + page[start..].find("</script>").expect("end");
     let data = json(page[start..end].as_bytes());
     let frame1 = base64::engine::general_purpose::STANDARD
         .decode(data["runs"][0]["frames"][1].as_str().expect("frame"))
         .expect("base64");
     assert_eq!(&frame1[..], &viewer.respond("/api/run/0/frame/1").body[..]);
-    assert!(!page.contains("http://") && !page.contains("https://"), "the page refers to the network");
+    assert!(
+        !page.contains("http://") && !page.contains("https://"),
+        "the page refers to the network"
+    );
 }

@@ -29,7 +29,7 @@
     fps: Math.max(1, Number(params.get('fps')) || 30),
     camera: { yaw: -0.5, pitch: 0.6, zoom: 1 },
   };
-  const stats = { shown: 0, stalls: 0, playStart: 0, playShown: 0 };
+  const stats = { shown: 0, stalls: 0, playStart: 0, playShown: 0, renderMs: 0, renders: 0, ticks: 0 };
   let views = [];
   let meta = [];
   let steps = [];
@@ -147,7 +147,7 @@ void main() {
       shown: -1, shownField: null, gl: null, range: [0, 0],
     };
     el.querySelector('.title').textContent = (r === 0 ? 'A: ' : 'B: ') + m.name + '  (' + m.n_faces + ' faces)';
-    const gl = canvas.getContext('webgl2', { antialias: true, preserveDrawingBuffer: true });
+    const gl = canvas.getContext('webgl2', { antialias: params.get('aa') !== '0' });
     if (!gl) {
       showMessage(v, 'This browser has no WebGL2: the shell cannot be drawn.');
       return v;
@@ -373,6 +373,9 @@ void main() {
   }
 
   function updateLegend(v, field) {
+    const key = field.key + ' ' + sharedRange.lo + ' ' + sharedRange.hi;
+    if (v.legendKey === key) return;
+    v.legendKey = key;
     const leg = v.el.querySelector('.legend');
     if (field.key === 'none') { leg.style.display = 'none'; return; }
     leg.style.display = 'block';
@@ -461,18 +464,23 @@ void main() {
       g.fillText(label, W - R + 32, T + 11 + 16 * k);
     });
     if (views.length > 1) g.fillText('solid: A, dashed: B', W - R + 12, T + 11 + 16 * 4);
-    if (views.length) {
-      const t = views[0].meta.frames[state.frame].time;
-      g.strokeStyle = '#000';
-      g.lineWidth = 1;
-      g.beginPath();
-      g.moveTo(X(t), T);
-      g.lineTo(X(t), H - B);
-      g.stroke();
-    }
-    chartX = { L, W: W - L - R, t0, t1 };
+    chartX = { L, W: W - L - R, t0, t1, T, B, H };
   }
   let chartX = null;
+  let chartSize = '';
+  // The cursor is an element over the chart, so moving it does not redraw the curves.
+  function drawCursor() {
+    const c = $('chart');
+    const size = c.clientWidth + 'x' + c.clientHeight;
+    if (size !== chartSize) { chartSize = size; drawChart(); }
+    if (!views.length || !chartX) return;
+    const t = views[0].meta.frames[state.frame].time;
+    const x = chartX.L + ((t - chartX.t0) / (chartX.t1 - chartX.t0)) * chartX.W;
+    const cur = $('cursor');
+    cur.style.left = x + 'px';
+    cur.style.top = chartX.T + 'px';
+    cur.style.height = (chartX.H - chartX.T - chartX.B) + 'px';
+  }
 
   // ---- main loop -------------------------------------------------------------------------
   let pending = false;
@@ -482,14 +490,17 @@ void main() {
   let lastAdvance = 0;
   function tick(now) {
     pending = false;
+    stats.ticks++;
     if (!views.length) return;
     const n = views[0].meta.frames.length;
     if (state.playing) {
       const ready = views.every((v) => v.cache.has(frameOf(v, (state.frame + 1) % n)) || v.errors.has(frameOf(v, (state.frame + 1) % n)));
-      if (now - lastAdvance >= 1000 / state.fps) {
+      const period = 1000 / state.fps;
+      if (now - lastAdvance >= period) {
         if (ready) {
           state.frame = (state.frame + 1) % n;
-          lastAdvance = now;
+          // Keep the cadence (ticks jitter around the period) but never bank more than one.
+          lastAdvance = Math.max(lastAdvance + period, now - period);
           stats.playShown++;
         } else {
           stats.stalls++;
@@ -503,7 +514,11 @@ void main() {
       views.map((v) => { const i = frameOf(v, state.frame); return [v.cache.has(i), v.errors.has(i)]; })]);
     if (key !== lastKey) {
       lastKey = key;
+      const t0 = performance.now();
       render();
+      views.forEach((v) => v.gl && v.gl.finish());
+      stats.renderMs += performance.now() - t0;
+      stats.renders++;
     } else {
       for (const v of views) prefetch(v, frameOf(v, state.frame));
     }
@@ -535,7 +550,7 @@ void main() {
     $('scrub').value = String(state.frame);
     $('frameinfo').textContent = 'frame ' + state.frame + ' / ' + (views[0].meta.frames.length - 1) +
       '   step ' + f.step + '   t = ' + fmt(f.time) + ' s';
-    drawChart();
+    drawCursor();
     stats.shown++;
     document.body.dataset.frame = String(state.frame);
     document.body.dataset.wire = String(state.wire);
@@ -550,7 +565,7 @@ void main() {
   function setPlaying(p) {
     state.playing = p;
     $('play').textContent = p ? 'pause' : 'play';
-    if (p) { stats.playStart = performance.now(); stats.playShown = 0; stats.stalls = 0; }
+    if (p) { Object.assign(stats, { playStart: performance.now(), playShown: 0, stalls: 0, renderMs: 0, renders: 0, ticks: 0 }); }
     schedule();
   }
 
@@ -655,6 +670,10 @@ void main() {
       stalls: stats.stalls,
       seconds: (performance.now() - stats.playStart) / 1000,
       fps: stats.playShown / Math.max(1e-9, (performance.now() - stats.playStart) / 1000),
+      // Mean time to draw one frame (script and WebGL, gl.finish included), ms.
+      renderMs: stats.renderMs / Math.max(1, stats.renders),
+      // Animation-frame callbacks received while playing (the browser's own frame rate).
+      ticks: stats.ticks,
     }),
     setFrame: (i) => { setPlaying(false); setFrame(i); },
     setPlaying,
