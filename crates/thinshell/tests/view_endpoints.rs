@@ -332,7 +332,7 @@ fn html_embeds_every_frame() {
     let start =
         page.find("type=\"application/json\">").expect("data") + "type=\"application/json\">".len();
     let end = start + page[start..].find("</script>").expect("end");
-    let data = json(page[start..end].as_bytes());
+    let data = json(&page.as_bytes()[start..end]);
     let frame1 = base64::engine::general_purpose::STANDARD
         .decode(data["runs"][0]["frames"][1].as_str().expect("frame"))
         .expect("base64");

@@ -69,10 +69,13 @@ impl Response {
 /// again (oldest dropped first).
 const CACHE_FRAMES: usize = 64;
 
+/// An encoded frame keyed by (run, frame).
+type CachedFrame = ((usize, usize), Arc<Vec<u8>>);
+
 /// The runs being viewed.
 pub struct Viewer {
     runs: Vec<Run>,
-    cache: Mutex<VecDeque<((usize, usize), Arc<Vec<u8>>)>>,
+    cache: Mutex<VecDeque<CachedFrame>>,
 }
 
 impl Viewer {
