@@ -108,8 +108,9 @@ fn obj(path: &Path) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
 }
 
 /// The page's top view (`camera=top`), as documented in viewer.js: orthographic along −z, the
-/// first frame's bounding-box centre at the canvas centre, its half diagonal r filling 90 % of
-/// half the shorter canvas side: s = 0.9·min(w, h)/(2r) pixels per metre.
+/// centre of the bounding box of the first and last frames at the canvas centre, its half
+/// diagonal r filling 90 % of half the shorter canvas side: s = 0.9·min(w, h)/(2r) pixels per
+/// metre.
 struct TopView {
     centre: [f64; 3],
     scale: f64,
@@ -118,10 +119,10 @@ struct TopView {
 }
 
 impl TopView {
-    fn new(first_frame: &[[f64; 3]], canvas: [f64; 4]) -> TopView {
+    fn new(first_and_last: &[&[[f64; 3]]], canvas: [f64; 4]) -> TopView {
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
-        for p in first_frame {
+        for p in first_and_last.iter().flat_map(|f| f.iter()) {
             for k in 0..3 {
                 lo[k] = lo[k].min(p[k]);
                 hi[k] = hi[k].max(p[k]);
@@ -256,7 +257,8 @@ fn browser_shell_covers_the_canvas_and_the_last_frame_matches_the_final_obj() {
     let img = b.screenshot();
     let (mask, canvas) = canvas_mask(&mut b, &img, 0, is_shell);
     let (first, faces) = obj(&r.droop.join("frame_000000.obj"));
-    let top = TopView::new(&first, canvas);
+    let (last, _) = obj(&r.droop.join("frame_000020.obj"));
+    let top = TopView::new(&[&first, &last], canvas);
     // The flat 0.1 m × 0.04 m strip covers 0.004 m² · s² pixels.
     let expected = 0.1 * 0.04 * top.scale * top.scale;
     let covered = mask.iter().filter(|m| **m).count() as f64;
@@ -274,7 +276,6 @@ fn browser_shell_covers_the_canvas_and_the_last_frame_matches_the_final_obj() {
     b.wait_ready();
     let img = b.screenshot();
     let (mask, _) = canvas_mask(&mut b, &img, 0, is_shell);
-    let (last, _) = obj(&r.droop.join("frame_000020.obj"));
     let silhouette = top.silhouette(&last, &faces);
     let iou_last = iou(&mask, &silhouette);
     let iou_wrong = iou(&mask, &top.silhouette(&first, &faces));
@@ -446,7 +447,7 @@ fn browser_self_contained_html_works_offline_from_file_url() {
     let (mask, canvas) = canvas_mask(&mut b, &img, 0, is_shell);
     let (first, faces) = obj(&r.droop.join("frame_000000.obj"));
     let (last, _) = obj(&r.droop.join("frame_000020.obj"));
-    let top = TopView::new(&first, canvas);
+    let top = TopView::new(&[&first, &last], canvas);
     let score = iou(&mask, &top.silhouette(&last, &faces));
     eprintln!("offline file:// page: last-frame silhouette IoU {score:.4}");
     assert!(

@@ -257,7 +257,7 @@ void main() {
   }
 
   // ---- camera ----------------------------------------------------------------------------
-  let fit = null; // centre and radius of run A's first frame (the view's fixed frame of reference)
+  let fit = null; // centre and radius of run A's first and last frames (the view's fixed frame of reference)
   function viewMatrix() {
     const { yaw, pitch } = state.camera;
     const a = pitch - Math.PI / 2;
@@ -330,8 +330,8 @@ void main() {
     gl.bindVertexArray(v.vao);
     gl.enable(gl.DEPTH_TEST);
     gl.uniformMatrix4fv(v.loc.uView, false, viewMatrix());
-    // Orthographic: s pixels per metre, the first frame's bounding sphere filling 90 % of the
-    // shorter side at zoom 1; depth over ±100 radii.
+    // Orthographic: s pixels per metre, the fitted bounding sphere filling 90 % of the shorter
+    // side at zoom 1; depth over ±100 radii.
     const s = (0.9 * Math.min(w, h) / 2 / fit.radius) * state.camera.zoom;
     gl.uniform4f(v.loc.uProj, s / (w / 2), s / (h / 2), 1 / (100 * fit.radius), 0);
     gl.uniform1i(v.loc.uMode, mode);
@@ -647,11 +647,17 @@ void main() {
       if (cam === 'front') state.camera = { yaw: 0, pitch: 0, zoom: 1 };
       $('scrub').max = String(meta[0].frames.length - 1);
       wireUi();
-      // The camera is fitted once, to run A's first frame.
+      // The camera is fitted once, to the bounding box of run A's first and last frames (the
+      // last may fail to load: then the first alone).
       const first = await source.frame(0, 0).then((b) => decodeFrame(views[0], b));
       views[0].cache.set(0, first);
+      const nA = meta[0].frames.length;
+      const last = nA > 1 ? await source.frame(0, nA - 1).then((b) => decodeFrame(views[0], b)).catch(() => null) : null;
       const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
-      for (let i = 0; i < first.pos.length; i++) { lo[i % 3] = Math.min(lo[i % 3], first.pos[i]); hi[i % 3] = Math.max(hi[i % 3], first.pos[i]); }
+      for (const fr of [first, last]) {
+        if (!fr) continue;
+        for (let i = 0; i < fr.pos.length; i++) { lo[i % 3] = Math.min(lo[i % 3], fr.pos[i]); hi[i % 3] = Math.max(hi[i % 3], fr.pos[i]); }
+      }
       const centre = lo.map((l, k) => (l + hi[k]) / 2);
       const radius = Math.max(1e-300, Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) / 2);
       fit = { centre, radius };
