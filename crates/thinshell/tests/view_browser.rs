@@ -392,6 +392,29 @@ fn browser_two_runs_side_by_side_share_camera_and_timeline() {
     // by a few per cent here).
     eprintln!("two runs: shell pixels {na}, {nc}; IoU {:.4}", iou(&a, &c));
     assert!(iou(&a, &c) > 0.8, "IoU of the two runs {}", iou(&a, &c));
+    // Linked cameras: dragging in view A turns both views the same way.
+    let ca = b.rect(".view:nth-child(1) canvas.gl");
+    let centre = [ca[0] + ca[2] / 2.0, ca[1] + ca[3] / 2.0];
+    b.drag(centre, [centre[0] + 80.0, centre[1] + 60.0]);
+    // `data-yaw` is the yaw of the last frame drawn.
+    b.wait_for(
+        "document.body.dataset.yaw === window.thinshell.state.camera.yaw.toFixed(4) && document.body.dataset.yaw",
+        |y| y != "0.0000" && y != "false",
+    );
+    let img = b.screenshot();
+    let (a2, _) = canvas_mask(&mut b, &img, 0, is_shell);
+    let (c2, _) = canvas_mask(&mut b, &img, 1, is_shell);
+    eprintln!(
+        "after a drag in A: IoU with before A {:.3}, B {:.3}; A vs B {:.3}",
+        iou(&a, &a2),
+        iou(&c, &c2),
+        iou(&a2, &c2)
+    );
+    assert!(
+        iou(&a, &a2) < 0.7 && iou(&c, &c2) < 0.7,
+        "both views turned"
+    );
+    assert!(iou(&a2, &c2) > 0.8, "and still show the same view");
     let titles =
         b.eval("[...document.querySelectorAll('.title')].map(t => t.textContent).join('|')");
     assert!(

@@ -251,6 +251,21 @@ impl Browser {
         }
     }
 
+    /// A left-button drag from (x0, y0) to (x1, y1), CSS pixels, in ten moves.
+    pub fn drag(&mut self, from: [f64; 2], to: [f64; 2]) {
+        let event = |kind: &str, p: [f64; 2], buttons: u32| json!({ "type": kind, "x": p[0], "y": p[1], "button": "left", "buttons": buttons, "clickCount": 1 });
+        self.call("Input.dispatchMouseEvent", event("mousePressed", from, 1));
+        for k in 1..=10 {
+            let t = k as f64 / 10.0;
+            let p = [
+                from[0] + t * (to[0] - from[0]),
+                from[1] + t * (to[1] - from[1]),
+            ];
+            self.call("Input.dispatchMouseEvent", event("mouseMoved", p, 1));
+        }
+        self.call("Input.dispatchMouseEvent", event("mouseReleased", to, 0));
+    }
+
     /// Presses and releases a key such as `End` (DOM key name and code).
     pub fn key(&mut self, key: &str) {
         for kind in ["rawKeyDown", "keyUp"] {

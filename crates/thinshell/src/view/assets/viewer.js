@@ -554,6 +554,7 @@ void main() {
     stats.shown++;
     document.body.dataset.frame = String(state.frame);
     document.body.dataset.wire = String(state.wire);
+    document.body.dataset.yaw = state.camera.yaw.toFixed(4);
     document.body.dataset.ready = allReady ? '1' : '0';
   }
 
