@@ -438,6 +438,15 @@ fn browser_malformed_frame_shows_a_message() {
         msg.contains("frame 2 (step 4)") && msg.contains("not valid XML"),
         "{msg}"
     );
+    // Not a blank canvas: a neighbouring frame is drawn, and the message says which.
+    assert!(msg.contains("(showing frame "), "{msg}");
+    let img = b.screenshot();
+    let (mask, _) = canvas_mask(&mut b, &img, 0, is_shell);
+    let shell = mask.iter().filter(|m| **m).count();
+    assert!(
+        shell > 1000,
+        "blank canvas under the message ({shell} shell pixels)"
+    );
     // The neighbouring frames still play.
     b.key("ArrowRight");
     b.wait_for("document.body.dataset.frame", |f| f == "3");

@@ -535,8 +535,11 @@ void main() {
       prefetch(v, i);
       const err = v.errors.get(i);
       if (err) {
-        showMessage(v, err + (v.shown >= 0 ? '\n(showing the last frame that loaded)' : ''));
-        draw(v, v.shown);
+        // Never a blank canvas: show the loaded frame nearest to the broken one, and say so.
+        let near = v.shown;
+        for (const k of v.cache.keys()) if (near < 0 || Math.abs(k - i) < Math.abs(near - i)) near = k;
+        showMessage(v, err + (near >= 0 ? '\n(showing frame ' + near + ' instead)' : ''));
+        draw(v, near);
       } else if (!v.cache.has(i)) {
         allReady = false;
         draw(v, v.shown);
