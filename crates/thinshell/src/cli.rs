@@ -169,10 +169,11 @@ impl Writer {
                     cell_scalars.push(("stretch_density", d.stretch));
                     cell_scalars.push(("bend_density", d.bend));
                 }
-                Err(e) => {
-                    self.error = Some(e);
-                    return;
-                }
+                // Not fatal: the frame (the last good state after a failure, say) is still
+                // worth writing; the viewer names the frame that lacks the arrays.
+                Err(e) => eprintln!(
+                    "warning: frame at step {step}: {e}; written without energy densities"
+                ),
             }
             if let Some(g) = sim.growth() {
                 cell_scalars.push(("stimulus_top", g.stimulus().iter().map(|m| m.top).collect()));

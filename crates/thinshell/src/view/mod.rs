@@ -193,8 +193,9 @@ pub fn view(dirs: &[&Path], port: u16, html: Option<&Path>) -> Result<(), Failur
             std::fs::write(file, page)
                 .map_err(|e| Failure::BadInput(format!("{}: {e}", file.display())))?;
             println!(
-                "thinshell view: wrote {} (open it in a browser; no server needed)",
-                file.display()
+                "thinshell view: wrote {} ({:.1} MB, every frame embedded; open it in a browser, no server needed)",
+                file.display(),
+                page.len() as f64 / 1e6
             );
             Ok(())
         }
