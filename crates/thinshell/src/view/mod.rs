@@ -190,7 +190,7 @@ pub fn view(dirs: &[&Path], port: u16, html: Option<&Path>) -> Result<(), Failur
     match html {
         Some(file) => {
             let page = html::page(&viewer);
-            std::fs::write(file, page)
+            std::fs::write(file, &page)
                 .map_err(|e| Failure::BadInput(format!("{}: {e}", file.display())))?;
             println!(
                 "thinshell view: wrote {} ({:.1} MB, every frame embedded; open it in a browser, no server needed)",
