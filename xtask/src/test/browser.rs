@@ -19,16 +19,10 @@ pub fn run() -> Result<()> {
     let chromium = ensure_chromium()?;
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
     run_stage(
-        "browser tests: cargo test --release -p thinshell --test view_browser -- --ignored --skip bench_",
+        "browser tests: cargo test --workspace --release --test view_browser -- --ignored --skip bench_",
+        // `--workspace` as in the Rust stage: the same feature set, so nothing is rebuilt.
         Command::new(cargo)
-            .args([
-                "test",
-                "--release",
-                "-p",
-                "thinshell",
-                "--test",
-                "view_browser",
-            ])
+            .args(["test", "--workspace", "--release", "--test", "view_browser"])
             .args(["--", "--ignored", "--skip", "bench_"])
             .env("CHROMIUM", chromium)
             .current_dir(workspace_root()),
