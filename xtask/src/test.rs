@@ -4,9 +4,10 @@
 //! Stages run in order and the first failure stops the run with a non-zero exit:
 //! 1. `cargo test --workspace --release`: the Rust tests (unit, integration, doc, property).
 //! 2. the Python package's pytest suite ([`python`]).
+//! 3. browser: `thinshell view` end to end in headless Chromium ([`browser`]).
 //!
 //! A stage that needs something from outside the Rust toolchain (a Python environment, a browser)
-//! installs it itself on first use, from the package registries, into project-local folders, so a
+//! installs it itself on first use, from the package registries, into project-local folders (Chromium: system-wide, with apt-get), so a
 //! fresh clone needs nothing installed by hand.
 
 use std::process::Command;
@@ -15,6 +16,7 @@ use anyhow::{Context, Result, bail};
 
 use crate::workspace_root;
 
+mod browser;
 mod python;
 
 /// Options of `cargo xtask test`.
@@ -31,6 +33,7 @@ pub fn run(opts: &Options) -> Result<()> {
         return Ok(());
     }
     python::stage()?;
+    browser::stage()?;
     println!("xtask test: all stages passed");
     Ok(())
 }

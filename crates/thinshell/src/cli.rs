@@ -134,6 +134,8 @@ struct Writer {
     /// The step of the last frame counted, so that rewriting it (the failure path writes the
     /// last good state, which may already be a frame) does not count it twice.
     last_frame: Option<usize>,
+    /// Built at the first VTK frame.
+    densities: Option<crate::face_fields::FaceEnergyDensity>,
 }
 
 impl Writer {
@@ -157,6 +159,27 @@ impl Writer {
                 .map(|(x, x0)| x - x0)
                 .collect();
             let mut cell_scalars = Vec::new();
+            // Per-face energy densities (J/m²) for energy maps (`thinshell view`).
+            let densities = match self.densities.take() {
+                Some(d) => Ok(d),
+                None => crate::face_fields::FaceEnergyDensity::new(sim),
+            }
+            .and_then(|mut d| {
+                let values = d.evaluate(sim);
+                self.densities = Some(d);
+                values
+            });
+            match densities {
+                Ok(d) => {
+                    cell_scalars.push(("stretch_density", d.stretch));
+                    cell_scalars.push(("bend_density", d.bend));
+                }
+                // Not fatal: the frame (the last good state after a failure, say) is still
+                // worth writing; the viewer names the frame that lacks the arrays.
+                Err(e) => eprintln!(
+                    "warning: frame at step {step}: {e}; written without energy densities"
+                ),
+            }
             if let Some(g) = sim.growth() {
                 cell_scalars.push(("stimulus_top", g.stimulus().iter().map(|m| m.top).collect()));
                 cell_scalars.push((
@@ -288,6 +311,7 @@ pub fn run(
         error: None,
         frames: 0,
         last_frame: None,
+        densities: None,
     };
     let result = sim.run(&mut writer, stop);
     if let Some(bar) = &writer.bar {

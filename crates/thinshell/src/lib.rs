@@ -6,10 +6,12 @@
 //! over this library.
 
 pub mod cli;
+pub mod face_fields;
 pub mod mesh_info;
 pub mod reference;
 pub mod scene;
 pub mod sim;
+pub mod view;
 pub mod vtk;
 
 /// The README's example, compiled and run as a doctest so that it cannot go stale.

@@ -1,4 +1,4 @@
-//! The `thinshell` command-line tool: `run`, `check` and `info`.
+//! The `thinshell` command-line tool: `run`, `check`, `view` and `info`.
 //!
 //! Exit codes: 0 success, 2 bad input (scene, mesh, arguments), 1 a simulation that failed (the
 //! last good state is written).
@@ -46,6 +46,20 @@ enum Command {
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
     },
+    /// Show one or two run output directories in the browser (served on 127.0.0.1), or write
+    /// one self-contained HTML file with `--html`.
+    View {
+        /// The run output directory (what `thinshell run --out` wrote).
+        dir: PathBuf,
+        /// A second run, shown side by side with linked cameras and timelines.
+        dir2: Option<PathBuf>,
+        /// Port on 127.0.0.1 (0: any free port; the address is printed).
+        #[arg(long, default_value_t = 8080)]
+        port: u16,
+        /// Write a self-contained HTML file (all frames embedded) instead of serving.
+        #[arg(long, value_name = "FILE")]
+        html: Option<PathBuf>,
+    },
     /// Print statistics of a mesh (OBJ) and the problems found in it.
     Info {
         /// The mesh file (OBJ).
@@ -82,6 +96,17 @@ fn main() -> ExitCode {
         }
         Command::Check { scene, set } => cli::check(&scene, &set),
         Command::Info { mesh } => cli::info(&mesh),
+        Command::View {
+            dir,
+            dir2,
+            port,
+            html,
+        } => {
+            let dirs: Vec<&std::path::Path> = std::iter::once(dir.as_path())
+                .chain(dir2.as_deref())
+                .collect();
+            thinshell::view::view(&dirs, port, html.as_deref())
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

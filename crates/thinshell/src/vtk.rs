@@ -2,7 +2,8 @@
 //! by time (opens in ParaView; Blender reads the `.vtu` files with an importer).
 //!
 //! Frames are ASCII, positions in m, triangles as VTK cell type 5. Point data: `displacement`
-//! (m, from the reference configuration) and `velocity` (m/s); cell data: the stimulus at the
+//! (m, from the reference configuration) and `velocity` (m/s); cell data: the energy densities
+//! `stretch_density` and `bend_density` (J/m², [`crate::face_fields`]) and the stimulus at the
 //! top and bottom surfaces when the scene has growth. The `.pvd` index is rewritten after every
 //! frame through a temporary file and a rename, so an interrupted or failed run always leaves a
 //! valid index of exactly the frames written.
