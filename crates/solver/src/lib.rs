@@ -104,9 +104,11 @@ pub use nalgebra;
 
 pub mod error;
 pub mod linear;
+pub mod memory;
 pub mod newton;
 pub mod objective;
 pub mod ordering;
+pub mod progress;
 pub mod shell;
 
 pub use error::SolverError;
@@ -117,6 +119,7 @@ pub use newton::{
 };
 pub use objective::Objective;
 pub use ordering::Ordering;
+pub use progress::{NewtonProgress, ProgressHook};
 /// The README's example, compiled and run as a doctest so that it cannot go stale.
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]
