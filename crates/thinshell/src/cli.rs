@@ -392,7 +392,7 @@ pub fn run(
 /// `thinshell run SCENE`: runs a scene, writing frames (OBJ and/or VTK), `steps.csv`,
 /// `summary.json` and (with [`RunOptions::checkpoint_every`]) `checkpoint.bin` into `out`
 /// (default `out/<scene name>`). Ctrl-C (the `stop` flag) ends the run cleanly after the
-/// current step.
+/// current step and writes a checkpoint there, so that `resume` continues from it.
 pub fn run_with(
     scene_path: &Path,
     out: Option<&Path>,
@@ -523,6 +523,10 @@ fn drive(
     let result = sim.run(&mut writer, stop);
     if let Some(bar) = &writer.bar {
         bar.finish_and_clear();
+    }
+    if result.as_ref().is_ok_and(|s| s.interrupted) {
+        // Ctrl-C: `resume` continues from exactly here, with or without --checkpoint-every.
+        writer.checkpoint(&sim);
     }
     let (status, failure) = match &result {
         Ok(s) if s.interrupted => ("interrupted", None),

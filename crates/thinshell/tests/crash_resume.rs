@@ -182,6 +182,42 @@ fn a_run_killed_at_random_moments_and_resumed_equals_an_uninterrupted_run() {
     }
 }
 
+#[test]
+fn ctrl_c_leaves_a_checkpoint_that_resume_continues_from() {
+    let d = temp_dir("crash-ctrl-c");
+    let (_, scene, mut args) = cases().remove(0);
+    args.truncate(args.len() - 2); // no --checkpoint-every: Ctrl-C writes one anyway
+    let reference = d.join("reference");
+    ok(&run(&scene, &reference, &args));
+    let out = d.join("out");
+    let mut child = bin()
+        .args(["run", "--quiet", "--out"])
+        .arg(&out)
+        .arg(&scene)
+        .args(&args)
+        .spawn()
+        .unwrap();
+    let rows = || {
+        std::fs::read_to_string(out.join("steps.csv"))
+            .map(|t| t.lines().count())
+            .unwrap_or(0)
+    };
+    while rows() < 30 && child.try_wait().unwrap().is_none() {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert!(child.wait().unwrap().success(), "a clean stop exits with 0");
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(summary.contains("\"status\": \"interrupted\""), "{summary}");
+    assert!(out.join("checkpoint.bin").exists());
+    ok(&resume(&out));
+    assert_same_outputs(&reference, &out, "Ctrl-C then resume");
+}
+
 /// A finished run with a checkpoint, for the corruption tests.
 fn checkpointed_run(d: &Path) -> (PathBuf, Vec<&'static str>) {
     let (_, scene, args) = cases().remove(0);
