@@ -491,7 +491,7 @@ impl Simulation {
     /// Quasi-static continuation of one step: the rest forms move from `previous` (if given) to
     /// the current ones and the load factor from `from` to `to` (prescribed motion with it), in
     /// sub-steps that halve on failure; returns the report of the last sub-step with the Newton
-    /// iterations of all sub-steps.
+    /// iterations, backtracks and timings of all successful sub-steps.
     fn continuation(
         &mut self,
         previous: Option<&thinshell_energy::RestState>,
@@ -505,6 +505,8 @@ impl Simulation {
         let start = self.state.clone();
         let (mut done, mut step) = (0.0f64, 0.5f64);
         let mut iterations = 0;
+        let mut backtracks = 0;
+        let mut timings = thinshell_solver::NewtonTimings::default();
         loop {
             let s = (done + step).min(1.0);
             if let (Some(previous), Some(target)) = (previous, &target) {
@@ -522,8 +524,17 @@ impl Simulation {
                     done = s;
                     if let Some(n) = report.newton.as_mut() {
                         iterations += n.iterations;
+                        // Every successful sub-step's time counts in the step's timings.
+                        timings.assembly += n.timings.assembly;
+                        timings.factorization += n.timings.factorization;
+                        timings.solve += n.timings.solve;
+                        timings.line_search += n.timings.line_search;
+                        timings.line_search_evaluations += n.timings.line_search_evaluations;
+                        backtracks += n.backtracks;
                         if done >= 1.0 {
                             n.iterations = iterations;
+                            n.timings = timings;
+                            n.backtracks = backtracks;
                             return Ok(report);
                         }
                     } else if done >= 1.0 {
