@@ -11,6 +11,19 @@ use crate::mass::mass_with_uptake;
 use crate::model::{GrowthModel, apply_growth};
 use crate::stimulus::FaceStimulus;
 
+/// What [`Growth::save_state`] saves.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GrowthState {
+    /// The stimulus field's numbers ([`StimulusField::save_state`]).
+    pub field: Vec<f64>,
+    /// Whether the rest forms must be recomputed before the next elastic step.
+    pub rest_stale: bool,
+    /// Whether the masses must be recomputed before the next elastic step.
+    pub mass_stale: bool,
+    /// Rest-form updates so far.
+    pub rest_updates: usize,
+}
+
 /// A growth model driven by a stimulus field, for a caller that owns the time loop.
 ///
 /// Per step: [`update_rest`](Growth::update_rest) (and [`update_mass`](Growth::update_mass)
@@ -124,6 +137,27 @@ impl Growth {
         self.field = Box::new(crate::field::Prescribed::constant(values)?);
         self.rest_stale = true;
         self.mass_stale = true;
+        Ok(())
+    }
+
+    /// The coupling's evolving state for a checkpoint: the stimulus field's numbers and
+    /// whether the rest forms and masses are stale.
+    pub fn save_state(&self) -> GrowthState {
+        GrowthState {
+            field: self.field.save_state(),
+            rest_stale: self.rest_stale,
+            mass_stale: self.mass_stale,
+            rest_updates: self.rest_updates,
+        }
+    }
+
+    /// Restores what [`Growth::save_state`] returned (the caller restores the rest forms and
+    /// masses it had at the same moment).
+    pub fn restore_state(&mut self, state: &GrowthState) -> Result<(), GrowthError> {
+        self.field.restore_state(&state.field)?;
+        self.rest_stale = state.rest_stale;
+        self.mass_stale = state.mass_stale;
+        self.rest_updates = state.rest_updates;
         Ok(())
     }
 

@@ -381,4 +381,10 @@ impl StimulusField for Diffusion {
     fn name(&self) -> &'static str {
         "diffusion"
     }
+    fn save_state(&self) -> Vec<f64> {
+        self.m.clone()
+    }
+    fn restore_state(&mut self, state: &[f64]) -> Result<(), GrowthError> {
+        self.set_node_values(state)
+    }
 }

@@ -24,6 +24,35 @@ pub trait StimulusField: Send {
 
     /// Short name for reports.
     fn name(&self) -> &'static str;
+
+    /// Everything [`StimulusField::advance`] changes, as numbers, so that a checkpoint can
+    /// save it and [`StimulusField::restore_state`] continue bit for bit (caches that are
+    /// rebuilt identically, such as a diffusion factorisation, are not included).
+    fn save_state(&self) -> Vec<f64>;
+
+    /// Restores what [`StimulusField::save_state`] returned; errors on a wrong length or
+    /// non-finite values.
+    fn restore_state(&mut self, state: &[f64]) -> Result<(), GrowthError>;
+}
+
+/// Per-face stimulus as (top, bottom) pairs.
+fn stimulus_numbers(values: &[FaceStimulus]) -> Vec<f64> {
+    values.iter().flat_map(|m| [m.top, m.bottom]).collect()
+}
+
+/// Restores per-face stimulus from (top, bottom) pairs.
+fn restore_stimulus(values: &mut [FaceStimulus], state: &[f64]) -> Result<(), GrowthError> {
+    check_len("stimulus state", 2 * values.len(), state.len())?;
+    let restored: Vec<FaceStimulus> = state
+        .chunks_exact(2)
+        .map(|c| FaceStimulus {
+            top: c[0],
+            bottom: c[1],
+        })
+        .collect();
+    check_values(&restored)?;
+    values.copy_from_slice(&restored);
+    Ok(())
 }
 
 /// A prescribed stimulus type: `f(t, centroid)` (s, m) → stimulus of a face.
@@ -140,6 +169,12 @@ impl StimulusField for Prescribed {
     fn name(&self) -> &'static str {
         "prescribed"
     }
+    fn save_state(&self) -> Vec<f64> {
+        stimulus_numbers(&self.values)
+    }
+    fn restore_state(&mut self, state: &[f64]) -> Result<(), GrowthError> {
+        restore_stimulus(&mut self.values, state)
+    }
 }
 
 /// The seed's directed heat source (model.md §5): faces of the `hot` region are held at
@@ -220,5 +255,11 @@ impl StimulusField for DirectedHeat {
     }
     fn name(&self) -> &'static str {
         "directed heat"
+    }
+    fn save_state(&self) -> Vec<f64> {
+        stimulus_numbers(&self.values)
+    }
+    fn restore_state(&mut self, state: &[f64]) -> Result<(), GrowthError> {
+        restore_stimulus(&mut self.values, state)
     }
 }

@@ -62,7 +62,7 @@ mod model;
 mod region;
 mod stimulus;
 
-pub use coupling::Growth;
+pub use coupling::{Growth, GrowthState};
 pub use diffusion::{Diffusion, DiffusionSettings, DiffusionSource, SourceKind, Surface};
 pub use error::GrowthError;
 pub use field::{DirectedHeat, Prescribed, StimulusField, StimulusFn};

@@ -130,6 +130,22 @@ pub enum SolverError {
     /// faer reported a failure other than a non-positive pivot (out of memory, index overflow).
     #[error("sparse linear algebra failed: {0}")]
     Linear(String),
+    /// The Cholesky factor estimated by the symbolic analysis does not fit in the memory budget
+    /// ([`crate::memory::memory_budget`]); refused before any numeric factorisation.
+    #[error(
+        "{n} unknowns: the Cholesky factor needs an estimated {} (symbolic analysis), more than the {} available ({})",
+        crate::memory::human_bytes(*estimate),
+        crate::memory::human_bytes(*budget),
+        crate::memory::BUDGET_RULE
+    )]
+    InsufficientMemory {
+        /// Unknowns (matrix dimension).
+        n: usize,
+        /// Estimated bytes of the factor and its scratch memory.
+        estimate: u64,
+        /// The memory budget, bytes.
+        budget: u64,
+    },
     /// The energy crate failed (assembly, rest state, masses, dof map).
     #[error("objective evaluation failed: {0}")]
     Energy(#[from] EnergyError),
@@ -296,6 +312,18 @@ impl PartialEq for SolverError {
             ) => a == w && b == x && c == y && d == z,
             (PathFailed(a), PathFailed(x)) => a == x,
             (Linear(a), Linear(x)) => a == x,
+            (
+                InsufficientMemory {
+                    n: a,
+                    estimate: b,
+                    budget: c,
+                },
+                InsufficientMemory {
+                    n: x,
+                    estimate: y,
+                    budget: z,
+                },
+            ) => a == x && b == y && c == z,
             (Energy(a), Energy(x)) => a.to_string() == x.to_string(),
             (Objective(a), Objective(x)) => a.to_string() == x.to_string(),
             _ => false,
@@ -416,6 +444,16 @@ impl std::fmt::Debug for SolverError {
                 .field("last_good", &Summary(&p.last_good))
                 .finish(),
             Linear(msg) => f.debug_tuple("Linear").field(msg).finish(),
+            InsufficientMemory {
+                n,
+                estimate,
+                budget,
+            } => f
+                .debug_struct("InsufficientMemory")
+                .field("n", n)
+                .field("estimate", estimate)
+                .field("budget", budget)
+                .finish(),
             Energy(e) => f.debug_tuple("Energy").field(e).finish(),
             Objective(e) => f.debug_tuple("Objective").field(e).finish(),
         }

@@ -109,10 +109,12 @@ pub use nalgebra;
 pub mod error;
 pub mod ldlt;
 pub mod linear;
+pub mod memory;
 pub mod newton;
 pub mod objective;
 pub mod ordering;
 pub mod path;
+pub mod progress;
 pub mod shell;
 
 pub use error::{PathFailure, SolverError};
@@ -124,6 +126,7 @@ pub use newton::{
 pub use objective::Objective;
 pub use ordering::Ordering;
 pub use path::{LoadedObjective, PathControl, PathPoint, PathSettings, PathTracer};
+pub use progress::{NewtonProgress, ProgressHook};
 /// The README's example, compiled and run as a doctest so that it cannot go stale.
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]

@@ -130,6 +130,14 @@ pub struct FactorStats {
     pub supernodal: bool,
     /// Wall time of the ordering and symbolic analysis.
     pub symbolic_time: Duration,
+    /// Bytes the numeric factorisation will hold, estimated from the symbolic analysis: the
+    /// factor's values (`factor_len` f64) plus faer's factorisation and solve scratch.
+    pub memory_estimate: u64,
+}
+
+/// Bytes of a factor with `len_val` values and the given scratch sizes.
+fn factor_memory_estimate(len_val: usize, factor_scratch: usize, solve_scratch: usize) -> u64 {
+    (len_val * std::mem::size_of::<f64>() + factor_scratch + solve_scratch) as u64
 }
 
 /// Failure of one numeric factorisation attempt.
@@ -204,11 +212,26 @@ impl SparseCholesky {
                 best
             }
         };
-        let factor_mem = MemBuffer::try_new(
-            symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
-        )
-        .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
-        let solve_mem = MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, par))
+        let factor_req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
+        let solve_req = symbolic.solve_in_place_scratch::<f64>(1, par);
+        // Refuse before allocating anything large: the factor values plus both scratch buffers.
+        let estimate = factor_memory_estimate(
+            symbolic.len_val(),
+            factor_req.size_bytes(),
+            solve_req.size_bytes(),
+        );
+        if let Some(budget) = crate::memory::memory_budget()
+            && estimate > budget
+        {
+            return Err(SolverError::InsufficientMemory {
+                n,
+                estimate,
+                budget,
+            });
+        }
+        let factor_mem = MemBuffer::try_new(factor_req)
+            .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
+        let solve_mem = MemBuffer::try_new(solve_req)
             .map_err(|_| SolverError::Linear("out of memory for solve scratch".into()))?;
         let stats = FactorStats {
             n,
@@ -218,6 +241,7 @@ impl SparseCholesky {
             ordering: used,
             supernodal: matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)),
             symbolic_time: start.elapsed(),
+            memory_estimate: estimate,
         };
         Ok(SparseCholesky {
             l_values: vec![0.0; symbolic.len_val()],

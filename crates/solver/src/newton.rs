@@ -59,6 +59,7 @@ use crate::SolverError;
 use crate::linear::{FactorError, FactorStats, RegularizationParams, SparseCholesky};
 use crate::objective::Objective;
 use crate::ordering::Ordering;
+use crate::progress::{NewtonProgress, ProgressHook};
 
 /// Which Hessian each Newton iteration factorises.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -225,12 +226,17 @@ pub struct RegularizationEvent {
 /// Wall time spent per stage.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct NewtonTimings {
-    /// Objective evaluations: values, gradients, Hessians (including line-search trials).
+    /// Objective evaluations: values with gradients, Hessians (including the first, full-step
+    /// trial of each line search, which evaluates the gradient too).
     pub assembly: Duration,
     /// Numeric Cholesky factorisations (including failed attempts).
     pub factorization: Duration,
     /// Triangular solves.
     pub solve: Duration,
+    /// Energy-only evaluations of the line search (backtracked trials; not in `assembly`).
+    pub line_search: Duration,
+    /// Number of those energy-only evaluations.
+    pub line_search_evaluations: usize,
 }
 
 /// What a converged Newton solve did.
@@ -302,7 +308,6 @@ impl NewtonReport {
 /// Reusable state of Newton solves on objectives with one Hessian pattern: the symbolic
 /// factorisation, the Hessian matrix, vectors, and the remembered regularisation shift.
 /// Build it once (e.g. per simulation) and pass it to every [`newton_solve`].
-#[derive(Debug)]
 pub struct NewtonWorkspace {
     cholesky: SparseCholesky,
     hessian: SparseColMat<usize, f64>,
@@ -314,6 +319,21 @@ pub struct NewtonWorkspace {
     /// The settings the symbolic analysis was made with.
     ordering: Ordering,
     parallel: bool,
+    /// Called after every accepted iteration of [`newton_solve`].
+    progress: Option<ProgressHook>,
+}
+
+impl std::fmt::Debug for NewtonWorkspace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NewtonWorkspace")
+            .field("cholesky", &self.cholesky)
+            .field("n_dofs", &self.g.len())
+            .field("mu", &self.mu)
+            .field("ordering", &self.ordering)
+            .field("parallel", &self.parallel)
+            .field("progress", &self.progress.is_some())
+            .finish_non_exhaustive()
+    }
 }
 
 impl NewtonWorkspace {
@@ -350,6 +370,7 @@ impl NewtonWorkspace {
             mu: 0.0,
             ordering: settings.ordering,
             parallel: settings.parallel,
+            progress: None,
         })
     }
 
@@ -396,6 +417,18 @@ impl NewtonWorkspace {
     /// The remembered relative regularisation shift (0 when the last factorisation needed none).
     pub fn regularization_memory(&self) -> f64 {
         self.mu
+    }
+
+    /// Sets the remembered relative regularisation shift (a restored checkpoint: the next
+    /// solve starts from the shift the interrupted run would have used). Non-finite or
+    /// negative values count as 0.
+    pub fn set_regularization_memory(&mut self, mu: f64) {
+        self.mu = if mu.is_finite() && mu > 0.0 { mu } else { 0.0 };
+    }
+
+    /// Sets (or clears) the observer called after every accepted Newton iteration.
+    pub fn set_progress(&mut self, hook: Option<ProgressHook>) {
+        self.progress = hook;
     }
 
     /// The gradient at the last accepted iterate of the last solve.
@@ -563,6 +596,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
     settings: &NewtonSettings,
     ws: &mut NewtonWorkspace,
 ) -> Result<NewtonReport, SolverError> {
+    let started = Instant::now();
     settings.validate()?;
     let n = objective.n_dofs();
     if x.len() != n {
@@ -801,12 +835,16 @@ pub fn newton_solve<O: Objective + ?Sized>(
             let t = Instant::now();
             let f_t = if backtracks == 0 {
                 trial_has_gradient = true;
-                objective.gradient(&ws.x_trial, &mut ws.g_trial)?
+                let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
+                rec.timings.assembly += t.elapsed();
+                f_t
             } else {
                 trial_has_gradient = false;
-                objective.value(&ws.x_trial)?
+                let f_t = objective.value(&ws.x_trial)?;
+                rec.timings.line_search += t.elapsed();
+                rec.timings.line_search_evaluations += 1;
+                f_t
             };
-            rec.timings.assembly += t.elapsed();
             if !settings.line_search {
                 if !f_t.is_finite() {
                     return Err(SolverError::NonFinite {
@@ -927,6 +965,16 @@ pub fn newton_solve<O: Objective + ?Sized>(
         }
         rec.residuals.push(norm_inf(&ws.g) / force_scale);
         rec.values.push(f);
+        if let Some(hook) = &ws.progress {
+            hook(&NewtonProgress {
+                iteration,
+                residual: norm_inf(&ws.g) / force_scale,
+                step_length: alpha,
+                hessian: kind,
+                regularized: outcome.mu > 0.0,
+                elapsed: started.elapsed(),
+            });
+        }
         watch_allowed = true;
         let watched_step = matches!(&watch, Some(w) if w.left == settings.watchdog);
         if let Some(w) = watch.as_mut() {

@@ -3,11 +3,15 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize};
+use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::mesh_info::mesh_info;
+pub use crate::resume::CheckpointEvery;
+use crate::resume::{RunRecord, Totals};
 use crate::scene::Scene;
 use crate::scene::schema::Format;
 use crate::sim::{Energies, Observer, Simulation, StepRecord};
@@ -33,7 +37,7 @@ pub fn info(path: &Path) -> Result<(), Failure> {
 }
 
 /// Loads a scene with overrides and builds it; any problem is bad input.
-fn load(scene: &Path, overrides: &[String]) -> Result<(Scene, Simulation), Failure> {
+pub(crate) fn load(scene: &Path, overrides: &[String]) -> Result<(Scene, Simulation), Failure> {
     let scene = Scene::load_with_overrides(scene, overrides)
         .map_err(|e| Failure::BadInput(e.to_string()))?;
     let sim = Simulation::build(&scene).map_err(|e| Failure::BadInput(e.to_string()))?;
@@ -121,7 +125,38 @@ pub fn describe(sim: &Simulation) -> String {
     text
 }
 
-/// Writes frames, `steps.csv` and a progress bar while a simulation runs.
+/// Options of `thinshell run` and `thinshell resume`.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// No progress bar and no final line.
+    pub quiet: bool,
+    /// Print every Newton iteration (residual, step length, Hessian, time) to stderr.
+    pub verbose: bool,
+    /// Write `checkpoint.bin` every N steps or seconds (and at the start).
+    pub checkpoint_every: Option<CheckpointEvery>,
+}
+
+/// The header of `steps.csv`. The timing columns (`wall_s` … `other_s`) vary from run to run;
+/// every other column is deterministic. `wall_s` = `assembly_s + factorization_s + solve_s +
+/// line_search_s + growth_s + output_s + other_s`.
+pub const STEPS_CSV_HEADER: &str = "step,time_s,stretch_J,bend_J,damping_J,kinetic_J,newton_iterations,backtracks,regularizations,residual,wall_s,assembly_s,factorization_s,solve_s,load_factor,line_search_s,growth_s,output_s,other_s";
+
+/// Names of the `steps.csv` columns that are wall times (not reproducible between runs).
+pub const STEPS_CSV_TIMING_COLUMNS: [&str; 8] = [
+    "wall_s",
+    "assembly_s",
+    "factorization_s",
+    "solve_s",
+    "line_search_s",
+    "growth_s",
+    "output_s",
+    "other_s",
+];
+
+/// Name of the checkpoint file in the output directory.
+pub const CHECKPOINT_FILE: &str = "checkpoint.bin";
+
+/// Writes frames, `steps.csv`, checkpoints and a progress bar while a simulation runs.
 struct Writer {
     dir: PathBuf,
     every: usize,
@@ -136,6 +171,24 @@ struct Writer {
     last_frame: Option<usize>,
     /// Built at the first VTK frame.
     densities: Option<crate::face_fields::FaceEnergyDensity>,
+    /// Rows of `steps.csv` written (after the header).
+    csv_rows: usize,
+    /// Totals over the whole run (across resumes).
+    totals: Totals,
+    /// Checkpointing: when, the scene's identity, and the last one written.
+    checkpoint_every: Option<CheckpointEvery>,
+    scene_hash: u64,
+    scene_path: PathBuf,
+    overrides: Vec<String>,
+    last_checkpoint: Instant,
+    /// Output time not yet in a row (a checkpoint written after the previous row).
+    pending_output: f64,
+    /// A resumed run does not rewrite its start frame.
+    resumed: bool,
+    /// The scene as the user named it (`summary.json`).
+    scene_origin: String,
+    /// Steps done, for the Newton progress observer.
+    steps_done: Arc<AtomicUsize>,
 }
 
 impl Writer {
@@ -146,7 +199,11 @@ impl Writer {
         let step = sim.steps_done();
         if self.obj {
             let path = self.dir.join(format!("frame_{step:06}.obj"));
-            if let Err(e) = thinshell_mesh::io::save_obj(&path, sim.mesh(), sim.positions()) {
+            let mut text = Vec::new();
+            if let Err(e) = thinshell_mesh::io::write_obj(sim.mesh(), sim.positions(), &mut text)
+                .map_err(|e| e.to_string())
+                .and_then(|_| crate::atomic::write_atomic(&path, &text).map_err(|e| e.to_string()))
+            {
                 self.error = Some(format!("{}: {e}", path.display()));
                 return;
             }
@@ -206,19 +263,100 @@ impl Writer {
             self.last_frame = Some(step);
         }
     }
+
+    /// What a resumed run needs to continue this writer's files.
+    fn record(&self) -> RunRecord {
+        RunRecord {
+            scene: self.scene_path.clone(),
+            scene_origin: self.scene_origin.clone(),
+            overrides: self.overrides.clone(),
+            csv_rows: self.csv_rows,
+            frames: self.frames,
+            last_frame: self.last_frame,
+            pvd: self
+                .vtk
+                .as_ref()
+                .map(|s| {
+                    s.entries()
+                        .iter()
+                        .map(|(t, f)| (t.to_bits(), f.clone()))
+                        .collect()
+                })
+                .unwrap_or_default(),
+            totals: self.totals.clone(),
+            checkpoint_every: self.checkpoint_every.map(|c| c.to_string()),
+        }
+    }
+
+    /// Writes `checkpoint.bin` (after `steps.csv` is on disk, so that the rows it counts are).
+    fn checkpoint(&mut self, sim: &Simulation) {
+        if self.error.is_some() {
+            return;
+        }
+        let t = Instant::now();
+        let result = self
+            .csv
+            .flush()
+            .and_then(|_| self.csv.get_ref().sync_data())
+            .map_err(|e| format!("steps.csv: {e}"))
+            .and_then(|_| serde_json::to_vec(&self.record()).map_err(|e| e.to_string()))
+            .and_then(|attachment| {
+                sim.save_with(
+                    &self.dir.join(CHECKPOINT_FILE),
+                    self.scene_hash,
+                    &attachment,
+                )
+                .map_err(|e| e.to_string())
+            });
+        if let Err(e) = result {
+            self.error = Some(e);
+        }
+        self.last_checkpoint = Instant::now();
+        self.pending_output += t.elapsed().as_secs_f64();
+    }
+
+    fn checkpoint_due(&self, sim: &Simulation) -> bool {
+        match self.checkpoint_every {
+            None => false,
+            // The last step needs none: the run is complete (summary.json says so).
+            _ if sim.steps_done() == sim.steps_total() => false,
+            Some(CheckpointEvery::Steps(n)) => sim.steps_done() % n == 0,
+            Some(CheckpointEvery::Seconds(s)) => self.last_checkpoint.elapsed().as_secs_f64() >= s,
+        }
+    }
+
+    fn say(&self, line: String) {
+        // A hidden bar (stderr not a terminal: logs, scripts, CI) drops `println`.
+        match self.bar.as_ref().filter(|b| !b.is_hidden()) {
+            Some(bar) => bar.println(line),
+            None => eprintln!("{line}"),
+        }
+    }
 }
 
 impl Observer for Writer {
     fn start(&mut self, sim: &Simulation) {
-        self.frame(sim);
+        if !self.resumed {
+            self.frame(sim);
+            if self.checkpoint_every.is_some() {
+                self.checkpoint(sim);
+            }
+        }
     }
 
-    fn step(&mut self, sim: &Simulation, r: &StepRecord) {
+    fn step(&mut self, sim: &Simulation, record: &StepRecord) {
+        self.steps_done
+            .store(sim.steps_done(), std::sync::atomic::Ordering::Relaxed);
+        let mut r = record.clone();
+        r.add_output(std::mem::take(&mut self.pending_output));
+        let t = Instant::now();
         if sim.steps_done() % self.every == 0 || sim.steps_done() == sim.steps_total() {
             self.frame(sim);
         }
+        r.add_output(t.elapsed().as_secs_f64());
+        self.totals.add(&r);
         let mut row = format!(
-            "{},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e},{:e},{:e},{:e},{:e},{}",
+            "{},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e},{:e},{:e},{:e},{:e},{},{:e},{:e},{:e},{:e}",
             r.step,
             r.time,
             r.energy.stretch,
@@ -233,9 +371,13 @@ impl Observer for Writer {
             r.assembly_s,
             r.factorization_s,
             r.solve_s,
-            r.load_factor
+            r.load_factor,
+            r.line_search_s,
+            r.growth_s,
+            r.output_s,
+            r.other_s
         );
-        row += &crate::sim::csv_extra_row(r);
+        row += &crate::sim::csv_extra_row(&r);
         row.push('\n');
         if let Err(e) = self
             .csv
@@ -244,17 +386,16 @@ impl Observer for Writer {
         {
             self.error.get_or_insert(format!("steps.csv: {e}"));
         }
+        self.csv_rows += 1;
+        if self.checkpoint_due(sim) {
+            self.checkpoint(sim);
+        }
         if r.stable == Some(false) {
-            let warning = format!(
+            self.say(format!(
                 "warning: step {}: the equilibrium is not a minimum (the exact Hessian is not \
                  positive definite: a saddle, unstable under perturbation)",
                 r.step
-            );
-            // A hidden bar (stderr not a terminal: logs, scripts, CI) drops `println`.
-            match self.bar.as_ref().filter(|b| !b.is_hidden()) {
-                Some(bar) => bar.println(warning),
-                None => eprintln!("{warning}"),
-            }
+            ));
         }
         if let Some(bar) = &self.bar {
             bar.set_position(sim.steps_done() as u64);
@@ -263,9 +404,7 @@ impl Observer for Writer {
     }
 }
 
-/// `thinshell run SCENE`: runs a scene, writing frames (OBJ and/or VTK), `steps.csv` and `summary.json`
-/// into `out` (default `out/<scene name>`). Ctrl-C (the `stop` flag) ends the run cleanly after
-/// the current step.
+/// `thinshell run SCENE` with default options (see [`run_with`]).
 pub fn run(
     scene: &Path,
     out: Option<&Path>,
@@ -273,49 +412,163 @@ pub fn run(
     quiet: bool,
     stop: &AtomicBool,
 ) -> Result<(), Failure> {
-    let (scene, mut sim) = load(scene, overrides)?;
+    let options = RunOptions {
+        quiet,
+        ..RunOptions::default()
+    };
+    run_with(scene, out, overrides, &options, stop)
+}
+
+/// `thinshell run SCENE`: runs a scene, writing frames (OBJ and/or VTK), `steps.csv`,
+/// `summary.json` and (with [`RunOptions::checkpoint_every`]) `checkpoint.bin` into `out`
+/// (default `out/<scene name>`). Ctrl-C (the `stop` flag) ends the run cleanly after the
+/// current step and writes a checkpoint there, so that `resume` continues from it.
+pub fn run_with(
+    scene_path: &Path,
+    out: Option<&Path>,
+    overrides: &[String],
+    options: &RunOptions,
+    stop: &AtomicBool,
+) -> Result<(), Failure> {
+    let (scene, sim) = load(scene_path, overrides)?;
+    if options.checkpoint_every.is_some() && sim.is_path_following() {
+        return Err(Failure::BadInput(format!(
+            "--checkpoint-every: {}",
+            crate::sim::CheckpointError::PathFollowing
+        )));
+    }
     let dir = out
         .map(Path::to_path_buf)
         .unwrap_or_else(|| Path::new("out").join(sim.name().replace([' ', '/', ','], "_")));
     let io = |e: std::io::Error, p: &Path| Failure::BadInput(format!("{}: {e}", p.display()));
     std::fs::create_dir_all(&dir).map_err(|e| io(e, &dir))?;
+    // A stale checkpoint of an earlier run in this directory must not be resumed later.
+    let stale = dir.join(CHECKPOINT_FILE);
+    if stale.exists() {
+        std::fs::remove_file(&stale).map_err(|e| io(e, &stale))?;
+    }
     let csv_path = dir.join("steps.csv");
     let mut csv =
         std::io::BufWriter::new(std::fs::File::create(&csv_path).map_err(|e| io(e, &csv_path))?);
-    let header = format!(
-        "step,time_s,stretch_J,bend_J,damping_J,kinetic_J,newton_iterations,backtracks,regularizations,residual,wall_s,assembly_s,factorization_s,solve_s,load_factor{}\n",
+    writeln!(
+        csv,
+        "{STEPS_CSV_HEADER}{}",
         crate::sim::csv_extra_header(&sim)
-    );
-    csv.write_all(header.as_bytes())
-        .map_err(|e| io(e, &csv_path))?;
-    let bar = (!quiet).then(|| {
+    )
+    .map_err(|e| io(e, &csv_path))?;
+    let scene_abs = std::fs::canonicalize(scene_path).map_err(|e| io(e, scene_path))?;
+    let record = RunRecord {
+        scene: scene_abs,
+        scene_origin: scene.origin.clone(),
+        overrides: overrides.to_vec(),
+        csv_rows: 0,
+        frames: 0,
+        last_frame: None,
+        pvd: Vec::new(),
+        totals: Totals::default(),
+        checkpoint_every: None,
+    };
+    drive(scene, sim, dir, csv, record, options, false, stop)
+}
+
+/// `thinshell resume OUT_DIR`: continues the run whose checkpoint is `OUT_DIR/checkpoint.bin`;
+/// its frames, `.pvd`, `steps.csv` and `summary.json` continue as if it had never stopped.
+/// Without `options.checkpoint_every` the run's own setting is kept.
+pub fn resume(dir: &Path, options: &RunOptions, stop: &AtomicBool) -> Result<(), Failure> {
+    let (scene, sim, csv, record) = crate::resume::reopen(dir)?;
+    let mut options = options.clone();
+    if options.checkpoint_every.is_none() {
+        options.checkpoint_every = record
+            .checkpoint_every
+            .as_deref()
+            .and_then(|c| c.parse().ok());
+    }
+    drive(
+        scene,
+        sim,
+        dir.to_path_buf(),
+        csv,
+        record,
+        &options,
+        true,
+        stop,
+    )
+}
+
+/// Runs a loaded (fresh or restored) simulation to its end and writes `summary.json`.
+#[allow(clippy::too_many_arguments)]
+fn drive(
+    scene: Scene,
+    mut sim: Simulation,
+    dir: PathBuf,
+    csv: std::io::BufWriter<std::fs::File>,
+    record: RunRecord,
+    options: &RunOptions,
+    resumed: bool,
+    stop: &AtomicBool,
+) -> Result<(), Failure> {
+    let io = |e: std::io::Error, p: &Path| Failure::BadInput(format!("{}: {e}", p.display()));
+    let bar = (!options.quiet).then(|| {
         let bar = ProgressBar::new(sim.steps_total() as u64);
         bar.set_style(
             ProgressStyle::with_template("{bar:40} {pos}/{len} steps  {per_sec}  {msg}")
                 .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
+        bar.set_position(sim.steps_done() as u64);
         bar
     });
+    let steps_done = Arc::new(AtomicUsize::new(sim.steps_done()));
+    sim.set_newton_progress(crate::resume::progress_hook(
+        bar.clone(),
+        options.verbose,
+        Arc::clone(&steps_done),
+    ));
+    let vtk = scene
+        .file
+        .output
+        .formats
+        .contains(&Format::Vtk)
+        .then(|| crate::vtk::Series::new(&dir, "frames"))
+        .map(|mut s| {
+            s.set_entries(
+                record
+                    .pvd
+                    .iter()
+                    .map(|(t, f)| (f64::from_bits(*t), f.clone()))
+                    .collect(),
+            );
+            s
+        });
     let mut writer = Writer {
         dir: dir.clone(),
         every: scene.file.output.every,
         obj: scene.file.output.formats.contains(&Format::Obj),
-        vtk: scene
-            .file
-            .output
-            .formats
-            .contains(&Format::Vtk)
-            .then(|| crate::vtk::Series::new(&dir, "frames")),
+        vtk,
         csv,
         bar,
         error: None,
-        frames: 0,
-        last_frame: None,
         densities: None,
+        frames: record.frames,
+        last_frame: record.last_frame,
+        csv_rows: record.csv_rows,
+        totals: record.totals,
+        checkpoint_every: options.checkpoint_every,
+        scene_hash: crate::sim::scene_hash(&scene),
+        scene_path: record.scene,
+        overrides: record.overrides,
+        last_checkpoint: Instant::now(),
+        pending_output: 0.0,
+        resumed,
+        steps_done,
+        scene_origin: record.scene_origin.clone(),
     };
     let result = sim.run(&mut writer, stop);
     if let Some(bar) = &writer.bar {
         bar.finish_and_clear();
+    }
+    if result.as_ref().is_ok_and(|s| s.interrupted) && !sim.is_path_following() {
+        // Ctrl-C: `resume` continues from exactly here, with or without --checkpoint-every.
+        writer.checkpoint(&sim);
     }
     let (status, failure) = match &result {
         Ok(s) if s.interrupted => ("interrupted", None),
@@ -327,32 +580,41 @@ pub fn run(
         writer.obj = true;
         writer.frame(&sim);
     }
+    let failed = result.as_ref().err();
+    let totals = &writer.totals;
     let summary = serde_json::json!({
-        "scene": scene.origin,
+        "scene": writer.scene_origin,
         "name": sim.name(),
         "status": status,
         "error": failure,
+        "failed_step": failed.map(|e| e.step),
+        "residual_history": failed.and_then(crate::resume::residual_history),
         "steps": sim.steps_done(),
         "steps_requested": sim.steps_total(),
         "time_s": sim.time(),
+        // Of the last good state (the start state when step 1 failed).
         "energy": Energies::from(sim.energy()),
         "frames": writer.frames,
-        "wall_s": result.as_ref().map(|s| s.wall_s).ok(),
-        "newton_iterations": result.as_ref().map(|s| s.newton_iterations).ok(),
+        "wall_s": totals.wall_s,
+        "newton_iterations": totals.newton_iterations,
         "load_factor": sim.load_factor(),
-        "gauss_newton_iterations": result.as_ref().map(|s| s.gauss_newton_iterations).ok(),
-        "stable": result.as_ref().ok().and_then(|s| s.stable),
-        "unstable_steps": result.as_ref().map(|s| s.unstable_steps.clone()).ok(),
+        "gauss_newton_iterations": totals.gauss_newton_iterations,
+        "stable": totals.stable,
+        "unstable_steps": totals.unstable_steps,
     });
     let summary_path = dir.join("summary.json");
     let text = serde_json::to_string_pretty(&summary)
         .map_err(|e| Failure::Simulation(format!("summary.json: {e}")))?;
-    std::fs::write(&summary_path, text).map_err(|e| io(e, &summary_path))?;
+    crate::atomic::write_atomic(&summary_path, text.as_bytes())
+        .map_err(|e| io(e, &summary_path))?;
     if let Some(e) = writer.error {
         return Err(Failure::Simulation(format!("writing output: {e}")));
     }
-    match (result, quiet) {
-        (Err(e), _) => Err(Failure::Simulation(e.to_string())),
+    match (result, options.quiet) {
+        (Err(e), _) => match crate::resume::memory_refusal(&e, &sim) {
+            Some(line) => Err(Failure::BadInput(line)),
+            None => Err(Failure::Simulation(e.to_string())),
+        },
         (Ok(s), false) => {
             let stability = match s.stable {
                 Some(true) => ", a stable equilibrium",

@@ -5,10 +5,12 @@
 //! and writes output. The CLI (`thinshell run | check | info`) and `cargo xtask` are thin layers
 //! over this library.
 
+pub mod atomic;
 pub mod cli;
 pub mod face_fields;
 pub mod mesh_info;
 pub mod reference;
+pub mod resume;
 pub mod scene;
 pub mod sim;
 pub mod view;

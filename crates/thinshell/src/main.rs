@@ -1,4 +1,4 @@
-//! The `thinshell` command-line tool: `run`, `check`, `view` and `info`.
+//! The `thinshell` command-line tool: `run`, `resume`, `check`, `view` and `info`.
 //!
 //! Exit codes: 0 success, 2 bad input (scene, mesh, arguments), 1 a simulation that failed (the
 //! last good state is written).
@@ -37,6 +37,27 @@ enum Command {
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
+        /// Print every Newton iteration (residual, step length, Hessian, time) to stderr.
+        #[arg(long)]
+        verbose: bool,
+        /// Write OUT/checkpoint.bin every N steps (`100`) or seconds (`30s`), for `resume`.
+        #[arg(long, value_name = "N|Ns")]
+        checkpoint_every: Option<cli::CheckpointEvery>,
+    },
+    /// Continue an interrupted run from OUT_DIR/checkpoint.bin (frames, steps.csv and
+    /// summary.json continue as if it had never stopped).
+    Resume {
+        /// The run's output directory.
+        out_dir: PathBuf,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+        /// Print every Newton iteration to stderr.
+        #[arg(long)]
+        verbose: bool,
+        /// Checkpoint interval (default: the interrupted run's).
+        #[arg(long, value_name = "N|Ns")]
+        checkpoint_every: Option<cli::CheckpointEvery>,
     },
     /// Validate a scene and print what would be simulated, without running it.
     Check {
@@ -67,6 +88,18 @@ enum Command {
     },
 }
 
+/// A flag set by Ctrl-C; a second Ctrl-C while stopping exits at once (130).
+fn stop_flag() -> Arc<AtomicBool> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let _ = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    });
+    stop
+}
+
 fn main() -> ExitCode {
     let args = match Args::try_parse() {
         Ok(a) => a,
@@ -83,16 +116,28 @@ fn main() -> ExitCode {
             out,
             set,
             quiet,
+            verbose,
+            checkpoint_every,
         } => {
-            let stop = Arc::new(AtomicBool::new(false));
-            let flag = Arc::clone(&stop);
-            // A second Ctrl-C while stopping falls through to the default handler (kill).
-            let _ = ctrlc::set_handler(move || {
-                if flag.swap(true, Ordering::SeqCst) {
-                    std::process::exit(130);
-                }
-            });
-            cli::run(&scene, out.as_deref(), &set, quiet, &stop)
+            let options = cli::RunOptions {
+                quiet,
+                verbose,
+                checkpoint_every,
+            };
+            cli::run_with(&scene, out.as_deref(), &set, &options, &stop_flag())
+        }
+        Command::Resume {
+            out_dir,
+            quiet,
+            verbose,
+            checkpoint_every,
+        } => {
+            let options = cli::RunOptions {
+                quiet,
+                verbose,
+                checkpoint_every,
+            };
+            cli::resume(&out_dir, &options, &stop_flag())
         }
         Command::Check { scene, set } => cli::check(&scene, &set),
         Command::Info { mesh } => cli::info(&mesh),

@@ -150,11 +150,7 @@ fn write_atomic(path: &Path, text: &str) -> Result<(), VtkError> {
         path: path.to_path_buf(),
         source,
     };
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    std::fs::write(&tmp, text).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
+    crate::atomic::write_atomic(path, text.as_bytes()).map_err(io)
 }
 
 /// A time series of `.vtu` frames in one directory with its `.pvd` index.
@@ -199,6 +195,11 @@ impl Series {
         }
         pvd.push_str("</Collection>\n</VTKFile>\n");
         write_atomic(&self.index, &pvd)
+    }
+
+    /// Replaces the list of frames (a resumed run continues the index of the interrupted one).
+    pub fn set_entries(&mut self, entries: Vec<(f64, String)>) {
+        self.entries = entries;
     }
 
     /// Frames written so far (time, file).

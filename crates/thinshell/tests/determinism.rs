@@ -113,16 +113,18 @@ fn bin_run(scene: &Path, out: &Path, threads: &str) {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
-/// `steps.csv` without the timing columns (`wall_s` and the three after it).
+/// `steps.csv` without the timing columns (`thinshell::cli::STEPS_CSV_TIMING_COLUMNS`).
 fn csv_without_timings(path: &Path) -> Vec<String> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let timing: Vec<bool> = header
-        .iter()
-        .map(|h| ["wall_s", "assembly_s", "factorization_s", "solve_s"].contains(h))
-        .collect();
-    assert_eq!(timing.iter().filter(|&&t| t).count(), 4, "{header:?}");
+    let columns = thinshell::cli::STEPS_CSV_TIMING_COLUMNS;
+    let timing: Vec<bool> = header.iter().map(|h| columns.contains(h)).collect();
+    assert_eq!(
+        timing.iter().filter(|&&t| t).count(),
+        columns.len(),
+        "{header:?}"
+    );
     text.lines()
         .map(|l| {
             l.split(',')

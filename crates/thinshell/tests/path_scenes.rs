@@ -97,10 +97,11 @@ fn a_path_scene_without_optional_keys_runs_through_the_cli() {
     std::fs::write(&p, MINIMAL).unwrap();
     let (header, rows) = run(&p, "minimal", &[]);
     assert_eq!(rows.len(), 4);
-    // The existing columns keep their place; path following adds its own after them.
-    assert_eq!(header[14], "load_factor");
+    // The columns of every run keep their place; path following adds its own after them.
+    let common: Vec<&str> = thinshell::cli::STEPS_CSV_HEADER.split(',').collect();
+    assert_eq!(header[..common.len()], common[..]);
     assert_eq!(
-        header[15..],
+        header[common.len()..],
         [
             "stable",
             "negative_eigenvalues",
@@ -267,4 +268,34 @@ fn bad_path_keys_are_clear_errors() {
             assert!(e.starts_with(&format!("bad.toml:{line}:")), "{e}");
         }
     }
+}
+
+/// A path-following run cannot be checkpointed (the tracer's state is not in the format): the
+/// CLI refuses `--checkpoint-every` up front with exit 2, and the library refuses to save.
+#[test]
+fn path_runs_refuse_checkpoints_clearly() {
+    let out_dir = temp_dir("path-scene-checkpoint").join("out");
+    let out = bin()
+        .args(["run", "--quiet", "--checkpoint-every", "2", "--out"])
+        .arg(&out_dir)
+        .arg(arch_scene())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("--checkpoint-every") && stderr.contains("[path]"),
+        "{stderr}"
+    );
+    let scene = Scene::load(&arch_scene()).unwrap();
+    let sim = Simulation::build(&scene).unwrap();
+    let file = temp_dir("path-scene-checkpoint-lib").join("checkpoint.bin");
+    let err = sim
+        .save(&file, thinshell::sim::scene_hash(&scene))
+        .unwrap_err();
+    assert!(matches!(
+        err,
+        thinshell::sim::CheckpointError::PathFollowing
+    ));
+    assert!(!file.exists());
 }

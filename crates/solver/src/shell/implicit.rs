@@ -99,6 +99,18 @@ impl ImplicitEuler {
 }
 
 impl Integrator for ImplicitEuler {
+    fn set_progress(&mut self, hook: Option<crate::ProgressHook>) {
+        self.cache.set_progress(hook);
+    }
+
+    fn carried_state(&self) -> f64 {
+        self.cache.regularization_memory()
+    }
+
+    fn restore_carried_state(&mut self, mu: f64) {
+        self.cache.set_regularization_memory(mu);
+    }
+
     fn kind(&self) -> StepKind {
         StepKind::Implicit
     }

@@ -9,7 +9,7 @@ use thinshell_energy::{EnergyTerms, HessianMode};
 
 use super::objective::ShellObjective;
 use super::system::{ShellSystem, State};
-use crate::{NewtonReport, NewtonSettings, NewtonWorkspace, Objective, SolverError};
+use crate::{NewtonReport, NewtonSettings, NewtonWorkspace, Objective, ProgressHook, SolverError};
 
 /// What one step did.
 #[derive(Clone, Debug, PartialEq)]
@@ -63,6 +63,20 @@ pub trait Integrator {
         system: &mut ShellSystem,
         state: &mut State,
     ) -> Result<StepReport, SolverError>;
+
+    /// Sets (or clears) the observer of Newton iterations; integrators without a Newton solve
+    /// ignore it.
+    fn set_progress(&mut self, _hook: Option<ProgressHook>) {}
+
+    /// State the integrator carries from one step to the next that changes later results (a
+    /// checkpoint saves it): the remembered regularisation shift of its Newton solves; 0 for
+    /// integrators without one.
+    fn carried_state(&self) -> f64 {
+        0.0
+    }
+
+    /// Restores what [`Integrator::carried_state`] returned.
+    fn restore_carried_state(&mut self, _mu: f64) {}
 }
 
 pub(crate) fn check_dt(dt: f64) -> Result<(), SolverError> {
@@ -108,13 +122,54 @@ pub(crate) fn check_state(system: &ShellSystem, state: &mut State) -> Result<(),
 /// rebuilt when anything it was built from changed: the number of unknowns, the Hessian
 /// pattern (another system), [`NewtonSettings::ordering`] or
 /// [`NewtonSettings::parallel`]. [`Default`] is empty (built at the first solve).
-#[derive(Debug, Default)]
-pub struct NewtonCache(Option<NewtonWorkspace>);
+#[derive(Default)]
+pub struct NewtonCache {
+    ws: Option<NewtonWorkspace>,
+    /// Handed to every workspace built.
+    progress: Option<ProgressHook>,
+    /// A restored regularisation memory waiting for the workspace of the next solve.
+    pending_mu: Option<f64>,
+}
+
+impl std::fmt::Debug for NewtonCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NewtonCache")
+            .field("ws", &self.ws)
+            .field("progress", &self.progress.is_some())
+            .field("pending_mu", &self.pending_mu)
+            .finish()
+    }
+}
 
 impl NewtonCache {
     /// The workspace of the last solve, `None` before the first.
     pub fn get(&self) -> Option<&NewtonWorkspace> {
-        self.0.as_ref()
+        self.ws.as_ref()
+    }
+
+    /// Sets (or clears) the observer of Newton iterations, for this and future workspaces.
+    pub fn set_progress(&mut self, hook: Option<ProgressHook>) {
+        if let Some(ws) = &mut self.ws {
+            ws.set_progress(hook.clone());
+        }
+        self.progress = hook;
+    }
+
+    /// The regularisation memory the next solve starts from (0 before the first solve).
+    pub fn regularization_memory(&self) -> f64 {
+        match (&self.ws, self.pending_mu) {
+            (_, Some(mu)) => mu,
+            (Some(ws), None) => ws.regularization_memory(),
+            (None, None) => 0.0,
+        }
+    }
+
+    /// Sets the regularisation memory of the next solve (a restored checkpoint).
+    pub fn set_regularization_memory(&mut self, mu: f64) {
+        match &mut self.ws {
+            Some(ws) => ws.set_regularization_memory(mu),
+            None => self.pending_mu = Some(mu),
+        }
     }
 
     /// The workspace for `objective` and `settings`, rebuilt if it does not fit them.
@@ -123,16 +178,23 @@ impl NewtonCache {
         objective: &ShellObjective<'_>,
         settings: &NewtonSettings,
     ) -> Result<&mut NewtonWorkspace, SolverError> {
-        if self.0.as_ref().is_some_and(|ws| {
+        if self.ws.as_ref().is_some_and(|ws| {
             ws.n_dofs() != objective.n_dofs()
                 || !objective.sys.assembler.has_pattern(ws.hessian())
                 || !ws.matches(settings)
         }) {
-            self.0 = None;
+            self.ws = None;
         }
-        match &mut self.0 {
+        match &mut self.ws {
             Some(ws) => Ok(ws),
-            slot => Ok(slot.insert(NewtonWorkspace::new(objective, settings)?)),
+            slot => {
+                let mut ws = NewtonWorkspace::new(objective, settings)?;
+                ws.set_progress(self.progress.clone());
+                if let Some(mu) = self.pending_mu.take() {
+                    ws.set_regularization_memory(mu);
+                }
+                Ok(slot.insert(ws))
+            }
         }
     }
 }

@@ -14,6 +14,7 @@
 //! ```
 
 mod build;
+mod checkpoint;
 mod path;
 mod rest_edit;
 
@@ -28,6 +29,9 @@ use thinshell_mesh::Mesh;
 use thinshell_solver::{Integrator, IterationHessian, ShellSystem, SolverError, State, StepKind};
 
 pub use build::BuildError;
+pub use checkpoint::{
+    CHECKPOINT_VERSION, CheckpointError, CheckpointInfo, read_checkpoint_info, scene_hash,
+};
 pub use path::{Monitor, PathRecord, csv_extra_header, csv_extra_row};
 pub use rest_edit::RestEditError;
 
@@ -97,6 +101,24 @@ pub struct StepRecord {
     pub factorization_s: f64,
     /// Of which: triangular solves, s.
     pub solve_s: f64,
+    /// Of which: energy-only evaluations of the line search (backtracked trials), s.
+    pub line_search_s: f64,
+    /// Of which: growth updates (rest forms, masses, stimulus step), s.
+    pub growth_s: f64,
+    /// Of which: writing output (frames, checkpoints), s; filled in by the writer
+    /// ([`StepRecord::add_output`]), 0 from [`Simulation::step`].
+    pub output_s: f64,
+    /// Of which: everything else (set-up, stability check, energies, vector work), s: the
+    /// remainder, so that the parts sum to `wall_s`.
+    pub other_s: f64,
+}
+
+impl StepRecord {
+    /// Adds `seconds` of output writing to the step's wall time.
+    pub fn add_output(&mut self, seconds: f64) {
+        self.output_s += seconds;
+        self.wall_s += seconds;
+    }
 }
 
 /// Receives progress; every method has a default that does nothing.
@@ -297,6 +319,12 @@ impl Simulation {
     fn prescribed_time(&self, lambda: f64) -> f64 {
         lambda * self.steps_total as f64 * self.dt
     }
+    /// Sets (or clears) the observer called after every accepted Newton iteration of the
+    /// following steps (progress inside a long solve); explicit steps never call it.
+    pub fn set_newton_progress(&mut self, hook: Option<thinshell_solver::ProgressHook>) {
+        self.integrator.set_progress(hook);
+    }
+
     /// The growth coupling, when the scene has the `growth` effect.
     pub fn growth(&self) -> Option<&Growth> {
         self.growth.as_ref()
@@ -372,6 +400,8 @@ impl Simulation {
         let time = self.state.t;
         let fail = |source: StepFailure| StepError { step, time, source };
         let mut previous_rest = None;
+        let mut growth_time = Duration::ZERO;
+        let growth_start = Instant::now();
         if let Some(g) = &mut self.growth {
             let before = self.system.rest.clone();
             if g.update_rest(&mut self.system.rest)
@@ -386,6 +416,7 @@ impl Simulation {
                 self.system.set_mass(mass).map_err(|e| fail(e.into()))?;
             }
         }
+        growth_time += growth_start.elapsed();
         let static_solve = self.integrator.is_static();
         let lambda_prev = self.load_factor;
         let lambda = self.load_factor_of_step(step);
@@ -422,7 +453,9 @@ impl Simulation {
         };
         self.load_factor = lambda;
         if let Some(g) = &mut self.growth {
+            let t = Instant::now();
             g.advance(time, self.dt).map_err(|e| fail(e.into()))?;
+            growth_time += t.elapsed();
         }
         if static_solve {
             // Quasi-static: the pseudo-time advances by one step per solve.
@@ -451,9 +484,17 @@ impl Simulation {
             record.assembly_s = secs(n.timings.assembly);
             record.factorization_s = secs(n.timings.factorization);
             record.solve_s = secs(n.timings.solve);
+            record.line_search_s = secs(n.timings.line_search);
         }
+        record.growth_s = secs(growth_time);
         record.stable = report.stable;
         record.wall_s = secs(start.elapsed());
+        record.other_s = record.wall_s
+            - (record.assembly_s
+                + record.factorization_s
+                + record.solve_s
+                + record.line_search_s
+                + record.growth_s);
         Ok(record)
     }
 }
@@ -462,7 +503,7 @@ impl Simulation {
     /// Quasi-static continuation of one step: the rest forms move from `previous` (if given) to
     /// the current ones and the load factor from `from` to `to` (prescribed motion with it), in
     /// sub-steps that halve on failure; returns the report of the last sub-step with the Newton
-    /// iterations of all sub-steps.
+    /// iterations, backtracks and timings of all successful sub-steps.
     fn continuation(
         &mut self,
         previous: Option<&thinshell_energy::RestState>,
@@ -470,8 +511,14 @@ impl Simulation {
         to: f64,
     ) -> Result<thinshell_solver::StepReport, SolverError> {
         let target = previous.map(|_| self.system.rest.clone());
+        // A failed step leaves the state of the last good step, not a partial sub-step: the
+        // failure path writes this state as the last good frame (before this, a failure in
+        // step 1 overwrote frame 0 with a half-continued shape).
+        let start = self.state.clone();
         let (mut done, mut step) = (0.0f64, 0.5f64);
         let mut iterations = 0;
+        let mut backtracks = 0;
+        let mut timings = thinshell_solver::NewtonTimings::default();
         loop {
             let s = (done + step).min(1.0);
             if let (Some(previous), Some(target)) = (previous, &target) {
@@ -489,8 +536,17 @@ impl Simulation {
                     done = s;
                     if let Some(n) = report.newton.as_mut() {
                         iterations += n.iterations;
+                        // Every successful sub-step's time counts in the step's timings.
+                        timings.assembly += n.timings.assembly;
+                        timings.factorization += n.timings.factorization;
+                        timings.solve += n.timings.solve;
+                        timings.line_search += n.timings.line_search;
+                        timings.line_search_evaluations += n.timings.line_search_evaluations;
+                        backtracks += n.backtracks;
                         if done >= 1.0 {
                             n.iterations = iterations;
+                            n.timings = timings;
+                            n.backtracks = backtracks;
                             return Ok(report);
                         }
                     } else if done >= 1.0 {
@@ -502,6 +558,7 @@ impl Simulation {
                         if let Some(target) = target {
                             self.system.rest = target;
                         }
+                        self.state = start;
                         return Err(e);
                     }
                     step /= 2.0;
