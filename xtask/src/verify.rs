@@ -22,7 +22,8 @@ mod nonlinear;
 mod report;
 mod solve;
 
-pub use report::mask_timings;
+#[cfg(test)]
+use report::mask_timings;
 
 /// Where the suite writes and what it runs.
 pub struct Options {
@@ -202,7 +203,11 @@ pub fn run(opts: &Options) -> Result<()> {
     let t0 = Instant::now();
     let mut results = Vec::new();
     for spec in specs() {
-        if !opts.only.as_ref().is_none_or(|o| spec.name.contains(o.as_str())) {
+        if !opts
+            .only
+            .as_ref()
+            .is_none_or(|o| spec.name.contains(o.as_str()))
+        {
             continue;
         }
         let levels = if opts.quick { 1 } else { spec.levels };

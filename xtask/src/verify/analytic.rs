@@ -153,7 +153,13 @@ fn helix(sff: SffKind, level: usize) -> Result<Outcome> {
     let turned: Vec<V3> = mesh
         .positions()
         .iter()
-        .map(|p| V3::new(p.x * phi.cos() + p.y * phi.sin(), -p.x * phi.sin() + p.y * phi.cos(), 0.0))
+        .map(|p| {
+            V3::new(
+                p.x * phi.cos() + p.y * phi.sin(),
+                -p.x * phi.sin() + p.y * phi.cos(),
+                0.0,
+            )
+        })
         .collect();
     let exact = wrap_cylinder(&turned, 1.0 / kappa, 1.5);
     let start = wrap_cylinder(&turned, 1.5 / kappa, 1.5);
@@ -193,7 +199,11 @@ fn cap(sff: SffKind, level: usize) -> Result<Outcome> {
         .iter()
         .map(|p| {
             let r = (p.x * p.x + p.y * p.y).sqrt();
-            let s = if r > 0.0 { (sk * r).sin() / (sk * r) } else { 1.0 };
+            let s = if r > 0.0 {
+                (sk * r).sin() / (sk * r)
+            } else {
+                1.0
+            };
             V3::new(p.x * s, p.y * s, (1.0 - (sk * r).cos()) / sk)
         })
         .collect();

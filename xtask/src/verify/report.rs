@@ -18,7 +18,8 @@ const WALL: &str = "| wall (s) |";
 
 /// The report with its timings masked: the runtime line and the last cell of every table
 /// whose header ends in `wall (s)`. Two runs of the suite give the same masked text.
-pub fn mask_timings(md: &str) -> String {
+#[cfg(test)]
+pub(super) fn mask_timings(md: &str) -> String {
     let mut out = String::new();
     let mut timed = false;
     for line in md.lines() {
@@ -29,7 +30,9 @@ pub fn mask_timings(md: &str) -> String {
                 timed = true;
             }
             let cut = if timed {
-                line.trim_end_matches('|').rfind('|').map_or(line, |i| &line[..i])
+                line.trim_end_matches('|')
+                    .rfind('|')
+                    .map_or(line, |i| &line[..i])
             } else {
                 line
             };
@@ -97,7 +100,12 @@ fn plot(c: &CaseResult, dir: &Path) -> Result<String> {
             {
                 for curve in &run.outcome.curves {
                     series.push(Series {
-                        name: format!("{} ({} faces): {}", sff.name(), run.outcome.faces, curve.name),
+                        name: format!(
+                            "{} ({} faces): {}",
+                            sff.name(),
+                            run.outcome.faces,
+                            curve.name
+                        ),
                         points: curve.points.clone(),
                         mark: Mark::Line,
                     });
@@ -140,7 +148,13 @@ fn plot(c: &CaseResult, dir: &Path) -> Result<String> {
 
 fn case_markdown(md: &mut String, c: &CaseResult, plot: &str) {
     let s = c.spec;
-    let _ = writeln!(md, "### {}\n\n{}\n\nVerdict: {}\n", s.name, s.description, c.verdict());
+    let _ = writeln!(
+        md,
+        "### {}\n\n{}\n\nVerdict: {}\n",
+        s.name,
+        s.description,
+        c.verdict()
+    );
     let _ = writeln!(
         md,
         "| form | mesh | faces | worst quantity | measured | reference | error | order | converged {WALL}"
@@ -151,16 +165,13 @@ fn case_markdown(md: &mut String, c: &CaseResult, plot: &str) {
         let runs: Vec<&Run> = c.runs.iter().filter(|r| r.form == sff.name()).collect();
         for (r, order) in runs.iter().zip(orders(&runs)) {
             let o = &r.outcome;
-            let worst = o
-                .quantities
-                .iter()
-                .max_by(|a, b| {
-                    let e = |q: &super::Quantity| {
-                        let e = (q.measured - q.reference).abs() / q.scale;
-                        if e.is_finite() { e } else { f64::INFINITY }
-                    };
-                    e(a).total_cmp(&e(b))
-                });
+            let worst = o.quantities.iter().max_by(|a, b| {
+                let e = |q: &super::Quantity| {
+                    let e = (q.measured - q.reference).abs() / q.scale;
+                    if e.is_finite() { e } else { f64::INFINITY }
+                };
+                e(a).total_cmp(&e(b))
+            });
             let (label, m, rf) = worst.map_or(("—".to_string(), f64::NAN, f64::NAN), |q| {
                 (q.label.clone(), q.measured, q.reference)
             });
@@ -198,7 +209,10 @@ fn case_markdown(md: &mut String, c: &CaseResult, plot: &str) {
         })
         .collect();
     if finest.iter().any(|r| r.outcome.quantities.len() > 1) {
-        let _ = write!(md, "\nFinest mesh per form, every compared value:\n\n| quantity | reference |");
+        let _ = write!(
+            md,
+            "\nFinest mesh per form, every compared value:\n\n| quantity | reference |"
+        );
         for r in &finest {
             let _ = write!(md, " {} ({} faces) |", r.form, r.outcome.faces);
         }
@@ -234,7 +248,11 @@ fn markdown(results: &[CaseResult], quick: bool, total_s: f64, plots: &[String])
     let _ = writeln!(
         md,
         "{RUNTIME} {total_s:.0} s on {nproc} cores ({cpu}){}.\n",
-        if quick { ", quick run (coarsest level only)" } else { "" }
+        if quick {
+            ", quick run (coarsest level only)"
+        } else {
+            ""
+        }
     );
     md.push_str(
         "How to read the tables: *error* is relative (|measured − reference| / reference for a \

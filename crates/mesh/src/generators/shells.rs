@@ -153,7 +153,11 @@ mod tests {
         assert_eq!(m.n_faces(), 2 * 4 * 16);
         assert_eq!(m.euler_characteristic(), 0);
         let polar = |p: &Vector3<f64>| (p.z / p.norm()).acos();
-        let min = m.positions().iter().map(polar).fold(f64::INFINITY, f64::min);
+        let min = m
+            .positions()
+            .iter()
+            .map(polar)
+            .fold(f64::INFINITY, f64::min);
         let max = m.positions().iter().map(polar).fold(0.0, f64::max);
         assert!((min - hole).abs() < 1e-12 && (max - FRAC_PI_2).abs() < 1e-12);
         for f in m.faces() {
