@@ -33,7 +33,7 @@ pub struct Options {
     pub docs_dir: PathBuf,
     /// The JSON file with every run.
     pub json_path: PathBuf,
-    /// Only the cases whose name contains this text.
+    /// Only the cases whose name or group contains this text.
     pub only: Option<String>,
 }
 
@@ -256,52 +256,67 @@ mod tests {
 
     use super::*;
 
-    /// The quick suite runs twice into temporary directories: every case is there with every
-    /// form, the analytic cases meet their quick tolerances, and the two reports are the same
-    /// text once the timing columns are masked.
+    /// The quick suite runs into a temporary directory: every case is there with every form
+    /// and the analytic cases meet their quick tolerances. The analytic group then runs twice
+    /// more and the two reports are the same text once the timings are masked (the whole quick
+    /// suite twice would make the test too heavy for the default test run).
     #[test]
     fn quick_suite_covers_every_case_and_regenerates() -> Result<()> {
         let base = std::env::temp_dir().join(format!("thinshell-verify-{}", std::process::id()));
-        let mut reports = Vec::new();
-        for k in 0..2 {
-            let dir = base.join(format!("run{k}"));
-            let opts = Options {
-                quick: true,
-                docs_dir: dir.join("docs"),
-                json_path: dir.join("verify.json"),
-                only: None,
-            };
-            run(&opts)?;
-            reports.push(std::fs::read_to_string(
-                opts.docs_dir.join("verification.md"),
-            )?);
-            if k == 0 {
-                let doc: Value = serde_json::from_str(&std::fs::read_to_string(&opts.json_path)?)?;
-                let cases = doc["cases"].as_array().ok_or_else(|| anyhow!("no cases"))?;
-                for spec in specs() {
-                    let c = cases
-                        .iter()
-                        .find(|c| c["name"] == spec.name)
-                        .ok_or_else(|| anyhow!("missing case {}", spec.name))?;
-                    let runs = c["runs"].as_array().ok_or_else(|| anyhow!("no runs"))?;
-                    assert_eq!(runs.len(), SffKind::ALL.len(), "{}", spec.name);
-                    if spec.group == analytic::GROUP {
-                        for r in runs {
-                            let e = r["error"].as_f64().unwrap_or(f64::INFINITY);
-                            assert!(
-                                e <= spec.quick_tolerance,
-                                "{} ({}): error {e} > {}",
-                                spec.name,
-                                r["form"],
-                                spec.quick_tolerance
-                            );
-                        }
-                    }
+        let opts = |k: usize, only: Option<&str>| Options {
+            quick: true,
+            docs_dir: base.join(format!("run{k}")).join("docs"),
+            json_path: base.join(format!("run{k}")).join("verify.json"),
+            only: only.map(str::to_string),
+        };
+        let all = opts(0, None);
+        run(&all)?;
+        let doc: Value = serde_json::from_str(&std::fs::read_to_string(&all.json_path)?)?;
+        let cases = doc["cases"].as_array().ok_or_else(|| anyhow!("no cases"))?;
+        for spec in specs() {
+            let c = cases
+                .iter()
+                .find(|c| c["name"] == spec.name)
+                .ok_or_else(|| anyhow!("missing case {}", spec.name))?;
+            let runs = c["runs"].as_array().ok_or_else(|| anyhow!("no runs"))?;
+            assert_eq!(runs.len(), SffKind::ALL.len(), "{}", spec.name);
+            for r in runs {
+                let w = r["wall_s"].as_f64().unwrap_or(f64::NAN);
+                assert!(w.is_finite() && w >= 0.0, "{}: wall {w}", spec.name);
+                if spec.group == analytic::GROUP {
+                    let e = r["error"].as_f64().unwrap_or(f64::INFINITY);
+                    assert!(
+                        e <= spec.quick_tolerance,
+                        "{} ({}): error {e} > {}",
+                        spec.name,
+                        r["form"],
+                        spec.quick_tolerance
+                    );
                 }
             }
         }
+        assert!(all.docs_dir.join("verification.md").is_file());
+        let mut reports = Vec::new();
+        for k in 1..3 {
+            let o = opts(k, Some(analytic::GROUP));
+            run(&o)?;
+            reports.push(std::fs::read_to_string(o.docs_dir.join("verification.md"))?);
+        }
+        assert!(reports[0].contains("| wall (s) |"));
         assert_eq!(mask_timings(&reports[0]), mask_timings(&reports[1]));
         std::fs::remove_dir_all(&base)?;
         Ok(())
+    }
+
+    /// Masking removes exactly the runtime line and the timing column.
+    #[test]
+    fn masking_keeps_everything_but_timings() {
+        let a = "x\nMeasured runtime: 12 s\n| a | wall (s) |\n|---|---:|\n| 1 | 0.50 |\n\n| b | c |\n| 2 | 3 |\n";
+        let b = a.replace("12 s", "13 s").replace("0.50", "0.61");
+        assert_eq!(mask_timings(a), mask_timings(&b));
+        let c = a.replace("| 2 | 3 |", "| 2 | 4 |");
+        assert_ne!(mask_timings(a), mask_timings(&c));
+        let d = a.replace("| 1 | 0.50 |", "| 9 | 0.50 |");
+        assert_ne!(mask_timings(a), mask_timings(&d));
     }
 }

@@ -23,11 +23,11 @@ pub(crate) static SPECS: [Spec; 3] = [
             the pressures p(λ) of the closed form p(λ) = E h/((1−ν) R₀)·[(λ²−1)/λ + \
             (h²/(6R₀²))(λ−1)/λ²] for λ = 1.05, 1.1, 1.2, 1.5. Measured λ = mean distance of the \
             vertices from their centroid / R₀. Error = |λ_measured − λ| / (λ − 1) (relative to the \
-            stretch), largest over the four pressures. Meshes: icosphere levels 2, 3 (level 4 \
+            stretch), largest over the four pressures. Meshes: icosphere levels 1, 2, 3 (level 4 \
             takes minutes with the edge-director forms; the mid-edge average gives 0.11 % there).",
         tolerance: 0.01,
-        quick_tolerance: 0.02,
-        levels: 2,
+        quick_tolerance: 0.1,
+        levels: 3,
         reference_curves: inflation_reference,
         run: inflation,
     },
@@ -87,7 +87,7 @@ fn inflation_reference() -> Vec<Curve> {
 
 fn inflation(sff: SffKind, level: usize) -> Result<Outcome> {
     let (r0, h, e, nu) = INFLATION;
-    let mesh = generators::icosphere(r0, level + 2)?;
+    let mesh = generators::icosphere(r0, level + 1)?;
     let faces = mesh.n_faces();
     let pmax = pressure(STRETCHES[3]);
     let loads = Loads {
@@ -122,7 +122,7 @@ fn inflation(sff: SffKind, level: usize) -> Result<Outcome> {
         })
         .collect();
     Ok(Outcome {
-        mesh: format!("icosphere level {}", level + 2),
+        mesh: format!("icosphere level {}", level + 1),
         faces,
         quantities,
         converged: stopped.is_none(),
