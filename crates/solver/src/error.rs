@@ -123,6 +123,28 @@ pub enum SolverError {
         /// The last accepted iterate (the best one found when line search is on).
         last_good: Vec<f64>,
     },
+    /// A path-following step ([`PathTracer`](crate::PathTracer)) failed after all its
+    /// cut-backs; the tracer's point is unchanged.
+    #[error(
+        "path step {step} from load factor {load_factor:e} failed after {cutbacks} cut-backs \
+         (last step size {step_length:e}): {reason}"
+    )]
+    PathFailed {
+        /// The step that failed (1-based).
+        step: usize,
+        /// Load factor of the last converged point (the start of the step).
+        load_factor: f64,
+        /// Step size of the last attempt (arc length, or the controlled dof's increment).
+        step_length: f64,
+        /// Halvings tried.
+        cutbacks: usize,
+        /// Why the last attempt failed.
+        reason: String,
+        /// Relative residual ‖R‖∞ / force scale of every iterate of the last attempt.
+        residuals: Vec<f64>,
+        /// The last converged point (the start of the step).
+        last_good: Vec<f64>,
+    },
     /// faer reported a failure other than a non-positive pivot (out of memory, index overflow).
     #[error("sparse linear algebra failed: {0}")]
     Linear(String),
@@ -255,6 +277,26 @@ impl PartialEq for SolverError {
                     last_good: z,
                 },
             ) => a == w && b == x && c == y && d == z,
+            (
+                PathFailed {
+                    step: a,
+                    load_factor: b,
+                    step_length: c,
+                    cutbacks: d,
+                    reason: e,
+                    residuals: f,
+                    last_good: g,
+                },
+                PathFailed {
+                    step: a2,
+                    load_factor: b2,
+                    step_length: c2,
+                    cutbacks: d2,
+                    reason: e2,
+                    residuals: f2,
+                    last_good: g2,
+                },
+            ) => a == a2 && b == b2 && c == c2 && d == d2 && e == e2 && f == f2 && g == g2,
             (Linear(a), Linear(x)) => a == x,
             (Energy(a), Energy(x)) => a.to_string() == x.to_string(),
             (Objective(a), Objective(x)) => a.to_string() == x.to_string(),
@@ -362,6 +404,24 @@ impl std::fmt::Debug for SolverError {
                 .debug_struct("NewtonDidNotConverge")
                 .field("iterations", iterations)
                 .field("tolerance", tolerance)
+                .field("residuals", &Summary(residuals))
+                .field("last_good", &Summary(last_good))
+                .finish(),
+            PathFailed {
+                step,
+                load_factor,
+                step_length,
+                cutbacks,
+                reason,
+                residuals,
+                last_good,
+            } => f
+                .debug_struct("PathFailed")
+                .field("step", step)
+                .field("load_factor", load_factor)
+                .field("step_length", step_length)
+                .field("cutbacks", cutbacks)
+                .field("reason", reason)
                 .field("residuals", &Summary(residuals))
                 .field("last_good", &Summary(last_good))
                 .finish(),

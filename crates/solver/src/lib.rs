@@ -11,6 +11,10 @@
 //! - [`linear::SparseCholesky`]: faer's supernodal LLᵀ with the symbolic analysis done once per
 //!   pattern and all memory reused;
 //! - [`ordering`]: AMD or a geometric nested dissection ([`Ordering`]);
+//! - [`path`]: path following past limit points and snap-backs — arc-length continuation
+//!   (Riks/Crisfield) and displacement control ([`PathTracer`] on any [`LoadedObjective`];
+//!   [`ShellPath`] on a shell), with the stability of every point from the inertia of the
+//!   tangent ([`ldlt::SparseLdlt`]);
 //! - [`shell`]: a [`ShellSystem`] (mesh, [`ShellModel`](thinshell_energy::ShellModel), rest
 //!   state, [`Boundary`], [`Loads`]) advanced by an [`Integrator`]: [`ImplicitEuler`]
 //!   (incremental potential, model.md §3), [`ExplicitEuler`] (symplectic) or [`Static`];
@@ -103,10 +107,12 @@ pub use faer;
 pub use nalgebra;
 
 pub mod error;
+pub mod ldlt;
 pub mod linear;
 pub mod newton;
 pub mod objective;
 pub mod ordering;
+pub mod path;
 pub mod shell;
 
 pub use error::SolverError;
@@ -117,6 +123,7 @@ pub use newton::{
 };
 pub use objective::Objective;
 pub use ordering::Ordering;
+pub use path::{LoadedObjective, PathControl, PathPoint, PathSettings, PathTracer};
 /// The README's example, compiled and run as a doctest so that it cannot go stale.
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]
@@ -124,5 +131,5 @@ pub struct ReadmeDoctests;
 
 pub use shell::{
     AngleReport, AngleSettings, Boundary, ExplicitEuler, ImplicitEuler, Integrator, Loads,
-    NewtonCache, Prescribed, ShellSystem, State, Static, StepKind, StepReport,
+    NewtonCache, Prescribed, ShellPath, ShellSystem, State, Static, StepKind, StepReport,
 };

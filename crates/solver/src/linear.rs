@@ -437,7 +437,7 @@ pub fn diagonal_offsets(
     Ok(offsets)
 }
 
-fn symbolic_amd(
+pub(crate) fn symbolic_amd(
     pattern: SymbolicSparseColMatRef<'_, usize>,
 ) -> Result<SymbolicCholesky<usize>, SolverError> {
     factorize_symbolic_cholesky(
@@ -449,7 +449,7 @@ fn symbolic_amd(
     .map_err(|e| SolverError::Linear(format!("{e:?}")))
 }
 
-fn symbolic_nd(
+pub(crate) fn symbolic_nd(
     pattern: SymbolicSparseColMatRef<'_, usize>,
     coordinates: Option<&[[f64; 3]]>,
 ) -> Result<SymbolicCholesky<usize>, SolverError> {

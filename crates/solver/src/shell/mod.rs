@@ -2,7 +2,8 @@
 //! on top of the energy crate's [`Assembler`](thinshell_energy::Assembler).
 //!
 //! Module dependencies point one way (no circles): `bc`, `loads`, `angles` → `system` →
-//! `objective` → `integrator` → `statics`, `implicit`, `explicit`.
+//! `objective` → `integrator` → `statics`, `implicit`, `explicit`; `objective` → `path` (with
+//! the crate's [`path`](crate::path) tracer).
 
 pub mod angles;
 pub mod bc;
@@ -11,6 +12,7 @@ pub mod implicit;
 pub mod integrator;
 pub mod loads;
 mod objective;
+pub mod path;
 pub mod statics;
 pub mod system;
 
@@ -20,5 +22,6 @@ pub use explicit::ExplicitEuler;
 pub use implicit::ImplicitEuler;
 pub use integrator::{Integrator, NewtonCache, StepKind, StepReport};
 pub use loads::Loads;
+pub use path::ShellPath;
 pub use statics::Static;
 pub use system::{ShellSystem, State};

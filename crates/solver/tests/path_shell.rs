@@ -1,0 +1,145 @@
+//! Arc length on a shell: a shallow arch strip under a central point load passes its limit
+//! point, where load control jumps.
+
+use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
+use thinshell_mesh::{Mesh, VertexId};
+use thinshell_solver::nalgebra::Vector3;
+use thinshell_solver::{Boundary, Loads, PathSettings, ShellPath, ShellSystem, Static};
+
+const SPAN: f64 = 1.0;
+const RISE: f64 = 0.015;
+
+/// The arch strip (span 1 m, width 0.1 m, rise 0.04 m, h = 5 mm, E = 10 MPa), both short ends
+/// pinned, load `force` (N) down on the crown vertex; returns the system (at λ = 0), the
+/// positions and the crown vertex.
+fn arch(force: f64) -> (ShellSystem, Vec<Vector3<f64>>, VertexId) {
+    let flat = thinshell_mesh::generators::rectangle(SPAN, 0.1, 20, 2).expect("mesh");
+    let x: Vec<Vector3<f64>> = flat
+        .positions()
+        .iter()
+        .map(|p| Vector3::new(p.x, p.y, RISE * (1.0 - (2.0 * p.x / SPAN - 1.0).powi(2))))
+        .collect();
+    let mesh = Mesh::new(x.clone(), flat.faces_usize()).expect("mesh");
+    let sff = SffKind::MidEdgeAverage;
+    let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).expect("rest");
+    let model = ShellModel {
+        material: Material::new(0.01, 1e7, 0.3),
+        terms: Terms::ELASTIC,
+        sff,
+    };
+    let ends = (0..mesh.n_vertices())
+        .map(VertexId::new)
+        .filter(|v| x[v.idx()].x < 1e-9 || x[v.idx()].x > SPAN - 1e-9)
+        .collect();
+    let crown = mesh.nearest_vertex(&Vector3::new(0.5 * SPAN, 0.05, RISE));
+    let boundary = Boundary {
+        pinned_vertices: ends,
+        ..Default::default()
+    };
+    let loads = Loads {
+        point_forces: vec![(crown, Vector3::new(0.0, 0.0, -force))],
+        ..Default::default()
+    };
+    let mut system = ShellSystem::new(mesh, model, rest, boundary, loads).expect("system");
+    system.set_load_factor(0.0).expect("λ = 0");
+    (system, x, crown)
+}
+
+/// Turning points (sign changes of the increments) of a sequence.
+fn turns(values: &[f64]) -> usize {
+    let d: Vec<f64> = values.windows(2).map(|w| w[1] - w[0]).collect();
+    d.windows(2).filter(|w| w[0] * w[1] < 0.0).count()
+}
+
+#[test]
+fn arc_length_passes_the_limit_point_where_load_control_jumps() {
+    let (mut system, x0, crown) = arch(1.0);
+    let deflection = |x: &[Vector3<f64>]| x0[crown.idx()].z - x[crown.idx()].z;
+
+    // Arc length: 25 steps from the unloaded arch.
+    let mut path = ShellPath::new(PathSettings {
+        initial_load_increment: 0.02,
+        ..Default::default()
+    });
+    let (mut x, mut phi) = (x0.clone(), Vec::new());
+    let (mut lambda, mut w, mut stable) = (vec![0.0], vec![0.0], vec![true]);
+    for _ in 0..25 {
+        let p = path
+            .step(&mut system, &mut x, &mut phi)
+            .expect("arc-length step");
+        assert_eq!(p.load_factor, system.load_factor());
+        assert!(
+            p.residuals.last().is_some_and(|r| *r < 1e-8),
+            "{:?}",
+            p.residuals
+        );
+        lambda.push(p.load_factor);
+        w.push(deflection(&x));
+        stable.push(p.stable());
+    }
+    // A continuous path: the crown moves down monotonically in small steps while λ rises to
+    // its maximum, falls (below 0: the arch pulls itself through) and rises again.
+    let max_dw = w.windows(2).map(|p| p[1] - p[0]).fold(0.0f64, f64::max);
+    assert_eq!(turns(&w), 0, "w {w:?}");
+    assert_eq!(turns(&lambda), 2, "λ {lambda:?}");
+    assert!(max_dw < 0.15 * RISE, "largest step in w {max_dw}");
+    // The limit point: the first maximum of λ.
+    let i_max = lambda
+        .windows(2)
+        .position(|p| p[1] < p[0])
+        .expect("λ falls somewhere");
+    let lambda_max = lambda[i_max];
+    assert!(lambda.iter().any(|l| *l < 0.0));
+    // Stable before the largest traced λ, unstable (at fixed load) while λ falls after it.
+    assert!(
+        stable[..i_max].iter().all(|s| *s) && !stable[i_max + 1],
+        "λ {lambda:?}, stable {stable:?}"
+    );
+
+    // Load control: λ = 0.01, 0.02, … each solved from the previous equilibrium.
+    let (mut system, _, _) = arch(1.0);
+    let mut statics = Static::default();
+    let mut x = x0.clone();
+    let mut w_load = vec![0.0];
+    let mut lambdas = vec![0.0];
+    for k in 1..=25 {
+        let l = 0.01 * k as f64;
+        system.set_load_factor(l).expect("λ");
+        statics.solve(&mut system, &mut x).expect("static solve");
+        lambdas.push(l);
+        w_load.push(deflection(&x));
+    }
+    // It jumps: one load step moves the crown many times the largest arc-length step ...
+    let jump = w_load
+        .windows(2)
+        .position(|p| p[1] - p[0] > 5.0 * max_dw)
+        .expect("load control jumps");
+    // ... exactly where λ first exceeds the limit load the arc length found ...
+    assert!(
+        lambdas[jump] <= lambda_max && lambda_max < lambdas[jump + 1],
+        "jump from λ = {} to {}, traced limit load {lambda_max}",
+        lambdas[jump],
+        lambdas[jump + 1]
+    );
+    // ... onto the far branch, past the arc length's lowest point (its second limit point).
+    let i_min = (i_max..lambda.len())
+        .min_by(|&a, &b| lambda[a].total_cmp(&lambda[b]))
+        .expect("points");
+    assert!(
+        w_load[jump + 1] > w[i_min],
+        "{} vs {}",
+        w_load[jump + 1],
+        w[i_min]
+    );
+    // Before the jump both methods agree on the path: λ(w) of load control between the
+    // arc-length points (linear interpolation, whose error is well below 1 %).
+    for (&l, &wl) in lambdas[1..=jump].iter().zip(&w_load[1..=jump]) {
+        let j = w.iter().position(|&wa| wa > wl).expect("bracketing point");
+        let t = (wl - w[j - 1]) / (w[j] - w[j - 1]);
+        let l_arc = lambda[j - 1] + t * (lambda[j] - lambda[j - 1]);
+        assert!(
+            (l_arc - l).abs() < 0.01 * lambda_max,
+            "λ {l} vs arc {l_arc}"
+        );
+    }
+}
