@@ -1,15 +1,16 @@
 //! Geometrically nonlinear load paths (Sze, Liu & Lo 2004, Finite Elements in Analysis and
 //! Design 40:1551; all loads dead): the slit annular plate, the hemisphere with an 18° hole
-//! under alternating forces, and the hinged cylindrical roof up to its limit point. Load
-//! stepping restarts every level from the previous equilibrium ([`ramp`]).
+//! under alternating forces (load stepping that restarts every level from the previous
+//! equilibrium, [`ramp`]), and the hinged cylindrical roof traced through its limit point by
+//! arc length (`thinshell_solver::ShellPath`).
 
 use anyhow::Result;
 use thinshell_energy::{Material, SffKind};
 use thinshell_mesh::{VertexId, generators};
-use thinshell_solver::{Boundary, Loads};
+use thinshell_solver::{Boundary, Loads, PathSettings, ShellPath};
 
 use super::linear::{hemisphere_displacements, hemisphere_loads};
-use super::solve::{Config, V3, equilibrium, ramp, stress_free, vertex_at};
+use super::solve::{Config, V3, ramp, stress_free, vertex_at};
 use super::{Curve, Outcome, Quantity, Spec};
 
 const GROUP: &str = "geometrically nonlinear paths (Sze, Liu & Lo 2004)";
@@ -55,19 +56,20 @@ pub(crate) static SPECS: [Spec; 3] = [
         run: hemisphere_path,
     },
     Spec {
-        name: "hinged cylindrical roof, up to the limit point",
+        name: "hinged cylindrical roof, snap-through by arc length",
         group: GROUP,
         description: "R = 2540, length 508 (half-length 254), opening 2θ = 0.2 rad, h = 12.7, \
             E = 3102.75, ν = 0.3; straight edges hinged (all three coordinates of their vertices \
             held, rotation free for the edge-director forms), curved edges free; dead point load \
             at the centre toward the axis, P_max = 3000 (the paper's value for h = 12.7; the \
-            issue does not state it). **Load control only**: the path beyond the limit point \
-            (snap-back, minimum P/Pmax = 0.173 at −W_C = 19.85) needs arc-length continuation \
-            (helper A's branch), which this suite does not use — the snap-back is not traced. \
-            Load control is run to the limit point: steps of at most 0.02, halved when Newton \
-            fails or jumps (−W_C grows by more than h in one step), until the step is below \
-            1e-4. Compared: the largest load factor reached (reference 0.742) and −W_C there \
-            (reference 11.3). Meshes: 8×8, 16×16, 32×32 (around × along), full roof.",
+            issue does not state it). Traced by arc-length continuation (`ShellPath`, \
+            Crisfield with the previous-increment sign rule, from helper A's solver branch \
+            merged here; arc length fixed at that of a first step ΔP/Pmax = 0.05, otherwise default settings) from rest until −W_C > 26 \
+            (the roof hangs inverted; its rise is 12.7); load control would jump at the limit \
+            point. Compared: the limit point (first maximum of P/Pmax, reference 0.742 at \
+            −W_C = 11.3) and the following minimum (reference 0.173 at −W_C = 19.85), each \
+            from the parabola through the extreme path point and its neighbours. Meshes: 8×8, \
+            16×16, 32×32 (around × along), full roof.",
         tolerance: 0.03,
         quick_tolerance: 1.0,
         levels: 3,
@@ -113,7 +115,7 @@ fn hemisphere_reference() -> Vec<Curve> {
 }
 
 fn roof_reference() -> Vec<Curve> {
-    vec![curve("limit point", &[0.742], &[11.3])]
+    vec![curve("limit and minimum", &[0.742, 0.173], &[11.3, 19.85])]
 }
 
 /// Path quantities: one per tabulated level and series, scaled by the series' largest value.
@@ -244,6 +246,20 @@ fn hemisphere_path(sff: SffKind, level: usize) -> Result<Outcome> {
     })
 }
 
+/// The vertex (W, λ) of the parabola through three path points (a turning point of λ).
+fn turning_point(p: [(f64, f64); 3]) -> (f64, f64) {
+    let [(x0, y0), (x1, y1), (x2, y2)] = p;
+    let d1 = (y1 - y0) / (x1 - x0);
+    let d2 = (y2 - y1) / (x2 - x1);
+    let a = (d2 - d1) / (x2 - x0);
+    if a.abs() < f64::EPSILON || !a.is_finite() {
+        return (x1, y1);
+    }
+    let b = d1 - a * (x0 + x1);
+    let xv = -b / (2.0 * a);
+    (xv, y0 + d1 * (xv - x0) + a * (xv - x0) * (xv - x1))
+}
+
 fn roof(sff: SffKind, level: usize) -> Result<Outcome> {
     let (r, len, angle, h, e, nu, pmax) = (2540.0, 508.0, 0.2, 12.7, 3102.75, 0.3, 3000.0);
     let n = 8 << level;
@@ -271,39 +287,80 @@ fn roof(sff: SffKind, level: usize) -> Result<Outcome> {
             ..Loads::default()
         },
     )?;
+    sys.set_load_factor(0.0)?;
     let w = |c: &Config| (x0[centre.idx()] - c.x[centre.idx()]).dot(&radial);
     let mut c = Config::of(&sys, x0.clone());
-    let (mut lambda, mut step, max_step) = (0.0f64, 0.02f64, 0.02f64);
+    let mut tracer = ShellPath::new(PathSettings {
+        initial_load_increment: 0.05,
+        // A fixed arc length: evenly spaced points resolve the turning points.
+        max_step_ratio: 1.0,
+        ..PathSettings::default()
+    });
     let mut path = vec![(0.0, 0.0)];
-    while step >= 1e-4 && lambda < 1.0 {
-        let next = (lambda + step).min(1.0);
-        sys.set_load_factor(next)?;
-        let mut trial = c.clone();
-        if equilibrium(&mut sys, &mut trial) && w(&trial) - w(&c) <= h {
-            c = trial;
-            lambda = next;
-            path.push((w(&c), lambda));
-            step = (2.0 * step).min(max_step);
-        } else {
-            step *= 0.5;
+    let mut failure = None;
+    for _ in 0..ROOF_MAX_STEPS {
+        match tracer.step(&mut sys, &mut c.x, &mut c.phi) {
+            Ok(p) => path.push((w(&c), p.load_factor)),
+            Err(e) => {
+                failure = Some(e.to_string());
+                break;
+            }
+        }
+        if w(&c) > ROOF_END_W {
+            break;
         }
     }
+    // The limit point: the first maximum of λ along the path; the snap-back's end: the first
+    // minimum after it. Each from the parabola through the extreme point and its neighbours.
+    let extreme = |from: usize, max: bool| {
+        (from.max(1)..path.len().saturating_sub(1))
+            .find(|&i| {
+                let (a, b, c) = (path[i - 1].1, path[i].1, path[i + 1].1);
+                if max {
+                    b >= a && b > c
+                } else {
+                    b <= a && b < c
+                }
+            })
+            .map(|i| (i, turning_point([path[i - 1], path[i], path[i + 1]])))
+    };
+    let limit = extreme(1, true);
+    let minimum = limit.and_then(|(i, _)| extreme(i + 1, false));
+    let (lw, ll) = limit.map_or((f64::NAN, f64::NAN), |l| l.1);
+    let (mw, ml) = minimum.map_or((f64::NAN, f64::NAN), |m| m.1);
+    let last = path.last().copied().unwrap_or((0.0, 0.0));
     Ok(Outcome {
         mesh: format!("roof {n}×{n}"),
         faces,
         quantities: vec![
-            Quantity::relative("limit P/Pmax (load control)", 0.742, lambda),
-            Quantity::relative("−W_C at the limit", 11.3, w(&c)),
+            Quantity::relative("limit P/Pmax", 0.742, ll),
+            Quantity::relative("−W_C at the limit", 11.3, lw),
+            Quantity::relative("minimum P/Pmax after the limit", 0.173, ml),
+            Quantity::relative("−W_C at the minimum", 19.85, mw),
         ],
-        converged: true,
+        converged: failure.is_none(),
         curves: vec![Curve {
-            name: "−W_C (load control)".into(),
-            points: path,
+            name: "−W_C (arc length)".into(),
+            points: path.clone(),
         }],
-        note: Some(format!(
-            "load control stopped at P/Pmax = {lambda:.4}, −W_C = {:.3}; the path beyond is not \
-             traced (needs arc-length)",
-            w(&c)
-        )),
+        note: Some(match failure {
+            Some(e) => format!(
+                "arc length stopped after {} points at P/Pmax = {:.4}, −W_C = {:.3}: {e}",
+                path.len() - 1,
+                last.1,
+                last.0
+            ),
+            None => format!(
+                "{} arc-length points up to −W_C = {:.3} (P/Pmax = {:.4})",
+                path.len() - 1,
+                last.0,
+                last.1
+            ),
+        }),
     })
 }
+
+/// Arc-length steps of the roof at most, and the deflection where tracing ends (the roof's
+/// rise is 12.7: beyond 2× that the roof hangs inverted, past the snap-back).
+const ROOF_MAX_STEPS: usize = 200;
+const ROOF_END_W: f64 = 26.0;
