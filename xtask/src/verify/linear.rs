@@ -11,7 +11,7 @@
 
 use anyhow::Result;
 use thinshell_energy::{Material, SffKind};
-use thinshell_mesh::{Mesh, generators};
+use thinshell_mesh::{Mesh, VertexId, generators};
 use thinshell_solver::{Boundary, Loads};
 
 use super::solve::{Config, V3, equilibrium, stress_free, uniform_nodal_forces, vertex_at};
@@ -269,7 +269,7 @@ fn pinched_cylinder(sff: SffKind, level: usize) -> Result<Outcome> {
     let mut pinned_coordinates = Vec::new();
     for (i, q) in mesh.positions().iter().enumerate() {
         if q.z.abs() < 1e-9 * len || (q.z - len).abs() < 1e-9 * len {
-            let v = thinshell_mesh::VertexId::new(i);
+            let v = VertexId::new(i);
             pinned_coordinates.push((v, 0));
             pinned_coordinates.push((v, 1));
         }
@@ -300,16 +300,16 @@ fn pinched_cylinder(sff: SffKind, level: usize) -> Result<Outcome> {
     })
 }
 
+/// Point forces: (vertex, force in N).
+pub(crate) type PointForces = Vec<(VertexId, V3)>;
+
 /// The hemisphere load case: outward at 0° and 180°, inward at 90° and 270° on the equator
 /// (radius `r`), each of size `p`. Returns the loads and the four vertices.
 pub(crate) fn hemisphere_loads(
     mesh: &Mesh,
     r: f64,
     p: f64,
-) -> Result<(
-    Vec<(thinshell_mesh::VertexId, V3)>,
-    [thinshell_mesh::VertexId; 4],
-)> {
+) -> Result<(PointForces, [VertexId; 4])> {
     let v = [
         vertex_at(mesh, V3::new(r, 0.0, 0.0))?,
         vertex_at(mesh, V3::new(-r, 0.0, 0.0))?,
@@ -327,11 +327,7 @@ pub(crate) fn hemisphere_loads(
 
 /// (pulled, pushed) radial displacements: half the change of the distance between the two
 /// pulled (resp. pushed) load points; rigid motions do not change them.
-pub(crate) fn hemisphere_displacements(
-    x0: &[V3],
-    x: &[V3],
-    v: [thinshell_mesh::VertexId; 4],
-) -> (f64, f64) {
+pub(crate) fn hemisphere_displacements(x0: &[V3], x: &[V3], v: [VertexId; 4]) -> (f64, f64) {
     let dist = |y: &[V3], i: usize, j: usize| (y[v[i].idx()] - y[v[j].idx()]).norm();
     (
         0.5 * (dist(x, 0, 1) - dist(x0, 0, 1)),
@@ -344,7 +340,7 @@ fn hemisphere(mesh: Mesh, label: String, reference: f64, sff: SffKind) -> Result
     let faces = mesh.n_faces();
     let (point_forces, v) = hemisphere_loads(&mesh, r, 2.0 * scale)?;
     let bc = Boundary {
-        pinned_coordinates: Boundary::rigid_motion_pins(&mesh, thinshell_mesh::VertexId::new(0))?,
+        pinned_coordinates: Boundary::rigid_motion_pins(&mesh, VertexId::new(0))?,
         ..Boundary::default()
     };
     let x0 = mesh.positions().to_vec();
