@@ -124,27 +124,9 @@ pub enum SolverError {
         last_good: Vec<f64>,
     },
     /// A path-following step ([`PathTracer`](crate::PathTracer)) failed after all its
-    /// cut-backs; the tracer's point is unchanged.
-    #[error(
-        "path step {step} from load factor {load_factor:e} failed after {cutbacks} cut-backs \
-         (last step size {step_length:e}): {reason}"
-    )]
-    PathFailed {
-        /// The step that failed (1-based).
-        step: usize,
-        /// Load factor of the last converged point (the start of the step).
-        load_factor: f64,
-        /// Step size of the last attempt (arc length, or the controlled dof's increment).
-        step_length: f64,
-        /// Halvings tried.
-        cutbacks: usize,
-        /// Why the last attempt failed.
-        reason: String,
-        /// Relative residual ‖R‖∞ / force scale of every iterate of the last attempt.
-        residuals: Vec<f64>,
-        /// The last converged point (the start of the step).
-        last_good: Vec<f64>,
-    },
+    /// cut-backs; the tracer's point is unchanged. Boxed: the details are large.
+    #[error("{0}")]
+    PathFailed(Box<PathFailure>),
     /// faer reported a failure other than a non-positive pivot (out of memory, index overflow).
     #[error("sparse linear algebra failed: {0}")]
     Linear(String),
@@ -155,6 +137,41 @@ pub enum SolverError {
     /// growth rule), kept with its type: downcast the [`source`](std::error::Error::source).
     #[error("objective evaluation failed: {0}")]
     Objective(#[source] Box<dyn std::error::Error + Send + Sync>),
+}
+
+/// Details of [`SolverError::PathFailed`].
+#[derive(Clone, PartialEq, thiserror::Error)]
+#[error(
+    "path step {step} from load factor {load_factor:e} failed after {cutbacks} cut-backs \
+     (last step size {step_length:e}): {reason}"
+)]
+pub struct PathFailure {
+    /// The step that failed (1-based).
+    pub step: usize,
+    /// Load factor of the last converged point (the start of the step).
+    pub load_factor: f64,
+    /// Step size of the last attempt (arc length, or the controlled dof's increment).
+    pub step_length: f64,
+    /// Halvings tried.
+    pub cutbacks: usize,
+    /// Why the last attempt failed.
+    pub reason: String,
+    /// Relative residual ‖R‖∞ / force scale of every iterate of the last attempt.
+    pub residuals: Vec<f64>,
+    /// The last converged point (the start of the step), free dofs.
+    pub last_good: Vec<f64>,
+}
+
+impl std::fmt::Debug for PathFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PathFailure")
+            .field("step", &self.step)
+            .field("load_factor", &self.load_factor)
+            .field("reason", &self.reason)
+            .field("residuals", &Summary(&self.residuals))
+            .field("last_good", &Summary(&self.last_good))
+            .finish_non_exhaustive()
+    }
 }
 
 impl SolverError {
@@ -277,26 +294,7 @@ impl PartialEq for SolverError {
                     last_good: z,
                 },
             ) => a == w && b == x && c == y && d == z,
-            (
-                PathFailed {
-                    step: a,
-                    load_factor: b,
-                    step_length: c,
-                    cutbacks: d,
-                    reason: e,
-                    residuals: f,
-                    last_good: g,
-                },
-                PathFailed {
-                    step: a2,
-                    load_factor: b2,
-                    step_length: c2,
-                    cutbacks: d2,
-                    reason: e2,
-                    residuals: f2,
-                    last_good: g2,
-                },
-            ) => a == a2 && b == b2 && c == c2 && d == d2 && e == e2 && f == f2 && g == g2,
+            (PathFailed(a), PathFailed(x)) => a == x,
             (Linear(a), Linear(x)) => a == x,
             (Energy(a), Energy(x)) => a.to_string() == x.to_string(),
             (Objective(a), Objective(x)) => a.to_string() == x.to_string(),
@@ -407,23 +405,15 @@ impl std::fmt::Debug for SolverError {
                 .field("residuals", &Summary(residuals))
                 .field("last_good", &Summary(last_good))
                 .finish(),
-            PathFailed {
-                step,
-                load_factor,
-                step_length,
-                cutbacks,
-                reason,
-                residuals,
-                last_good,
-            } => f
+            PathFailed(p) => f
                 .debug_struct("PathFailed")
-                .field("step", step)
-                .field("load_factor", load_factor)
-                .field("step_length", step_length)
-                .field("cutbacks", cutbacks)
-                .field("reason", reason)
-                .field("residuals", &Summary(residuals))
-                .field("last_good", &Summary(last_good))
+                .field("step", &p.step)
+                .field("load_factor", &p.load_factor)
+                .field("step_length", &p.step_length)
+                .field("cutbacks", &p.cutbacks)
+                .field("reason", &p.reason)
+                .field("residuals", &Summary(&p.residuals))
+                .field("last_good", &Summary(&p.last_good))
                 .finish(),
             Linear(msg) => f.debug_tuple("Linear").field(msg).finish(),
             Energy(e) => f.debug_tuple("Energy").field(e).finish(),

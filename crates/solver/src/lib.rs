@@ -115,7 +115,7 @@ pub mod ordering;
 pub mod path;
 pub mod shell;
 
-pub use error::SolverError;
+pub use error::{PathFailure, SolverError};
 pub use linear::{FactorStats, RegularizationKind, RegularizationParams, SparseCholesky};
 pub use newton::{
     Convergence, HessianPolicy, IterationHessian, NewtonReport, NewtonSettings, NewtonTimings,

@@ -41,6 +41,7 @@
 use faer::Par;
 use faer::sparse::SparseColMat;
 
+use crate::error::PathFailure;
 use crate::ldlt::SparseLdlt;
 use crate::{Objective, Ordering, SolverError};
 
@@ -392,7 +393,7 @@ impl PathTracer {
                     {
                         // Leave the tracer able to retry from the start point.
                         self.tangent_current = false;
-                        return Err(SolverError::PathFailed {
+                        return Err(SolverError::PathFailed(Box::new(PathFailure {
                             step: self.steps + 1,
                             load_factor: lambda0,
                             step_length: ds,
@@ -400,7 +401,7 @@ impl PathTracer {
                             reason: failure.reason,
                             residuals: failure.residuals,
                             last_good: u0,
-                        });
+                        })));
                     }
                     cutbacks += 1;
                     self.step_length = Some(next);

@@ -291,15 +291,15 @@ fn bad_settings_and_failures_are_errors_not_panics() {
     let mut tracer = PathTracer::new(settings);
     let err = tracer.step(&mut truss, &mut u).expect_err("must fail");
     match err {
-        SolverError::PathFailed {
-            step,
-            residuals,
-            last_good,
-            ..
-        } => {
-            assert_eq!(step, 1);
-            assert!(!residuals.is_empty() && residuals.iter().all(|r| r.is_finite()));
-            assert_eq!(last_good, vec![0.0, 0.0]);
+        SolverError::PathFailed(f) => {
+            assert_eq!(f.step, 1);
+            assert!(!f.residuals.is_empty() && f.residuals.iter().all(|r| r.is_finite()));
+            assert_eq!(f.last_good, vec![0.0, 0.0]);
+            assert!(
+                f.reason.contains("no convergence in 1 iterations"),
+                "{}",
+                f.reason
+            );
         }
         e => panic!("unexpected error {e}"),
     }

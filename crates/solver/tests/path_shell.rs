@@ -143,3 +143,75 @@ fn arc_length_passes_the_limit_point_where_load_control_jumps() {
         );
     }
 }
+
+/// The hinged cylindrical roof (R = 2540, length 508, opening 0.2 rad, E = 3102.75, ν = 0.3,
+/// straight edges hinged, curved edges free, central point load P_max; Sze, Liu & Lo 2004)
+/// on a coarse 8 × 8 mesh with the mid-edge average; returns the system at λ = 0, the start
+/// positions, the loaded vertex and the inward radial direction there.
+fn roof(h: f64, p_max: f64) -> (ShellSystem, Vec<Vector3<f64>>, VertexId, Vector3<f64>) {
+    let n = 8;
+    let mesh = thinshell_mesh::generators::cylinder_patch(2540.0, 0.2, 508.0, n, n).expect("mesh");
+    let x0 = mesh.positions().to_vec();
+    let sff = SffKind::MidEdgeAverage;
+    let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).expect("rest");
+    let model = ShellModel {
+        material: Material::new(h, 3102.75, 0.3),
+        terms: Terms::ELASTIC,
+        sff,
+    };
+    // Vertex j·(n + 1) + i sits at angle 0.2·i/n, height 508·j/n.
+    let hinged = (0..mesh.n_vertices())
+        .filter(|v| v % (n + 1) == 0 || v % (n + 1) == n)
+        .map(VertexId::new)
+        .collect();
+    let centre = VertexId::new((n / 2) * (n + 1) + n / 2);
+    let inward = -Vector3::new(0.1f64.cos(), 0.1f64.sin(), 0.0);
+    let loads = Loads {
+        point_forces: vec![(centre, inward * p_max)],
+        ..Default::default()
+    };
+    let boundary = Boundary {
+        pinned_vertices: hinged,
+        ..Default::default()
+    };
+    let mut system = ShellSystem::new(mesh, model, rest, boundary, loads).expect("system");
+    system.set_load_factor(0.0).expect("λ = 0");
+    (system, x0, centre, inward)
+}
+
+/// The thinner roof (h = 6.35, P_max = 600) snaps through and then back: after its load limit
+/// point the centre deflection W itself turns back (a snap-back, which displacement control of
+/// W cannot pass) while λ keeps falling. The sign rule (continue the previous increment)
+/// carries the arc length through both turning points without a cut-back.
+#[test]
+fn arc_length_follows_the_snap_back_of_the_thin_hinged_roof() {
+    let (mut system, x0, centre, inward) = roof(6.35, 600.0);
+    let mut path = ShellPath::new(PathSettings {
+        initial_load_increment: 0.05,
+        ..Default::default()
+    });
+    let (mut x, mut phi) = (x0.clone(), Vec::new());
+    let (mut lambda, mut w) = (vec![0.0], vec![0.0]);
+    for _ in 0..32 {
+        let p = path
+            .step(&mut system, &mut x, &mut phi)
+            .expect("arc-length step");
+        assert_eq!(p.cutbacks, 0);
+        lambda.push(p.load_factor);
+        w.push((x[centre.idx()] - x0[centre.idx()]).dot(&inward));
+    }
+    let i_lambda = lambda
+        .windows(2)
+        .position(|p| p[1] < p[0])
+        .expect("limit point");
+    let i_w = w.windows(2).position(|p| p[1] < p[0]).expect("snap-back");
+    // Load limit first (λ ≈ 0.91 on this mesh), then W turns back, with λ still falling.
+    assert!(i_lambda < i_w, "λ turns at {i_lambda}, W at {i_w}");
+    assert!((0.85..0.95).contains(&lambda[i_lambda]), "{lambda:?}");
+    assert_eq!(turns(&lambda), 1, "λ {lambda:?}");
+    assert_eq!(turns(&w), 1, "W {w:?}");
+    assert!(
+        lambda[i_w + 1] < lambda[i_w] && w[i_w] > 15.0,
+        "{lambda:?} {w:?}"
+    );
+}

@@ -88,7 +88,12 @@ pub fn describe(sim: &Simulation) -> String {
     let system = sim.system();
     let has_loads = system.loads != thinshell_solver::Loads::default()
         || !system.boundary.prescribed.is_empty();
-    if sim.integrator() == crate::scene::schema::IntegratorKind::Static && has_loads {
+    if sim.is_path_following() {
+        text += &format!(
+            "path following: {} steps from load factor 0 (docs/path_following.md)\n",
+            sim.steps_total()
+        );
+    } else if sim.integrator() == crate::scene::schema::IntegratorKind::Static && has_loads {
         let ramp = sim.load_ramp();
         let n = sim.steps_total();
         let factors = match ramp {
@@ -189,8 +194,8 @@ impl Observer for Writer {
         if sim.steps_done() % self.every == 0 || sim.steps_done() == sim.steps_total() {
             self.frame(sim);
         }
-        let row = format!(
-            "{},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e},{:e},{:e},{:e},{:e},{}\n",
+        let mut row = format!(
+            "{},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e},{:e},{:e},{:e},{:e},{}",
             r.step,
             r.time,
             r.energy.stretch,
@@ -207,6 +212,8 @@ impl Observer for Writer {
             r.solve_s,
             r.load_factor
         );
+        row += &crate::sim::csv_extra_row(r);
+        row.push('\n');
         if let Err(e) = self
             .csv
             .write_all(row.as_bytes())
@@ -252,7 +259,11 @@ pub fn run(
     let csv_path = dir.join("steps.csv");
     let mut csv =
         std::io::BufWriter::new(std::fs::File::create(&csv_path).map_err(|e| io(e, &csv_path))?);
-    csv.write_all(b"step,time_s,stretch_J,bend_J,damping_J,kinetic_J,newton_iterations,backtracks,regularizations,residual,wall_s,assembly_s,factorization_s,solve_s,load_factor\n")
+    let header = format!(
+        "step,time_s,stretch_J,bend_J,damping_J,kinetic_J,newton_iterations,backtracks,regularizations,residual,wall_s,assembly_s,factorization_s,solve_s,load_factor{}\n",
+        crate::sim::csv_extra_header(&sim)
+    );
+    csv.write_all(header.as_bytes())
         .map_err(|e| io(e, &csv_path))?;
     let bar = (!quiet).then(|| {
         let bar = ProgressBar::new(sim.steps_total() as u64);

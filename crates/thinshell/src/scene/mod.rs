@@ -17,6 +17,7 @@
 //! assert_eq!(scene.file.material.young(), 2e9); // paper by default
 //! ```
 
+pub mod path;
 pub mod schema;
 pub mod validate;
 

@@ -51,6 +51,10 @@ pub struct SceneFile {
     /// What to write and how often.
     #[serde(default)]
     pub output: OutputSpec,
+    /// Path following of a static scene's loads (arc length, displacement control) instead
+    /// of the load ramp (`docs/scenes.md`).
+    #[serde(default)]
+    pub path: Option<super::path::PathSpec>,
 }
 
 /// A physical effect a scene can switch on.

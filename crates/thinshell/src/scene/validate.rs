@@ -93,6 +93,7 @@ pub fn validate(s: &SceneFile) -> Result<(), Problem> {
     boundary(&s.boundary)?;
     integrator(&s.integrator, &on)?;
     static_only(s, &on)?;
+    super::path::validate(s, &on)?;
     output(&s.output)
 }
 

@@ -408,6 +408,10 @@ impl Simulation {
             }
             IntegratorKind::Explicit => Box::new(ExplicitEuler { dt }),
         };
+        let path = match &s.path {
+            Some(spec) => Some(super::path::build(spec, &mut system, &x, &origin)?),
+            None => None,
+        };
         let mut state = State::at_rest(x);
         state.v = v;
         Ok(Simulation {
@@ -426,6 +430,7 @@ impl Simulation {
             load_ramp,
             // A static solve starts from the unloaded start state; dynamic loads act from t = 0.
             load_factor: if static_solve { 0.0 } else { 1.0 },
+            path,
         })
     }
 }

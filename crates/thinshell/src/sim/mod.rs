@@ -14,6 +14,7 @@
 //! ```
 
 mod build;
+mod path;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -26,6 +27,7 @@ use thinshell_mesh::Mesh;
 use thinshell_solver::{Integrator, IterationHessian, ShellSystem, SolverError, State, StepKind};
 
 pub use build::BuildError;
+pub use path::{Monitor, PathRecord, csv_extra_header, csv_extra_row};
 
 use crate::scene::schema::{Effect, IntegratorKind, LoadRamp};
 
@@ -83,6 +85,8 @@ pub struct StepRecord {
     /// Static steps: whether the equilibrium is a minimum (exact Hessian positive definite);
     /// `false` is a saddle or maximum. `None` for dynamic steps.
     pub stable: Option<bool>,
+    /// Path-following steps (`[path]`): the step's path quantities; `None` otherwise.
+    pub path: Option<PathRecord>,
     /// Wall time of the step, s.
     pub wall_s: f64,
     /// Of which: energy assembly, s.
@@ -178,6 +182,8 @@ pub struct Simulation {
     pub(crate) load_ramp: LoadRamp,
     /// Load factor λ of the current state (static: 0 before the first step).
     pub(crate) load_factor: f64,
+    /// Path following (`[path]`), instead of the load ramp.
+    pub(crate) path: Option<path::PathRun>,
 }
 
 impl Simulation {
@@ -346,7 +352,8 @@ impl Simulation {
         })
     }
 
-    /// Takes one step with the scene's integrator; on failure the state is unchanged.
+    /// Takes one step with the scene's integrator; on failure the state is unchanged. With
+    /// `[path]` the step is one path-following step instead (the load factor is an unknown).
     ///
     /// With growth, the step is: rest forms (and masses, if the stimulus adds mass) from the
     /// current stimulus → elastic step → stimulus step. A static step solves at the load factor
@@ -355,6 +362,9 @@ impl Simulation {
     /// by continuation: rest forms and load factor move from their previous to their new values
     /// in up to 2⁶ sub-steps.
     pub fn step(&mut self) -> Result<StepRecord, StepError> {
+        if self.path.is_some() {
+            return self.path_step();
+        }
         let start = Instant::now();
         let step = self.steps_done + 1;
         let time = self.state.t;

@@ -1,0 +1,270 @@
+//! `[path]` scenes end to end: a scene with only the required key runs through the CLI;
+//! the shipped arch scene snaps through continuously under arc length (its `steps.csv` has
+//! the load factor, stability and the monitored crown deflection), displacement control
+//! passes the same limit point, and bad `[path]` keys give clear errors with positions.
+#![allow(clippy::unwrap_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use thinshell::scene::Scene;
+use thinshell::sim::Simulation;
+use thinshell_testkit::fixtures::temp_dir;
+
+/// A flat strip hinged at both ends under a transverse point load; `[path]` has only its
+/// required key.
+const MINIMAL: &str = r#"
+effects = ["stretching", "bending", "point_loads"]
+[mesh]
+generator = "rectangle"
+width = 1.0
+height = 0.1
+nx = 20
+ny = 2
+[[point_loads]]
+vertex = 31
+force = [0.0, 0.0, -1e-3]
+[[boundary.pins]]
+region = { box = { min = [-1, -1, -1], max = [0.001, 1, 1] } }
+[[boundary.pins]]
+region = { box = { min = [0.999, -1, -1], max = [2, 1, 1] } }
+[integrator]
+kind = "static"
+steps = 4
+[path]
+control = "arc_length"
+"#;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_thinshell"))
+}
+
+fn arch_scene() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/arch_snap_through.toml")
+}
+
+/// Runs `scene` through the CLI into a directory of its own (`tag`: one per test, they run
+/// in parallel); returns the header and rows of `steps.csv`.
+fn run(scene: &Path, tag: &str, extra: &[&str]) -> (Vec<String>, Vec<Vec<f64>>) {
+    let out_dir = temp_dir(&format!("path-scene-{tag}")).join("out");
+    let out = bin()
+        .args(["run", "--quiet", "--out"])
+        .arg(&out_dir)
+        .args(extra)
+        .arg(scene)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(out_dir.join("steps.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<String> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let rows = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse::<f64>().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    (header, rows)
+}
+
+fn column(header: &[String], rows: &[Vec<f64>], name: &str) -> Vec<f64> {
+    let i = header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("no column {name} in {header:?}"));
+    rows.iter().map(|r| r[i]).collect()
+}
+
+fn turns(v: &[f64]) -> usize {
+    let d: Vec<f64> = v.windows(2).map(|w| w[1] - w[0]).collect();
+    d.windows(2).filter(|w| w[0] * w[1] < 0.0).count()
+}
+
+#[test]
+fn a_path_scene_without_optional_keys_runs_through_the_cli() {
+    let d = temp_dir("path-minimal");
+    let p = d.join("minimal.toml");
+    std::fs::write(&p, MINIMAL).unwrap();
+    let (header, rows) = run(&p, "minimal", &[]);
+    assert_eq!(rows.len(), 4);
+    // The existing columns keep their place; path following adds its own after them.
+    assert_eq!(header[14], "load_factor");
+    assert_eq!(
+        header[15..],
+        [
+            "stable",
+            "negative_eigenvalues",
+            "load_increment",
+            "step_length",
+            "cutbacks",
+            "potential_J"
+        ]
+    );
+    let lambda = column(&header, &rows, "load_factor");
+    // The strip stiffens as it stretches: λ grows monotonically, every point stable.
+    assert!(
+        lambda.windows(2).all(|w| w[1] > w[0]) && lambda[0] > 0.0,
+        "{lambda:?}"
+    );
+    assert!(column(&header, &rows, "stable").iter().all(|s| *s == 1.0));
+    assert!(
+        column(&header, &rows, "residual")
+            .iter()
+            .all(|r| *r < 1e-10)
+    );
+}
+
+#[test]
+fn the_arch_scene_snaps_through_continuously() {
+    let (header, rows) = run(&arch_scene(), "arch", &[]);
+    let lambda = column(&header, &rows, "load_factor");
+    let w = column(&header, &rows, "u_31_z_m");
+    let stable = column(&header, &rows, "stable");
+    // λ rises to the limit point, falls below 0, rises again; the crown moves down all along,
+    // in steps of at most 2.5 mm (no jump); the points between the two limit points are
+    // unstable.
+    assert_eq!(turns(&lambda), 2, "{lambda:?}");
+    assert_eq!(turns(&w), 0, "{w:?}");
+    assert!(w.windows(2).all(|p| p[0] - p[1] < 2.5e-3), "{w:?}");
+    assert!(lambda.iter().any(|l| *l < 0.0));
+    let i_max = lambda.windows(2).position(|p| p[1] < p[0]).unwrap();
+    assert!(
+        (0.16..0.18).contains(&lambda[i_max]),
+        "limit load {}",
+        lambda[i_max]
+    );
+    assert!(stable[..i_max].iter().all(|s| *s == 1.0));
+    assert_eq!(stable[i_max + 1], 0.0);
+    assert_eq!(*stable.last().unwrap(), 1.0);
+}
+
+#[test]
+fn displacement_control_passes_the_limit_point() {
+    let (header, rows) = run(
+        &arch_scene(),
+        "displacement",
+        &[
+            "--set",
+            "path.control=\"displacement\"",
+            "--set",
+            "path.vertex=31",
+            "--set",
+            "path.coordinate=\"z\"",
+            "--set",
+            "path.initial_step=-1e-3",
+            "--set",
+            "path.max_step_ratio=1.0",
+            "--set",
+            "path.initial_load_increment=0.1",
+            "--set",
+            "integrator.steps=15",
+        ],
+    );
+    let lambda = column(&header, &rows, "load_factor");
+    let w = column(&header, &rows, "u_31_z_m");
+    // The crown is prescribed: 1 mm per step; λ passes its maximum and falls.
+    for (k, wk) in w.iter().enumerate() {
+        assert!((wk + 1e-3 * (k + 1) as f64).abs() < 1e-12, "step {k}: {wk}");
+    }
+    assert_eq!(turns(&lambda), 1, "{lambda:?}");
+    let l_max = lambda.iter().copied().fold(f64::MIN, f64::max);
+    assert!((0.16..0.18).contains(&l_max), "{l_max}");
+}
+
+fn err(text: &str) -> String {
+    match Scene::from_toml(text, "bad.toml", Path::new(".")) {
+        Ok(s) => match Simulation::build(&s) {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => e.to_string(),
+        },
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn bad_path_keys_are_clear_errors() {
+    let with = |path: &str| MINIMAL.replace("control = \"arc_length\"\n", path);
+    for (text, line, needle) in [
+        (
+            with("control = \"arc\"\n"),
+            Some(20),
+            "unknown variant `arc`",
+        ),
+        (
+            with("control = \"arc_length\"\nstep = 1.0\n"),
+            Some(21),
+            "unknown field `step`",
+        ),
+        (
+            with("control = \"arc_length\"\npsi = -1.0\n"),
+            Some(21),
+            "`path.psi` must be ≥ 0",
+        ),
+        (
+            with("control = \"displacement\"\n"),
+            Some(19),
+            "`path.vertex` is required",
+        ),
+        (
+            with("control = \"displacement\"\nvertex = 31\n"),
+            Some(19),
+            "`path.coordinate` is required",
+        ),
+        (
+            with("control = \"arc_length\"\nvertex = 3\n"),
+            Some(21),
+            "`path.vertex` applies to `control = \"displacement\"` only",
+        ),
+        (
+            with("control = \"arc_length\"\ndirection = 2.0\n"),
+            Some(21),
+            "`path.direction` must be 1 or -1",
+        ),
+        (
+            MINIMAL.replace("steps = 4\n", "steps = 4\nload_ramp = \"linear\"\n"),
+            Some(19),
+            "`integrator.load_ramp` does not apply with `[path]`",
+        ),
+        (
+            MINIMAL
+                .replace("kind = \"static\"", "kind = \"implicit\"\ndt = 1e-3")
+                .replace("\"point_loads\"]", "\"point_loads\", \"inertia\"]"),
+            Some(20),
+            "`path` needs `integrator.kind = \"static\"`",
+        ),
+        (
+            MINIMAL.replace(", \"point_loads\"]", "]").replace(
+                "[[point_loads]]\nvertex = 31\nforce = [0.0, 0.0, -1e-3]\n",
+                "",
+            ),
+            Some(16),
+            "`path` has no load to follow",
+        ),
+        (
+            with("control = \"arc_length\"\n[[path.monitor]]\nvertex = 999\ncoordinate = \"z\"\n"),
+            None,
+            "`path.monitor[0].vertex` vertex 999 out of range (the mesh has 63)",
+        ),
+        (
+            with("control = \"displacement\"\nvertex = 0\ncoordinate = \"z\"\n"),
+            None,
+            "coordinate z of vertex 0 is held by a pin or clamp",
+        ),
+    ] {
+        let e = err(&text);
+        assert!(e.contains(needle), "{e}");
+        if let Some(line) = line {
+            assert!(e.starts_with(&format!("bad.toml:{line}:")), "{e}");
+        }
+    }
+}
