@@ -85,7 +85,7 @@ enum Task {
         /// The JSON file with every run (default: target/xtask/verify.json).
         #[arg(long)]
         json: Option<PathBuf>,
-        /// Only the cases whose name contains this text.
+        /// Only the cases whose name or group contains this text.
         #[arg(long)]
         only: Option<String>,
     },

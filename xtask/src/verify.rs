@@ -206,7 +206,7 @@ pub fn run(opts: &Options) -> Result<()> {
         if !opts
             .only
             .as_ref()
-            .is_none_or(|o| spec.name.contains(o.as_str()))
+            .is_none_or(|o| spec.name.contains(o.as_str()) || spec.group.contains(o.as_str()))
         {
             continue;
         }
