@@ -156,8 +156,10 @@ impl CaseResult {
     pub(crate) fn verdict(&self) -> String {
         let finest = self.finest();
         let pct = |e: f64| {
-            if e.is_finite() {
+            if e.is_finite() && e >= 1e-4 {
                 format!("{:.2} %", 100.0 * e)
+            } else if e.is_finite() {
+                format!("{:.1e} %", 100.0 * e)
             } else {
                 "no answer".to_string()
             }

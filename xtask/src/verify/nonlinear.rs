@@ -28,7 +28,9 @@ pub(crate) static SPECS: [Spec; 3] = [
             reference value of the series (13.891 resp. 17.528). The paper's reference is a \
             converged S4R solution (a shear-deformable element; the plate is thin, R/h ≈ 300, \
             so Kirchhoff–Love applies). Meshes: slit annulus 4×24, 6×36, 8×48 (rings × \
-            around), alternating diagonals.",
+            around), alternating diagonals (finer meshes cost minutes per form). The mid-edge \
+            average is inconsistent at free edges and on alternating-diagonal grids bent across \
+            the grid (docs/accuracy.md), both present here.",
         tolerance: 0.03,
         quick_tolerance: 1.0,
         levels: 3,
@@ -48,7 +50,12 @@ pub(crate) static SPECS: [Spec; 3] = [
             agree (at P/Pmax = 0.05 the pulled point moves less than the linear 0.94, the \
             pushed one more). Load steps of at most 0.1 (halved on failure), each from the previous equilibrium. \
             Error as for the slit plate. Rigid motion: `Boundary::rigid_motion_pins` (no \
-            reactions: self-equilibrated loads). Meshes: 8×32, 12×48, 16×64 (rings × around).",
+            reactions: self-equilibrated loads). Meshes: 8×32, 12×48, 16×64 (rings × around). \
+            Known discrepancy: every form follows the path closely up to P/Pmax ≈ 0.3 and is \
+            stiffer beyond (about −10 % at P_max for the pushed point), without converging \
+            toward the reference under refinement; the cause is not established (candidates: \
+            the reference's element and mesh, the point loads on single vertices, the \
+            constant-strain membrane of the triangles).",
         tolerance: 0.03,
         quick_tolerance: 1.0,
         levels: 3,
@@ -68,7 +75,10 @@ pub(crate) static SPECS: [Spec; 3] = [
             (the roof hangs inverted; its rise is 12.7); load control would jump at the limit \
             point. Compared: the limit point (first maximum of P/Pmax, reference 0.742 at \
             −W_C = 11.3) and the following minimum (reference 0.173 at −W_C = 19.85), each \
-            from the parabola through the extreme path point and its neighbours. Meshes: 8×8, \
+            from the parabola through the extreme path point and its neighbours (the deflection \
+            at the limit is ill-conditioned: the path is flat there, and the reference gives it \
+            as ≈ 11.3). The mid-edge average's hinged edges are not moment-free (a boundary \
+            edge's normal is its face's normal), so it is stiffer on finer meshes. Meshes: 8×8, \
             16×16, 32×32 (around × along), full roof.",
         tolerance: 0.03,
         quick_tolerance: 1.0,
