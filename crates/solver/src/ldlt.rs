@@ -191,12 +191,11 @@ mod tests {
     use faer::sparse::{SparseColMat, Triplet};
     use nalgebra::DMatrix;
 
-    /// A random symmetric banded matrix with a diagonal shift: its inertia from the LDLᵀ
-    /// pivots equals the count of negative eigenvalues of a dense eigen-decomposition, and the
-    /// solve matches the dense solve.
+    /// Random symmetric banded matrices with diagonal shifts, small (simplicial factor) and
+    /// wide-banded (supernodal factor): the inertia from the LDLᵀ pivots equals the count of
+    /// negative eigenvalues of a dense eigen-decomposition, and the solve matches.
     #[test]
     fn inertia_and_solve_match_dense() {
-        let n = 60;
         let mut seed = 12345u64;
         let mut rnd = || {
             seed = seed
@@ -204,36 +203,48 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             ((seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
         };
-        let mut dense = DMatrix::<f64>::zeros(n, n);
-        for j in 0..n {
-            for i in j..(j + 5).min(n) {
-                let v = rnd();
-                dense[(i, j)] = v;
-                dense[(j, i)] = v;
+        for (n, band, supernodal) in [(60usize, 5usize, false), (200, 200, true)] {
+            let mut dense = DMatrix::<f64>::zeros(n, n);
+            for j in 0..n {
+                for i in j..(j + band).min(n) {
+                    let v = rnd();
+                    dense[(i, j)] = v;
+                    dense[(j, i)] = v;
+                }
             }
-        }
-        for shift in [-0.6, -0.2, 0.0, 0.3, 3.0] {
-            let mut m = dense.clone();
-            for i in 0..n {
-                m[(i, i)] += shift;
-            }
-            let triplets: Vec<_> = (0..n)
-                .flat_map(|j| (j..n).map(move |i| (i, j)))
-                .filter(|&(i, j)| i - j < 5)
-                .map(|(i, j)| Triplet::new(i, j, m[(i, j)]))
-                .collect();
-            let a = SparseColMat::try_new_from_triplets(n, n, &triplets).unwrap();
-            for ordering in [Ordering::Amd, Ordering::NestedDissection] {
-                let mut f = SparseLdlt::new(a.symbolic(), ordering, Par::Seq).unwrap();
-                f.factorize(a.as_ref()).unwrap();
+            let spread = 0.3 * (band as f64).sqrt();
+            for shift in [-2.0 * spread, -spread, 0.0, spread, 10.0 * spread] {
+                let mut m = dense.clone();
+                for i in 0..n {
+                    m[(i, i)] += shift;
+                }
+                let triplets: Vec<_> = (0..n)
+                    .flat_map(|j| (j..n).map(move |i| (i, j)))
+                    .filter(|&(i, j)| i - j < band)
+                    .map(|(i, j)| Triplet::new(i, j, m[(i, j)]))
+                    .collect();
+                let a = SparseColMat::try_new_from_triplets(n, n, &triplets).unwrap();
                 let eig = m.clone().symmetric_eigen();
                 let negative = eig.eigenvalues.iter().filter(|v| **v < 0.0).count();
-                assert_eq!(f.negative_pivots(), negative, "shift {shift}");
-                let b: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
-                let mut x = b.clone();
-                f.solve_in_place(&mut x).unwrap();
-                let r = &m * nalgebra::DVector::from_vec(x) - nalgebra::DVector::from_vec(b);
-                assert!(r.amax() < 1e-8, "shift {shift}: residual {}", r.amax());
+                for ordering in [Ordering::Amd, Ordering::NestedDissection] {
+                    let mut f = SparseLdlt::new(a.symbolic(), ordering, Par::Seq).unwrap();
+                    assert_eq!(
+                        matches!(f.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)),
+                        supernodal,
+                        "n = {n}: factor kind"
+                    );
+                    f.factorize(a.as_ref()).unwrap();
+                    assert_eq!(f.negative_pivots(), negative, "n = {n}, shift {shift}");
+                    let b: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
+                    let mut x = b.clone();
+                    f.solve_in_place(&mut x).unwrap();
+                    let r = &m * nalgebra::DVector::from_vec(x) - nalgebra::DVector::from_vec(b);
+                    assert!(
+                        r.amax() < 1e-8,
+                        "n = {n}, shift {shift}: residual {}",
+                        r.amax()
+                    );
+                }
             }
         }
     }

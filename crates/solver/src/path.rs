@@ -17,8 +17,10 @@
 //!   `ΔuᵀΔu + ψ²Δλ² = Δs²`, solved exactly for δλ (a quadratic; of its two roots the one
 //!   whose increment makes the smaller angle with the current increment; complex roots cut
 //!   the step);
-//! - displacement control of dof k: `Δu_k = Δ` (then `δλ = (Δ − Δu_k − δu_R,k)/δu_q,k`; it
-//!   fails where `δu_q,k` vanishes, at a snap-back of that dof).
+//! - displacement control of dof k: `Δu_k = Δ` (then `δλ = (Δ − Δu_k − δu_R,k)/δu_q,k`). It
+//!   cannot pass a snap-back of that dof (a turning point of u_k): there Newton would land on
+//!   a distant branch; a converged increment more than 10 times longer than its predictor is
+//!   refused as such a jump, so the step is cut back and finally fails.
 //!
 //! Δu, Δλ are increments from the last converged point. **Sign rule**: the predictor
 //! `±(δu_q, 1)/√(δu_qᵀδu_q + ψ²)·Δs` takes the sign that continues the previous converged
@@ -44,6 +46,10 @@ use faer::sparse::SparseColMat;
 use crate::error::PathFailure;
 use crate::ldlt::SparseLdlt;
 use crate::{Objective, Ordering, SolverError};
+
+/// Displacement control: a converged increment longer than this × its predictor is a jump to
+/// another branch, refused (the step is cut back, and fails at a snap-back of the dof).
+const JUMP_FACTOR: f64 = 10.0;
 
 /// An [`Objective`] `Π(u, λ) = E(u) − λ·W(u)` whose load factor λ can be set: `value`,
 /// `gradient` and `hessian` are those of Π at the current λ (the Hessian must be the exact
@@ -236,6 +242,60 @@ impl PathPoint {
 /// Traces an equilibrium path step by step; keeps the previous increment (for the sign rule),
 /// the adapted step size and the factorised tangent of the last point. One tracer per path:
 /// the objective must be the same between steps (call [`PathTracer::reset`] after changing it).
+///
+/// A one-dof softening spring `Π(u, λ) = u²/2 − u⁴/4 − λu`: equilibria `λ = u − u³`, a limit
+/// point at `u = 1/√3`, where load control would jump; arc length passes it:
+///
+/// ```
+/// use faer::sparse::{SparseColMat, Triplet};
+/// use thinshell_solver::{LoadedObjective, Objective, PathSettings, PathTracer, SolverError};
+///
+/// struct Spring { lambda: f64 }
+/// impl Objective for Spring {
+///     fn n_dofs(&self) -> usize { 1 }
+///     fn value(&mut self, u: &[f64]) -> Result<f64, SolverError> {
+///         Ok(u[0].powi(2) / 2.0 - u[0].powi(4) / 4.0 - self.lambda * u[0])
+///     }
+///     fn gradient(&mut self, u: &[f64], g: &mut [f64]) -> Result<f64, SolverError> {
+///         g[0] = u[0] - u[0].powi(3) - self.lambda;
+///         self.value(u)
+///     }
+///     fn hessian(&mut self, u: &[f64], h: &mut SparseColMat<usize, f64>) -> Result<(), SolverError> {
+///         h.val_mut()[0] = 1.0 - 3.0 * u[0] * u[0];
+///         Ok(())
+///     }
+///     fn hessian_template(&self) -> SparseColMat<usize, f64> {
+///         SparseColMat::try_new_from_triplets(1, 1, &[Triplet::new(0, 0, 0.0)]).unwrap()
+///     }
+///     fn force_scale(&self) -> f64 { 1.0 }
+/// }
+/// impl LoadedObjective for Spring {
+///     fn load_factor(&self) -> f64 { self.lambda }
+///     fn set_load_factor(&mut self, lambda: f64) -> Result<(), SolverError> {
+///         self.lambda = lambda;
+///         Ok(())
+///     }
+///     fn load_vector(&mut self, _u: &[f64], q: &mut [f64]) -> Result<(), SolverError> {
+///         q[0] = 1.0; // dead load
+///         Ok(())
+///     }
+/// }
+///
+/// let mut spring = Spring { lambda: 0.0 };
+/// let mut u = [0.0];
+/// let mut tracer = PathTracer::new(PathSettings::default());
+/// let mut lambda_max = 0.0f64;
+/// while u[0] < 0.9 {
+///     let p = tracer.step(&mut spring, &mut u)?;
+///     assert!((p.load_factor - (u[0] - u[0].powi(3))).abs() < 1e-9); // on the path
+///     assert_eq!(p.stable(), 1.0 - 3.0 * u[0] * u[0] > 0.0); // unstable past the limit
+///     lambda_max = lambda_max.max(p.load_factor);
+/// }
+/// // Through the limit point λ_max = 2/(3√3) ≈ 0.385 and down the other side.
+/// assert!(lambda_max > 0.37 && lambda_max <= 2.0 / (3.0 * 3f64.sqrt()));
+/// assert!(spring.lambda < 0.2);
+/// # Ok::<(), SolverError>(())
+/// ```
 #[derive(Debug)]
 pub struct PathTracer {
     /// The settings (read at every step; [`PathTracer::reset`] after changing the control).
@@ -357,8 +417,17 @@ impl PathTracer {
         loop {
             let ds = self.step_length.unwrap_or(self.first_step);
             match self.attempt(obj, u, &u0, lambda0, &v, v_norm2, ds) {
-                Ok((iterations, residuals, dl)) => {
-                    let value = obj.value(u)?;
+                Ok((iterations, residuals, du, dl)) => {
+                    let value = match obj.value(u) {
+                        Ok(v) => v,
+                        Err(e) => {
+                            u.copy_from_slice(&u0);
+                            obj.set_load_factor(lambda0)?;
+                            self.tangent_current = false;
+                            return Err(e);
+                        }
+                    };
+                    self.previous = Some((du, dl));
                     let negative = match self.factorize(obj, u) {
                         Ok(()) => self.factor.as_ref().map(|f| f.negative_pivots()),
                         Err(_) => None,
@@ -501,7 +570,8 @@ impl PathTracer {
     }
 
     /// One attempt of a step of size `ds` from (u0, λ0); returns the iterations, the
-    /// residual history and Δλ. On failure `u` and λ are garbage (the caller restores them).
+    /// residual history, Δu and Δλ. On failure `u` and λ are garbage (the caller restores
+    /// them).
     #[allow(clippy::too_many_arguments)]
     fn attempt<O: LoadedObjective + ?Sized>(
         &mut self,
@@ -512,7 +582,7 @@ impl PathTracer {
         v: &[f64],
         v_norm2: f64,
         ds: f64,
-    ) -> Result<(usize, Vec<f64>, f64), Attempt> {
+    ) -> Result<(usize, Vec<f64>, Vec<f64>, f64), Attempt> {
         let n = u.len();
         let psi2 = self.psi * self.psi;
         let length = obj.length_scale();
@@ -640,6 +710,23 @@ impl PathTracer {
                 obj.gradient(u, &mut r)
                     .map_err(|e| fail(e.to_string(), &residuals))?;
                 residuals.push(r.iter().fold(0.0f64, |m, x| m.max(x.abs())) / force);
+                if let PathControl::Displacement { .. } = self.settings.control {
+                    // The constraint does not bound the other unknowns: past a turning point
+                    // of the controlled dof Newton lands on a distant branch. Refuse the jump.
+                    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    let (got, predicted) = (norm(&du), norm(&predictor_dir.0));
+                    if got > JUMP_FACTOR * predicted {
+                        return Err(fail(
+                            format!(
+                                "the converged increment is {:.0}× the predictor's: the path \
+                                 does not continue in the controlled dof (it turns back there, \
+                                 a snap-back); use arc length",
+                                got / predicted
+                            ),
+                            &residuals,
+                        ));
+                    }
+                }
                 if let PathControl::ArcLength { .. } = self.settings.control {
                     let forward = du
                         .iter()
@@ -654,8 +741,7 @@ impl PathTracer {
                         ));
                     }
                 }
-                self.previous = Some((du, dl));
-                return Ok((iteration + 1, residuals, dl));
+                return Ok((iteration + 1, residuals, du, dl));
             }
         }
         Err(fail(

@@ -306,3 +306,56 @@ fn bad_settings_and_failures_are_errors_not_panics() {
     assert_eq!(u, vec![0.0, 0.0]);
     assert_eq!(truss.lambda, 0.0);
 }
+
+/// Displacement control of the loaded point w cannot pass its snap-back: it traces the path
+/// up to the turning point of w (on the closed form within 1e-6) and then fails with
+/// `PathFailed` instead of jumping to the far branch.
+#[test]
+fn displacement_control_stops_at_a_snap_back_of_the_controlled_dof() {
+    // The closed-form turning point of w(v) = v + F(v)/K: dw/dv = 1 + F'(v)/K = 0.
+    let dw = |v: f64| 1.0 + truss_stiffness(v) / K;
+    let (mut a, mut b) = (0.0, H);
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if dw(m) > 0.0 {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    let w_turn = exact(0.5 * (a + b)).0;
+    let settings = PathSettings {
+        control: PathControl::Displacement { dof: 1 },
+        initial_step: Some(0.01 * H),
+        max_step_ratio: 1.0,
+        ..PathSettings::default()
+    };
+    let mut truss = SpringTruss { lambda: 0.0 };
+    let mut u = vec![0.0, 0.0];
+    let mut tracer = PathTracer::new(settings);
+    let mut points = Vec::new();
+    let err = loop {
+        match tracer.step(&mut truss, &mut u) {
+            Ok(p) => points.push((u[0], u[1], p.load_factor, p.negative_eigenvalues)),
+            Err(e) => break e,
+        }
+        assert!(points.len() < 1000, "no failure");
+    };
+    check_on_path(&points);
+    let SolverError::PathFailed(f) = err else {
+        panic!("unexpected error {err}")
+    };
+    // Its last attempts either jump (refused) or find no solution near the turning point.
+    assert!(
+        f.reason.contains("snap-back") || f.reason.contains("no convergence"),
+        "{}",
+        f.reason
+    );
+    // It stopped just before the turning point, never beyond it.
+    let w_last = points.last().map(|p| p.1).unwrap_or(0.0);
+    assert!(
+        w_last <= w_turn && w_last > w_turn - 1e-3 * H,
+        "{w_last} vs {w_turn}"
+    );
+    assert_eq!(turns(points.iter().map(|p| p.0)), 0);
+}
