@@ -35,7 +35,8 @@ mod runner;
 
 use cases::{THICK_CYLINDER, cantilever, cap_refinement, cylinder_refinement, square, strip};
 use plots::{plot_case, plot_refinement};
-use report::{case_json, machine, markdown, sff_name, summarise_knobs};
+use report::{case_json, markdown, sff_name, summarise_knobs};
+pub(crate) use report::{machine, slug};
 use runner::{Knobs, paper, rms_rigid, shell, static_solve};
 
 type V3 = Vector3<f64>;
@@ -105,18 +106,18 @@ struct Run {
     to_discrete: Option<f64>,
 }
 
-/// A convergence series under mesh refinement.
+/// A convergence series under mesh refinement (also used by `cargo xtask verify`).
 #[derive(Clone, Debug)]
-struct Refinement {
-    name: String,
+pub(crate) struct Refinement {
+    pub(crate) name: String,
     /// (faces, error).
-    points: Vec<(usize, f64)>,
+    pub(crate) points: Vec<(usize, f64)>,
 }
 
 impl Refinement {
     /// Observed order p of error ∝ h^p with h ∝ faces^(−1/2): least-squares slope over all
     /// levels, and per consecutive pair.
-    fn orders(&self) -> (Option<f64>, Vec<f64>) {
+    pub(crate) fn orders(&self) -> (Option<f64>, Vec<f64>) {
         let pts: Vec<(f64, f64)> = self
             .points
             .iter()

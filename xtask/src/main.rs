@@ -5,6 +5,7 @@
 //! - `bench-sphere`: the seed's two sphere experiments with energy plots and rendered shapes.
 //! - `hard-cases`: heavy variants of the numerical hard cases (issue #8, docs/robustness.md).
 //! - `accuracy`: error against known answers vs wall time for every accuracy knob.
+//! - `verify`: the verification suite against analytic and published answers (issue #16).
 //! - `test`: every test of the project (the README's test command).
 
 mod accuracy;
@@ -16,6 +17,7 @@ mod one_build;
 mod plot;
 mod render;
 mod test;
+mod verify;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -70,6 +72,23 @@ enum Task {
         #[arg(long)]
         only: Option<String>,
     },
+    /// The verification suite (issue #16): analytic cases, Kirchhoff plates, linear shell
+    /// benchmarks and nonlinear load paths with every bending form under refinement. Writes
+    /// docs/verification.md, plots under docs/verification/ and target/xtask/verify.json.
+    Verify {
+        /// Only the coarsest level of each case (the test runs this).
+        #[arg(long)]
+        quick: bool,
+        /// Directory for verification.md and the verification/ plots (default: <workspace>/docs).
+        #[arg(long)]
+        docs_dir: Option<PathBuf>,
+        /// The JSON file with every run (default: target/xtask/verify.json).
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Only the cases whose name or group contains this text.
+        #[arg(long)]
+        only: Option<String>,
+    },
     /// Every test of the project: the Rust tests, then the stages that need outside tools
     /// (installed on first use). The README's test command; `.ci/run` calls it.
     Test {
@@ -111,6 +130,17 @@ fn main() -> ExitCode {
             quick,
             docs_dir: docs_dir.unwrap_or_else(|| workspace_root().join("docs")),
             json_path: json.unwrap_or_else(|| out_dir().join("accuracy.json")),
+            only,
+        }),
+        Task::Verify {
+            quick,
+            docs_dir,
+            json,
+            only,
+        } => verify::run(&verify::Options {
+            quick,
+            docs_dir: docs_dir.unwrap_or_else(|| workspace_root().join("docs")),
+            json_path: json.unwrap_or_else(|| out_dir().join("verify.json")),
             only,
         }),
         Task::Test { rust_only } => test::run(&test::Options { rust_only }),

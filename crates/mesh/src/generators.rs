@@ -12,8 +12,10 @@ use crate::error::MeshError;
 use crate::mesh::Mesh;
 
 mod catalogue;
+mod shells;
 
 pub use catalogue::{Generator, Param, Value};
+pub use shells::{hemisphere, hemisphere_with_hole, slit_annulus};
 
 fn positive(name: &'static str, value: f64) -> Result<(), MeshError> {
     if value.is_finite() && value > 0.0 {

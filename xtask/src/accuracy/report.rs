@@ -9,7 +9,7 @@ use thinshell_energy::SffKind;
 use super::layout;
 use super::{CASE_NAMES, Case, FORMULATIONS, Refinement, Run};
 
-pub(super) fn machine() -> (usize, String) {
+pub(crate) fn machine() -> (usize, String) {
     let nproc = std::thread::available_parallelism().map_or(1, |n| n.get());
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
@@ -41,7 +41,7 @@ pub(super) fn today() -> String {
     format!("{y:04}-{m:02}-{d:02}")
 }
 
-pub(super) fn slug(s: &str) -> String {
+pub(crate) fn slug(s: &str) -> String {
     let mut out = String::new();
     for c in s.chars() {
         if c.is_ascii_alphanumeric() {

@@ -1,0 +1,137 @@
+//! Building the systems of the cases, static equilibria and load ramps that restart each load
+//! level from the previous equilibrium.
+
+use anyhow::Result;
+use nalgebra::Vector3;
+use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
+use thinshell_mesh::{Mesh, VertexId};
+use thinshell_solver::{Boundary, Loads, ShellSystem, Static};
+
+pub(crate) type V3 = Vector3<f64>;
+
+/// The elastic shell (stretching + bending, no inertia) of `mesh` with rest forms `rest`.
+pub(crate) fn system(
+    mesh: Mesh,
+    rest: RestState,
+    sff: SffKind,
+    material: Material,
+    boundary: Boundary,
+    loads: Loads,
+) -> Result<ShellSystem> {
+    let model = ShellModel {
+        material,
+        terms: Terms::ELASTIC,
+        sff,
+    };
+    Ok(ShellSystem::new(mesh, model, rest, boundary, loads)?)
+}
+
+/// The shell of `mesh` whose rest shape is its stored shape (b̄ of the chosen form at φ = 0).
+pub(crate) fn stress_free(
+    mesh: Mesh,
+    sff: SffKind,
+    material: Material,
+    boundary: Boundary,
+    loads: Loads,
+) -> Result<ShellSystem> {
+    let rest = RestState::from_mesh(&mesh, mesh.positions(), sff)?;
+    system(mesh, rest, sff, material, boundary, loads)
+}
+
+/// A configuration: positions and (edge-director forms) edge angles.
+#[derive(Clone, Debug)]
+pub(crate) struct Config {
+    pub(crate) x: Vec<V3>,
+    pub(crate) phi: Vec<f64>,
+}
+
+impl Config {
+    pub(crate) fn of(sys: &ShellSystem, x: Vec<V3>) -> Config {
+        Config {
+            x,
+            phi: vec![0.0; sys.n_edge_angles()],
+        }
+    }
+}
+
+/// Newton iterations per static solve before the ramp halves the load step.
+const MAX_ITERATIONS: usize = 60;
+
+/// The static equilibrium at the system's current load factor from `c` (overwritten by the
+/// solution, or left unchanged on failure). Convergence is the solver's scale-free test on the
+/// Newton correction (1e-12 of the model size), which is independent of the load size, so small
+/// linear loads are solved as accurately as large ones. Returns whether it converged.
+pub(crate) fn equilibrium(sys: &mut ShellSystem, c: &mut Config) -> bool {
+    let mut st = Static::default();
+    st.newton.max_iterations = MAX_ITERATIONS;
+    let mut trial = c.clone();
+    let ok = st
+        .solve_with_angles(sys, &mut trial.x, &mut trial.phi)
+        .is_ok()
+        && trial.x.iter().all(|p| p.iter().all(|v| v.is_finite()));
+    if ok {
+        *c = trial;
+    }
+    ok
+}
+
+/// Static load stepping: equilibria at the load factors `levels` (ascending, > 0), each from
+/// the previous equilibrium, with steps of at most `max_step` in between; a failed step is
+/// halved (down to `max_step / 256`). `at(λ, config)` is called at every level reached.
+/// Returns the load factor of the last equilibrium if the ramp stopped before the last level.
+pub(crate) fn ramp(
+    sys: &mut ShellSystem,
+    c: &mut Config,
+    levels: &[f64],
+    max_step: f64,
+    mut at: impl FnMut(&mut ShellSystem, f64, &Config) -> Result<()>,
+) -> Result<Option<f64>> {
+    let mut lambda = 0.0;
+    let mut step = max_step;
+    for &target in levels {
+        while lambda < target - 1e-12 {
+            let next = (lambda + step).min(target);
+            sys.set_load_factor(next)?;
+            if equilibrium(sys, c) {
+                lambda = next;
+                step = (2.0 * step).min(max_step);
+            } else {
+                step *= 0.5;
+                if step < max_step / 256.0 {
+                    sys.set_load_factor(lambda)?;
+                    return Ok(Some(lambda));
+                }
+            }
+        }
+        at(sys, target, c)?;
+    }
+    Ok(None)
+}
+
+/// Consistent nodal forces (N) of a uniform pressure `q` (Pa) on a flat mesh: each face's
+/// `q·area` shared equally by its three vertices, along `direction`.
+pub(crate) fn uniform_nodal_forces(mesh: &Mesh, q: f64, direction: V3) -> Vec<(VertexId, V3)> {
+    let x = mesh.positions();
+    let mut f = vec![0.0; mesh.n_vertices()];
+    for face in mesh.faces() {
+        let p = |k: usize| x[face[k].idx()];
+        let area = 0.5 * (p(1) - p(0)).cross(&(p(2) - p(0))).norm();
+        for v in face {
+            f[v.idx()] += q * area / 3.0;
+        }
+    }
+    f.into_iter()
+        .enumerate()
+        .map(|(i, s)| (VertexId::new(i), direction * s))
+        .collect()
+}
+
+/// The vertex of `mesh` at `p` (within 1e-9 of the mesh size), or an error naming the point.
+pub(crate) fn vertex_at(mesh: &Mesh, p: V3) -> Result<VertexId> {
+    let v = mesh.nearest_vertex(&p);
+    let d = (mesh.positions()[v.idx()] - p).norm();
+    if d > 1e-9 * mesh.bounding_box().diagonal() {
+        anyhow::bail!("no vertex at {p:?} (nearest {d:.3e} away)");
+    }
+    Ok(v)
+}
