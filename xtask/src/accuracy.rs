@@ -37,7 +37,8 @@ use cases::{THICK_CYLINDER, cantilever, cap_refinement, cylinder_refinement, squ
 use plots::{plot_case, plot_refinement};
 use report::{case_json, markdown, sff_name, summarise_knobs};
 pub(crate) use report::{machine, slug};
-use runner::{Knobs, paper, rms_rigid, shell, static_solve};
+pub(crate) use runner::shell;
+use runner::{Knobs, paper, rms_rigid, static_solve};
 
 type V3 = Vector3<f64>;
 

@@ -713,10 +713,9 @@ pub fn disc(radius: f64, n_rings: usize) -> Result<Mesh, MeshError> {
     Mesh::new(positions, faces)
 }
 
-/// Annulus `r_in ≤ r ≤ r_out` (m) in the plane z = 0: `n_rings + 1` rings of `n_around`
-/// vertices, every other ring rotated by half a step (staggered), `(n_rings + 1) n_around`
-/// vertices, `2 n_rings n_around` faces, normals `+z`.
-pub fn annulus(r_in: f64, r_out: f64, n_rings: usize, n_around: usize) -> Result<Mesh, MeshError> {
+/// The parameter checks of every ring-shaped generator (annulus, slit annulus): radii positive
+/// and increasing, at least one ring of at least three vertices.
+fn check_annulus(r_in: f64, r_out: f64, n_rings: usize, n_around: usize) -> Result<(), MeshError> {
     positive("r_in", r_in)?;
     positive("r_out", r_out)?;
     if r_out <= r_in {
@@ -727,7 +726,14 @@ pub fn annulus(r_in: f64, r_out: f64, n_rings: usize, n_around: usize) -> Result
         });
     }
     at_least("n_rings", n_rings, 1)?;
-    at_least("n_around", n_around, 3)?;
+    at_least("n_around", n_around, 3)
+}
+
+/// Annulus `r_in ≤ r ≤ r_out` (m) in the plane z = 0: `n_rings + 1` rings of `n_around`
+/// vertices, every other ring rotated by half a step (staggered), `(n_rings + 1) n_around`
+/// vertices, `2 n_rings n_around` faces, normals `+z`.
+pub fn annulus(r_in: f64, r_out: f64, n_rings: usize, n_around: usize) -> Result<Mesh, MeshError> {
+    check_annulus(r_in, r_out, n_rings, n_around)?;
     let mut positions = Vec::with_capacity((n_rings + 1) * n_around);
     let mut faces = Vec::with_capacity(2 * n_rings * n_around);
     let mut prev: Vec<(usize, f64)> = Vec::new();

@@ -71,7 +71,9 @@ pub(super) fn paper(thickness: f64) -> Material {
     }
 }
 
-pub(super) fn shell(
+/// The elastic shell (stretching + bending, no inertia) of `mesh` with rest forms `rest`: the
+/// one system builder of the accuracy and verification studies.
+pub(crate) fn shell(
     mesh: Mesh,
     rest: RestState,
     sff: SffKind,

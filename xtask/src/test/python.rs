@@ -34,17 +34,13 @@ pub fn stage() -> Result<()> {
     ensure_venv(&root, &venv)?;
 
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    // The test build's feature set (dev-dependencies included) builds the CLI as part of the
+    // workspace tests; `cargo build -p thinshell` alone would resolve other features and
+    // recompile thinshell and its dependencies (2 min on a fresh clone).
     run_stage(
-        "cargo build --release -p thinshell --bin thinshell   (the CLI the Python tests compare against)",
+        "cargo test --workspace --release --no-run   (the CLI the Python tests compare against; built by the Rust stage)",
         Command::new(&cargo)
-            .args([
-                "build",
-                "--release",
-                "-p",
-                "thinshell",
-                "--bin",
-                "thinshell",
-            ])
+            .args(["test", "--workspace", "--release", "--no-run"])
             .current_dir(&root),
     )?;
     let bin = venv.join("bin");

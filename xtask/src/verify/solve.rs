@@ -3,28 +3,13 @@
 
 use anyhow::Result;
 use nalgebra::Vector3;
-use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
+use thinshell_energy::{Material, RestState, SffKind};
 use thinshell_mesh::{Mesh, VertexId};
 use thinshell_solver::{Boundary, Loads, ShellSystem, Static};
 
 pub(crate) type V3 = Vector3<f64>;
 
-/// The elastic shell (stretching + bending, no inertia) of `mesh` with rest forms `rest`.
-pub(crate) fn system(
-    mesh: Mesh,
-    rest: RestState,
-    sff: SffKind,
-    material: Material,
-    boundary: Boundary,
-    loads: Loads,
-) -> Result<ShellSystem> {
-    let model = ShellModel {
-        material,
-        terms: Terms::ELASTIC,
-        sff,
-    };
-    Ok(ShellSystem::new(mesh, model, rest, boundary, loads)?)
-}
+pub(crate) use crate::accuracy::shell as system;
 
 /// The shell of `mesh` whose rest shape is its stored shape (b̄ of the chosen form at φ = 0).
 pub(crate) fn stress_free(

@@ -7,7 +7,7 @@ use std::f64::consts::{FRAC_PI_2, TAU};
 
 use nalgebra::Vector3;
 
-use super::{Diagonals, annulus, at_least, disc, grid_faces, lattice, positive};
+use super::{Diagonals, annulus, check_annulus, disc, grid_faces, lattice, positive};
 use crate::error::MeshError;
 use crate::mesh::Mesh;
 
@@ -77,17 +77,7 @@ pub fn slit_annulus(
     n_rings: usize,
     n_around: usize,
 ) -> Result<Mesh, MeshError> {
-    positive("r_in", r_in)?;
-    positive("r_out", r_out)?;
-    if r_out <= r_in {
-        return Err(MeshError::InvalidParameter {
-            name: "r_out",
-            value: r_out,
-            reason: "must be > r_in",
-        });
-    }
-    at_least("n_rings", n_rings, 1)?;
-    at_least("n_around", n_around, 3)?;
+    check_annulus(r_in, r_out, n_rings, n_around)?;
     let mut positions = Vec::with_capacity((n_rings + 1) * (n_around + 1));
     for j in 0..=n_rings {
         let r = r_in + lattice(r_out - r_in, j, n_rings);

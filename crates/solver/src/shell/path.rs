@@ -128,27 +128,7 @@ impl ShellPath {
         if phi.is_empty() {
             phi.resize(system.n_edge_angles(), 0.0);
         }
-        if phi.len() != system.n_edge_angles() {
-            return Err(SolverError::DimensionMismatch {
-                what: "edge angles",
-                expected: system.n_edge_angles(),
-                found: phi.len(),
-            });
-        }
-        if system.model.terms.damping {
-            return Err(SolverError::InvalidSetting {
-                name: "terms.damping",
-                value: 1.0,
-                requirement: "path following is static: build the system without damping",
-            });
-        }
-        if !(self.hessian_shift.is_finite() && self.hessian_shift >= 0.0) {
-            return Err(SolverError::InvalidSetting {
-                name: "hessian_shift",
-                value: self.hessian_shift,
-                requirement: "must be non-negative and finite",
-            });
-        }
+        super::statics::check_static_inputs(system, phi, self.hessian_shift)?;
         let mut u = system.gather(x, phi);
         let own = std::mem::replace(&mut system.hessian_mode, HessianMode::Exact);
         let lambda0 = system.load_factor();

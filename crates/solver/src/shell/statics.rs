@@ -69,27 +69,7 @@ impl Static {
         x: &mut [Vector3<f64>],
         phi: &mut [f64],
     ) -> Result<NewtonReport, SolverError> {
-        if phi.len() != system.n_edge_angles() {
-            return Err(SolverError::DimensionMismatch {
-                what: "edge angles",
-                expected: system.n_edge_angles(),
-                found: phi.len(),
-            });
-        }
-        if system.model.terms.damping {
-            return Err(SolverError::InvalidSetting {
-                name: "terms.damping",
-                value: 1.0,
-                requirement: "a static solve has no damping (build the system without it)",
-            });
-        }
-        if !(self.hessian_shift.is_finite() && self.hessian_shift >= 0.0) {
-            return Err(SolverError::InvalidSetting {
-                name: "hessian_shift",
-                value: self.hessian_shift,
-                requirement: "must be non-negative and finite",
-            });
-        }
+        check_static_inputs(system, phi, self.hessian_shift)?;
         let mut u = system.gather(x, phi);
         let mut obj = self.objective(system, x, phi);
         let ws = self.cache.fit(&obj, &self.newton)?;
@@ -214,4 +194,35 @@ impl Integrator for Static {
             stable: Some(stable),
         })
     }
+}
+
+/// The checks shared by every static solve (equilibrium, path following): one edge angle per
+/// edge, no damping term, a finite non-negative Hessian shift.
+pub(crate) fn check_static_inputs(
+    system: &ShellSystem,
+    phi: &[f64],
+    hessian_shift: f64,
+) -> Result<(), SolverError> {
+    if phi.len() != system.n_edge_angles() {
+        return Err(SolverError::DimensionMismatch {
+            what: "edge angles",
+            expected: system.n_edge_angles(),
+            found: phi.len(),
+        });
+    }
+    if system.model.terms.damping {
+        return Err(SolverError::InvalidSetting {
+            name: "terms.damping",
+            value: 1.0,
+            requirement: "a static solve has no damping (build the system without it)",
+        });
+    }
+    if !(hessian_shift.is_finite() && hessian_shift >= 0.0) {
+        return Err(SolverError::InvalidSetting {
+            name: "hessian_shift",
+            value: hessian_shift,
+            requirement: "must be non-negative and finite",
+        });
+    }
+    Ok(())
 }
