@@ -642,6 +642,14 @@ void main() {
         o.textContent = f.label + (f.unit ? ' [' + f.unit + ']' : '');
         sel.appendChild(o);
       }
+      if (!meta[0].fields.some((f) => f.key === 'bend_density')) {
+        // OBJ frames carry positions only: say how to get the energy densities instead of
+        // leaving the user to wonder why they are not offered.
+        const o = document.createElement('option');
+        o.disabled = true;
+        o.textContent = 'energy densities: run with output.formats = ["obj", "vtk"]';
+        sel.appendChild(o);
+      }
       if (!meta[0].fields.some((f) => f.key === state.field) && state.field !== 'none') state.field = 'displacement';
       sel.value = state.field;
       $('wire').checked = state.wire;
