@@ -1,7 +1,7 @@
 """The energy layer: gradient against central differences of the energy, Hessian against
 central differences of the gradient and, to 1e-12 relative, against a dense Hessian summed face
-by face from the Rust kernel without the assembler, symmetry, rigid-motion invariance, and agreement with the
-energies a Simulation reports for the same state."""
+by face from the Rust kernel without the assembler; symmetry, rigid-motion invariance, and
+agreement with the energies a Simulation reports for the same state."""
 
 from __future__ import annotations
 
