@@ -88,7 +88,6 @@ struct Inputs {
 }
 
 /// Builds and checks the mesh, model, rest state and edge angles from the Python arguments.
-#[allow(clippy::too_many_arguments)]
 fn inputs<'py>(
     vertices: &Bound<'py, PyAny>,
     faces: &Bound<'py, PyAny>,
