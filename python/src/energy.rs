@@ -1,15 +1,18 @@
 //! The energy layer: energy, gradient and Hessian of a mesh at given positions against given
 //! rest forms, for users who plug thinshell's energy into their own solver.
 
-use numpy::{PyArray1, PyReadonlyArray1};
+use numpy::ndarray::Array2;
+use numpy::{PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
+use thinshell_energy::nalgebra::{SMatrix, Vector3};
 use thinshell_energy::{
-    Assembler, DofMap, EvalOutput, HessianMode, Material, MaterialModel, RestState, SffKind,
-    ShellModel, Terms,
+    Assembler, DofMap, EdgeDirector, EnergyError, EvalOutput, FaceEval, FaceRest, HessianMode,
+    Material, MaterialModel, MidEdgeAverage, ProjectPsd, RestState, SecondFundamentalForm, SffKind,
+    ShellModel, Stencils, Terms, Want, eval_face,
 };
-use thinshell_mesh::Mesh;
+use thinshell_mesh::{FaceId, Mesh};
 
 use crate::{convert, errors};
 
@@ -73,15 +76,19 @@ fn terms(names: Option<Vec<String>>) -> PyResult<Terms> {
     Ok(t)
 }
 
-/// Energy terms, gradient and full symmetric Hessian (as COO triplets) of the mesh `(V, F)`
-/// at `V` against `rest`: either rest positions (n × 3: forms of that shape) or a tuple
-/// `(a_bar, b_bar)` of m × 2 × 2 arrays. Returns `(stretch, bend, gradient, rows, cols, vals,
-/// n)`; the `thinshell.energy` function builds the `scipy.sparse.csc_matrix`.
-#[pyfunction]
-#[pyo3(signature = (vertices, faces, rest, material=None, form="mid_edge_average", terms=None, edge_angles=None, hessian=true))]
-#[allow(clippy::too_many_arguments, clippy::type_complexity)]
-pub fn energy_parts<'py>(
-    py: Python<'py>,
+/// The checked inputs shared by [`energy_parts`] and [`reference_hessian`].
+struct Inputs {
+    mesh: Mesh,
+    x: Vec<Vector3<f64>>,
+    model: ShellModel,
+    rest: RestState,
+    /// Edge angles (rad): one per edge with edge unknowns, else empty.
+    phi: Vec<f64>,
+    n_angles: usize,
+}
+
+/// Builds and checks the mesh, model, rest state and edge angles from the Python arguments.
+fn inputs<'py>(
     vertices: &Bound<'py, PyAny>,
     faces: &Bound<'py, PyAny>,
     rest: &Bound<'py, PyAny>,
@@ -89,16 +96,7 @@ pub fn energy_parts<'py>(
     form: &str,
     terms: Option<Vec<String>>,
     edge_angles: Option<PyReadonlyArray1<'py, f64>>,
-    hessian: bool,
-) -> PyResult<(
-    f64,
-    f64,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<f64>>,
-    usize,
-)> {
+) -> PyResult<Inputs> {
     let x = convert::points(vertices, "vertices")?;
     let f = convert::faces(faces)?;
     let n_input = x.len();
@@ -152,6 +150,50 @@ pub fn energy_parts<'py>(
             phi.len()
         )));
     }
+    Ok(Inputs {
+        mesh,
+        x,
+        model,
+        rest,
+        phi,
+        n_angles,
+    })
+}
+
+/// Energy terms, gradient and full symmetric Hessian (as COO triplets) of the mesh `(V, F)`
+/// at `V` against `rest`: either rest positions (n × 3: forms of that shape) or a tuple
+/// `(a_bar, b_bar)` of m × 2 × 2 arrays. Returns `(stretch, bend, gradient, rows, cols, vals,
+/// n)`; the `thinshell.energy` function builds the `scipy.sparse.csc_matrix`.
+#[pyfunction]
+#[pyo3(signature = (vertices, faces, rest, material=None, form="mid_edge_average", terms=None, edge_angles=None, hessian=true))]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub fn energy_parts<'py>(
+    py: Python<'py>,
+    vertices: &Bound<'py, PyAny>,
+    faces: &Bound<'py, PyAny>,
+    rest: &Bound<'py, PyAny>,
+    material: Option<&Bound<'py, PyDict>>,
+    form: &str,
+    terms: Option<Vec<String>>,
+    edge_angles: Option<PyReadonlyArray1<'py, f64>>,
+    hessian: bool,
+) -> PyResult<(
+    f64,
+    f64,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<f64>>,
+    usize,
+)> {
+    let Inputs {
+        mesh,
+        x,
+        model,
+        rest,
+        phi,
+        n_angles,
+    } = inputs(vertices, faces, rest, material, form, terms, edge_angles)?;
     let result = py.detach(|| {
         let dofs = DofMap::all_free(mesh.n_vertices()).with_edges(n_angles, [])?;
         let mut assembler = Assembler::for_model(&mesh, &dofs, &model)?;
@@ -202,4 +244,122 @@ pub fn energy_parts<'py>(
         PyArray1::from_vec(py, vals),
         n,
     ))
+}
+
+/// A reference for tests: the DENSE Hessian (numpy n × n, n = 3·n_vertices plus one per edge
+/// with edge unknowns, same ordering as the gradient) of the same energy as [`energy_parts`],
+/// built independently of the [`Assembler`]: every face's N×N kernel Hessian
+/// ([`eval_face`]) is added entry by entry at its global dof indices. It shares only the
+/// per-face stencils with the assembler ([`Stencils`], a pure topology lookup) — not its
+/// sparsity pattern, gather maps or lower-triangle storage, nor `energy_parts`' lower → full
+/// conversion, which is what it checks. O(n²) memory: small meshes only. Exposed to Python as
+/// `thinshell._thinshell._reference_hessian`.
+#[pyfunction]
+#[pyo3(name = "_reference_hessian", signature = (vertices, faces, rest, material=None, form="mid_edge_average", terms=None, edge_angles=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn reference_hessian<'py>(
+    py: Python<'py>,
+    vertices: &Bound<'py, PyAny>,
+    faces: &Bound<'py, PyAny>,
+    rest: &Bound<'py, PyAny>,
+    material: Option<&Bound<'py, PyDict>>,
+    form: &str,
+    terms: Option<Vec<String>>,
+    edge_angles: Option<PyReadonlyArray1<'py, f64>>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let inputs = inputs(vertices, faces, rest, material, form, terms, edge_angles)?;
+    let n = 3 * inputs.mesh.n_vertices() + inputs.n_angles;
+    // Refuse sizes whose dense matrix would not fit comfortably (1 GiB of f64).
+    const MAX_ENTRIES: usize = 1 << 27;
+    if n.saturating_mul(n) > MAX_ENTRIES {
+        return Err(PyValueError::new_err(format!(
+            "_reference_hessian: {n} × {n} dense matrix is too large (a reference for tests on small meshes)"
+        )));
+    }
+    let h = py
+        .detach(|| match inputs.model.sff {
+            SffKind::MidEdgeAverage => dense_hessian::<18, _>(&MidEdgeAverage, &inputs, n),
+            SffKind::EdgeDirector(variant) => {
+                dense_hessian::<21, _>(&EdgeDirector { variant }, &inputs, n)
+            }
+        })
+        .map_err(errors::energy)?;
+    Ok(PyArray2::from_owned_array(py, h))
+}
+
+/// Sum of every face's exact kernel Hessian, scattered into a dense n × n matrix. Local dof
+/// `3s + a` (s < 6) is coordinate a of stencil vertex s (x_i, x_j, x_k, flap_0..2; a missing
+/// flap contributes nothing); local dof `18 + e` (N = 21) is the angle of the face's local edge
+/// e, global dof `3·n_vertices + edge`, when the angles are unknowns (else dropped: held at 0).
+fn dense_hessian<const N: usize, F>(
+    form: &F,
+    inputs: &Inputs,
+    n: usize,
+) -> Result<Array2<f64>, EnergyError>
+where
+    F: SecondFundamentalForm<N>,
+    SMatrix<f64, N, N>: ProjectPsd,
+{
+    let Inputs {
+        mesh,
+        x,
+        model,
+        rest,
+        phi,
+        n_angles,
+    } = inputs;
+    let with_angles = *n_angles > 0;
+    let n_positions = 3 * mesh.n_vertices();
+    let stencils = Stencils::new(mesh);
+    let want = Want {
+        gradient: false,
+        hessian: Some(HessianMode::Exact),
+    };
+    let mut h = Array2::<f64>::zeros((n, n));
+    let mut out = FaceEval::<N>::default();
+    for f in 0..mesh.n_faces() {
+        let stencil = if with_angles {
+            stencils.stencil_at(f, x, phi)
+        } else {
+            stencils.stencil(f, x)
+        };
+        let face_rest = FaceRest {
+            a_bar: rest.a_bar[f],
+            b_bar: rest.b_bar[f],
+        };
+        eval_face(
+            form,
+            &model.material,
+            &stencil,
+            &face_rest,
+            None,
+            model.terms,
+            want,
+            &mut out,
+        );
+        let global = |l: usize| -> Option<usize> {
+            if l < 18 {
+                let s = l / 3;
+                stencils
+                    .slot_present(f, s)
+                    .then(|| 3 * stencils.vertices(f)[s].idx() + l % 3)
+            } else {
+                with_angles.then(|| n_positions + stencils.edges(f)[l - 18].idx())
+            }
+        };
+        for j in 0..N {
+            let Some(gj) = global(j) else { continue };
+            for i in 0..N {
+                let Some(gi) = global(i) else { continue };
+                let v = out.hessian[(i, j)];
+                if !v.is_finite() {
+                    return Err(EnergyError::NonFinite {
+                        face: FaceId::new(f),
+                    });
+                }
+                h[(gi, gj)] += v;
+            }
+        }
+    }
+    Ok(h)
 }

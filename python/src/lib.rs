@@ -24,6 +24,7 @@ fn _thinshell(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scene::PyScene>()?;
     m.add_class::<simulation::PySimulation>()?;
     m.add_function(wrap_pyfunction!(energy::energy_parts, m)?)?;
+    m.add_function(wrap_pyfunction!(energy::reference_hessian, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -183,3 +183,14 @@ def energy_parts(
     npt.NDArray[np.float64],
     int,
 ]: ...
+def _reference_hessian(
+    vertices: npt.ArrayLike,
+    faces: npt.ArrayLike,
+    rest: Any,
+    material: Mapping[str, Any] | None = None,
+    form: str = "mid_edge_average",
+    terms: Sequence[str] | None = None,
+    edge_angles: npt.ArrayLike | None = None,
+) -> npt.NDArray[np.float64]:
+    """Private, for tests: the dense Hessian of ``energy_parts``' energy, summed face by face
+    from the per-face kernel without the assembler (O(n^2) memory)."""
