@@ -14,7 +14,6 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
 use crate::SolverError;
-use crate::linear::{symbolic_amd, symbolic_nd};
 use crate::ordering::Ordering;
 
 /// A sparse LDLᵀ factorisation (lower triangle input, symbolic analysis reused for every
@@ -42,34 +41,21 @@ impl std::fmt::Debug for SparseLdlt {
 }
 
 impl SparseLdlt {
-    /// Symbolic analysis of a square lower-triangle pattern (every diagonal entry present).
-    /// `Ordering::Auto` and `NestedDissection` use the graph nested dissection when cheaper
-    /// than AMD (no coordinates are needed).
+    /// Symbolic analysis of a square lower-triangle pattern (every diagonal entry present), with
+    /// the Cholesky factorisation's ordering choice (no coordinates: graph nested dissection)
+    /// and its memory refusal ([`SolverError::InsufficientMemory`]).
     pub fn new(
         pattern: SymbolicSparseColMatRef<'_, usize>,
         ordering: Ordering,
         par: Par,
     ) -> Result<SparseLdlt, SolverError> {
         crate::linear::diagonal_offsets(pattern)?;
-        let symbolic = match ordering {
-            Ordering::Amd => symbolic_amd(pattern)?,
-            Ordering::NestedDissection => symbolic_nd(pattern, None)?,
-            Ordering::Auto => {
-                let amd = symbolic_amd(pattern)?;
-                let nd = symbolic_nd(pattern, None)?;
-                if crate::linear::factor_flops(&nd) < crate::linear::factor_flops(&amd) {
-                    nd
-                } else {
-                    amd
-                }
-            }
-        };
-        let factor_mem = MemBuffer::try_new(
+        let (symbolic, _) = crate::linear::analyse(pattern, ordering, None)?;
+        let (factor_mem, solve_mem, _) = crate::linear::scratch(
+            &symbolic,
             symbolic.factorize_numeric_ldlt_scratch::<f64>(par, Default::default()),
-        )
-        .map_err(|_| SolverError::Linear("out of memory for LDLT scratch".into()))?;
-        let solve_mem = MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, par))
-            .map_err(|_| SolverError::Linear("out of memory for solve scratch".into()))?;
+            symbolic.solve_in_place_scratch::<f64>(1, par),
+        )?;
         Ok(SparseLdlt {
             l_values: vec![0.0; symbolic.len_val()],
             symbolic,
@@ -93,14 +79,7 @@ impl SparseLdlt {
     /// singular or nearly so in the pivot order) or a non-finite pivot.
     pub fn factorize(&mut self, a: SparseColMatRef<'_, usize, f64>) -> Result<(), SolverError> {
         self.factorized = false;
-        if a.symbolic().col_ptr() != self.col_ptr.as_slice()
-            || a.symbolic().row_idx() != self.row_idx.as_slice()
-        {
-            return Err(SolverError::InvalidPattern {
-                dof: 0,
-                reason: "matrix pattern differs from the analysed pattern",
-            });
-        }
+        crate::linear::same_pattern(a, &self.col_ptr, &self.row_idx)?;
         let stack = MemStack::new(&mut self.factor_mem);
         self.symbolic
             .factorize_numeric_ldlt(
@@ -159,19 +138,8 @@ impl SparseLdlt {
 
     /// Solves `A x = rhs` in place with the last successful factorisation.
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolverError> {
-        if !self.factorized {
-            return Err(SolverError::Linear(
-                "solve called without a successful factorisation".into(),
-            ));
-        }
         let n = self.n();
-        if rhs.len() != n {
-            return Err(SolverError::DimensionMismatch {
-                what: "right-hand side",
-                expected: n,
-                found: rhs.len(),
-            });
-        }
+        crate::linear::ready_to_solve(self.factorized, n, rhs)?;
         let ldlt = LdltRef::new(&self.symbolic, &self.l_values);
         let stack = MemStack::new(&mut self.solve_mem);
         ldlt.solve_in_place_with_conj(

@@ -191,48 +191,10 @@ impl SparseCholesky {
         let start = Instant::now();
         let n = pattern.ncols();
         let diag_offsets = diagonal_offsets(pattern)?;
-        let (symbolic, used) = match ordering {
-            Ordering::Amd => (symbolic_amd(pattern)?, Ordering::Amd),
-            Ordering::NestedDissection => (
-                symbolic_nd(pattern, coordinates)?,
-                Ordering::NestedDissection,
-            ),
-            Ordering::Auto => {
-                // Candidates: AMD, geometric ND (with coordinates), graph ND; fewest flops wins.
-                let mut best = (symbolic_amd(pattern)?, Ordering::Amd);
-                let mut candidates = vec![symbolic_nd(pattern, None)?];
-                if coordinates.is_some() {
-                    candidates.push(symbolic_nd(pattern, coordinates)?);
-                }
-                for nd in candidates {
-                    if factor_flops(&nd) < factor_flops(&best.0) {
-                        best = (nd, Ordering::NestedDissection);
-                    }
-                }
-                best
-            }
-        };
+        let (symbolic, used) = analyse(pattern, ordering, coordinates)?;
         let factor_req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
         let solve_req = symbolic.solve_in_place_scratch::<f64>(1, par);
-        // Refuse before allocating anything large: the factor values plus both scratch buffers.
-        let estimate = factor_memory_estimate(
-            symbolic.len_val(),
-            factor_req.size_bytes(),
-            solve_req.size_bytes(),
-        );
-        if let Some(budget) = crate::memory::memory_budget()
-            && estimate > budget
-        {
-            return Err(SolverError::InsufficientMemory {
-                n,
-                estimate,
-                budget,
-            });
-        }
-        let factor_mem = MemBuffer::try_new(factor_req)
-            .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
-        let solve_mem = MemBuffer::try_new(solve_req)
-            .map_err(|_| SolverError::Linear("out of memory for solve scratch".into()))?;
+        let (factor_mem, solve_mem, estimate) = scratch(&symbolic, factor_req, solve_req)?;
         let stats = FactorStats {
             n,
             nnz_lower: pattern.row_idx().len(),
@@ -277,14 +239,7 @@ impl SparseCholesky {
     /// triangle). Allocates nothing.
     pub fn factorize(&mut self, h: SparseColMatRef<'_, usize, f64>) -> Result<(), FactorError> {
         self.factorized = false;
-        if h.symbolic().col_ptr() != self.col_ptr.as_slice()
-            || h.symbolic().row_idx() != self.row_idx.as_slice()
-        {
-            return Err(FactorError::Other(SolverError::InvalidPattern {
-                dof: 0,
-                reason: "matrix pattern differs from the analysed pattern",
-            }));
-        }
+        same_pattern(h, &self.col_ptr, &self.row_idx).map_err(FactorError::Other)?;
         let stack = MemStack::new(&mut self.factor_mem);
         match self.symbolic.factorize_numeric_llt(
             &mut self.l_values,
@@ -383,19 +338,8 @@ impl SparseCholesky {
 
     /// Solves `H x = rhs` in place with the last successful factorisation. Allocates nothing.
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolverError> {
-        if !self.factorized {
-            return Err(SolverError::Linear(
-                "solve called without a successful factorisation".into(),
-            ));
-        }
         let n = self.stats.n;
-        if rhs.len() != n {
-            return Err(SolverError::DimensionMismatch {
-                what: "right-hand side",
-                expected: n,
-                found: rhs.len(),
-            });
-        }
+        ready_to_solve(self.factorized, n, rhs)?;
         let llt = LltRef::new(&self.symbolic, &self.l_values);
         let stack = MemStack::new(&mut self.solve_mem);
         llt.solve_in_place_with_conj(
@@ -459,6 +403,99 @@ pub fn diagonal_offsets(
         }
     }
     Ok(offsets)
+}
+
+/// The symbolic analysis of a lower-triangle `pattern` under `ordering`, and the ordering used:
+/// `Auto` tries AMD, graph nested dissection and (with `coordinates`, m per dof) geometric
+/// nested dissection, and keeps the one with the fewest factorisation flops. Shared by the
+/// Cholesky and LDLᵀ factorisations.
+pub(crate) fn analyse(
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+    ordering: Ordering,
+    coordinates: Option<&[[f64; 3]]>,
+) -> Result<(SymbolicCholesky<usize>, Ordering), SolverError> {
+    Ok(match ordering {
+        Ordering::Amd => (symbolic_amd(pattern)?, Ordering::Amd),
+        Ordering::NestedDissection => (
+            symbolic_nd(pattern, coordinates)?,
+            Ordering::NestedDissection,
+        ),
+        Ordering::Auto => {
+            let mut best = (symbolic_amd(pattern)?, Ordering::Amd);
+            let mut candidates = vec![symbolic_nd(pattern, None)?];
+            if coordinates.is_some() {
+                candidates.push(symbolic_nd(pattern, coordinates)?);
+            }
+            for nd in candidates {
+                if factor_flops(&nd) < factor_flops(&best.0) {
+                    best = (nd, Ordering::NestedDissection);
+                }
+            }
+            best
+        }
+    })
+}
+
+/// Allocates the factorisation and solve scratch of `symbolic`, after refusing
+/// ([`SolverError::InsufficientMemory`]) a factor whose estimated memory — values plus both
+/// scratch buffers — exceeds [`memory_budget`](crate::memory::memory_budget). Returns the
+/// buffers and the estimate (bytes).
+pub(crate) fn scratch(
+    symbolic: &SymbolicCholesky<usize>,
+    factor_req: faer::dyn_stack::StackReq,
+    solve_req: faer::dyn_stack::StackReq,
+) -> Result<(MemBuffer, MemBuffer, u64), SolverError> {
+    let estimate = factor_memory_estimate(
+        symbolic.len_val(),
+        factor_req.size_bytes(),
+        solve_req.size_bytes(),
+    );
+    if let Some(budget) = crate::memory::memory_budget()
+        && estimate > budget
+    {
+        return Err(SolverError::InsufficientMemory {
+            n: symbolic.nrows(),
+            estimate,
+            budget,
+        });
+    }
+    let factor_mem = MemBuffer::try_new(factor_req)
+        .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
+    let solve_mem = MemBuffer::try_new(solve_req)
+        .map_err(|_| SolverError::Linear("out of memory for solve scratch".into()))?;
+    Ok((factor_mem, solve_mem, estimate))
+}
+
+/// Errors unless `a` has exactly the analysed pattern (`col_ptr`, `row_idx`).
+pub(crate) fn same_pattern(
+    a: SparseColMatRef<'_, usize, f64>,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+) -> Result<(), SolverError> {
+    if a.symbolic().col_ptr() != col_ptr || a.symbolic().row_idx() != row_idx {
+        return Err(SolverError::InvalidPattern {
+            dof: 0,
+            reason: "matrix pattern differs from the analysed pattern",
+        });
+    }
+    Ok(())
+}
+
+/// Errors unless a factorisation succeeded and `rhs` has its dimension `n`.
+pub(crate) fn ready_to_solve(factorized: bool, n: usize, rhs: &[f64]) -> Result<(), SolverError> {
+    if !factorized {
+        return Err(SolverError::Linear(
+            "solve called without a successful factorisation".into(),
+        ));
+    }
+    if rhs.len() != n {
+        return Err(SolverError::DimensionMismatch {
+            what: "right-hand side",
+            expected: n,
+            found: rhs.len(),
+        });
+    }
+    Ok(())
 }
 
 pub(crate) fn symbolic_amd(
