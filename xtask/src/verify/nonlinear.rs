@@ -1,8 +1,8 @@
 //! Geometrically nonlinear load paths (Sze, Liu & Lo 2004, Finite Elements in Analysis and
 //! Design 40:1551; all loads dead): the slit annular plate, the hemisphere with an 18° hole
 //! under alternating forces (load stepping that restarts every level from the previous
-//! equilibrium, [`ramp`]), and the hinged cylindrical roof traced through its limit point by
-//! arc length (`thinshell_solver::ShellPath`).
+//! equilibrium, [`ramp`]), and the pull-out of an open-ended cylinder and the hinged cylindrical
+//! roof, both traced through their limit points by arc length (`thinshell_solver::ShellPath`).
 
 use anyhow::Result;
 use thinshell_energy::{Material, SffKind};
@@ -15,7 +15,7 @@ use super::{Curve, Outcome, Quantity, Spec};
 
 const GROUP: &str = "geometrically nonlinear paths (Sze, Liu & Lo 2004)";
 
-pub(crate) static SPECS: [Spec; 3] = [
+pub(crate) static SPECS: [Spec; 4] = [
     Spec {
         name: "slit annular plate, lifting line force",
         group: GROUP,
@@ -63,6 +63,39 @@ pub(crate) static SPECS: [Spec; 3] = [
         run: hemisphere_path,
     },
     Spec {
+        name: "pull-out of an open-ended cylinder",
+        group: GROUP,
+        description: "R = 4.953, L = 10.35, h = 0.094, E = 10.5e6, ν = 0.3125, both ends free, \
+            two opposite dead radial forces pulling outward at mid-length (θ = 90° and 270°), \
+            up to P_max = 40 000 each; full model (axis z, `cylinder_patch` closed around), \
+            rigid motion removed by `Boundary::rigid_motion_pins` (no reactions: the loads are \
+            self-equilibrated). Measured, each as half the change of the distance between two \
+            opposite points (rigid motions do not change it): w_A at the load points (outward), \
+            −u_B at mid-length 90° from the loads (inward) and −u_C at a free end 90° from the \
+            loads (inward). Reference: the paper's table (converged S4R solution on a 24×36 \
+            octant mesh), 23 load levels P/Pmax = 0.025 … 1.0, as tabulated in the sze2004 \
+            benchmark data of the MBDyn test suite (zanoni-mbdyn/MBDyn, \
+            tests/plates/sze2004/sze35/sze35_ref.dat; its own shell model reproduces the table \
+            closely). The free edges snap between P/Pmax = 0.5 and 0.525 (−u_B jumps from 3.65 \
+            to 4.06, −u_C falls from 3.72 to 3.58), so the path is traced by arc length \
+            (`ShellPath`, first step ΔP/Pmax = 0.025, otherwise default settings) up to \
+            P/Pmax = 1, and read as load control would see it: at each tabulated level the \
+            first path point where the load reaches it (after a limit point, on the branch the \
+            structure snaps to), linearly interpolated; the plots show the whole traced path. \
+            Load stepping with restarts from the previous equilibrium cannot be used with the \
+            edge-director forms here: past the limit point their Newton iterations (on the PSD \
+            Hessian while the exact one is indefinite) stall before reaching the far \
+            equilibrium. Error as for the slit plate (largest deviation over the path / largest \
+            reference value of the series): near the jump it mostly measures where the snap \
+            happens. Meshes: 32×12, 48×18, 64×24 (around × along, alternating diagonals), i.e. \
+            octant meshes 8×6, 12×9, 16×12 (quarter circle × half length).",
+        tolerance: 0.03,
+        quick_tolerance: 1.0,
+        levels: 3,
+        reference_curves: pullout_reference,
+        run: pullout,
+    },
+    Spec {
         name: "hinged cylindrical roof, snap-through by arc length",
         group: GROUP,
         description: "R = 2540, length 508 (half-length 254), opening 2θ = 0.2 rad, h = 12.7, \
@@ -103,6 +136,23 @@ const HEMI_PUSHED: [f64; 11] = [
     0.955, 1.840, 3.261, 4.339, 5.196, 5.902, 6.497, 7.006, 7.448, 7.835, 8.178,
 ];
 
+const PULL_LEVELS: [f64; 23] = [
+    0.025, 0.05, 0.075, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5, 0.525, 0.55, 0.6, 0.65,
+    0.7, 0.75, 0.8, 0.85, 0.9, 0.95, 1.0,
+];
+const PULL_WA: [f64; 23] = [
+    0.819, 1.260, 1.527, 1.707, 1.936, 2.079, 2.180, 2.257, 2.321, 2.376, 2.425, 2.473, 2.543,
+    2.577, 2.618, 2.648, 2.672, 2.692, 2.710, 2.726, 2.741, 2.755, 2.768,
+];
+const PULL_UB: [f64; 23] = [
+    0.864, 1.471, 1.901, 2.217, 2.641, 2.904, 3.087, 3.227, 3.342, 3.443, 3.539, 3.653, 4.061,
+    4.171, 4.274, 4.338, 4.385, 4.423, 4.455, 4.483, 4.508, 4.530, 4.551,
+];
+const PULL_UC: [f64; 23] = [
+    0.872, 1.493, 1.946, 2.293, 2.792, 3.106, 3.310, 3.452, 3.556, 3.632, 3.688, 3.718, 3.580,
+    3.518, 3.452, 3.410, 3.378, 3.353, 3.332, 3.313, 3.297, 3.283, 3.269,
+];
+
 fn curve(name: &str, levels: &[f64], values: &[f64]) -> Curve {
     Curve {
         name: name.into(),
@@ -121,6 +171,14 @@ fn hemisphere_reference() -> Vec<Curve> {
     vec![
         curve("pulled", &HEMI_LEVELS, &HEMI_PULLED),
         curve("pushed", &HEMI_LEVELS, &HEMI_PUSHED),
+    ]
+}
+
+fn pullout_reference() -> Vec<Curve> {
+    vec![
+        curve("w_A", &PULL_LEVELS, &PULL_WA),
+        curve("−u_B", &PULL_LEVELS, &PULL_UB),
+        curve("−u_C", &PULL_LEVELS, &PULL_UC),
     ]
 }
 
@@ -255,6 +313,120 @@ fn hemisphere_path(sff: SffKind, level: usize) -> Result<Outcome> {
         note: stopped.map(|l| format!("load stepping stopped at P/Pmax = {l:.4}")),
     })
 }
+
+fn pullout(sff: SffKind, level: usize) -> Result<Outcome> {
+    let (r, len, h, e, nu, pmax) = (4.953, 10.35, 0.094, 10.5e6, 0.3125, 40_000.0);
+    let (around, along) = (32 + 16 * level, 12 + 6 * level);
+    let mesh = generators::cylinder_patch(r, std::f64::consts::TAU, len, around, along)?;
+    let faces = mesh.n_faces();
+    let mid = 0.5 * len;
+    let pair = |x: f64, y: f64, z: f64| -> Result<[VertexId; 2]> {
+        Ok([
+            vertex_at(&mesh, V3::new(x, y, z))?,
+            vertex_at(&mesh, V3::new(-x, -y, z))?,
+        ])
+    };
+    let a = pair(0.0, r, mid)?;
+    let b = pair(r, 0.0, mid)?;
+    let c = pair(r, 0.0, 0.0)?;
+    let point_forces = vec![
+        (a[0], V3::new(0.0, pmax, 0.0)),
+        (a[1], V3::new(0.0, -pmax, 0.0)),
+    ];
+    let bc = Boundary {
+        pinned_coordinates: Boundary::rigid_motion_pins(&mesh, VertexId::new(0))?,
+        ..Boundary::default()
+    };
+    let x0 = mesh.positions().to_vec();
+    let mut sys = stress_free(
+        mesh,
+        sff,
+        Material::new(h, e, nu),
+        bc,
+        Loads {
+            point_forces,
+            ..Loads::default()
+        },
+    )?;
+    // Half the change of the distance between a pair (outward positive).
+    let half_change = |x: &[V3], p: [VertexId; 2]| {
+        0.5 * ((x[p[0].idx()] - x[p[1].idx()]).norm() - (x0[p[0].idx()] - x0[p[1].idx()]).norm())
+    };
+    sys.set_load_factor(0.0)?;
+    let mut cfg = Config::of(&sys, x0.clone());
+    let mut tracer = ShellPath::new(PathSettings {
+        initial_load_increment: 0.025,
+        ..PathSettings::default()
+    });
+    // (λ, w_A, −u_B, −u_C) along the path.
+    let measure = |k: &Config, l: f64| {
+        [
+            l,
+            half_change(&k.x, a),
+            -half_change(&k.x, b),
+            -half_change(&k.x, c),
+        ]
+    };
+    let mut path = vec![measure(&cfg, 0.0)];
+    let mut failure = None;
+    for _ in 0..PULL_MAX_STEPS {
+        match tracer.step(&mut sys, &mut cfg.x, &mut cfg.phi) {
+            Ok(p) => path.push(measure(&cfg, p.load_factor)),
+            Err(e) => {
+                failure = Some(e.to_string());
+                break;
+            }
+        }
+        if path[path.len() - 1][0] >= 1.0 {
+            break;
+        }
+    }
+    // Load control's path: at each level the first point where λ reaches it (past a limit
+    // point that is on the branch after the snap), linearly interpolated.
+    let (mut wa, mut ub, mut uc) = (Vec::new(), Vec::new(), Vec::new());
+    for &l in &PULL_LEVELS {
+        let Some(i) = path.iter().position(|p| p[0] >= l) else {
+            break;
+        };
+        let (p, q) = (path[i.saturating_sub(1)], path[i]);
+        let t = if q[0] > p[0] {
+            (l - p[0]) / (q[0] - p[0])
+        } else {
+            1.0
+        };
+        let at = |k: usize| p[k] + t * (q[k] - p[k]);
+        wa.push(at(1));
+        ub.push(at(2));
+        uc.push(at(3));
+    }
+    let (quantities, _) = path_quantities(
+        &PULL_LEVELS,
+        &[
+            ("w_A", &PULL_WA, &wa),
+            ("−u_B", &PULL_UB, &ub),
+            ("−u_C", &PULL_UC, &uc),
+        ],
+    );
+    let curves = ["w_A", "−u_B", "−u_C"]
+        .iter()
+        .enumerate()
+        .map(|(k, name)| Curve {
+            name: format!("{name} (arc length)"),
+            points: path.iter().map(|p| (p[k + 1], p[0])).collect(),
+        })
+        .collect();
+    Ok(Outcome {
+        mesh: format!("open cylinder {around}×{along}"),
+        faces,
+        quantities,
+        converged: failure.is_none() && wa.len() == PULL_LEVELS.len(),
+        curves,
+        note: failure.map(|e| format!("arc length stopped after {} points: {e}", path.len() - 1)),
+    })
+}
+
+/// Arc-length steps of the pull-out at most.
+const PULL_MAX_STEPS: usize = 400;
 
 /// The vertex (W, λ) of the parabola through three path points (a turning point of λ).
 fn turning_point(p: [(f64, f64); 3]) -> (f64, f64) {
