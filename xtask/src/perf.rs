@@ -55,7 +55,11 @@ pub struct Options {
 /// A section appended inside the generated part: (title for the log, generator taking `quick`).
 pub(crate) type Section = (&'static str, fn(bool) -> Result<String>);
 
-/// Sections other modules contribute to the generated part, in order (one line each).
+/// Sections other modules contribute to the generated part, in order: one line each, e.g.
+/// `("factor reuse", reuse::section),` for a `mod reuse;` with
+/// `pub(crate) fn section(quick: bool) -> anyhow::Result<String>` returning markdown (a `###`
+/// heading, its tables and the command). They run after the interleaved rounds and are appended
+/// after the tables above (the test's masked comparison replaces them by a placeholder).
 pub(crate) fn extra_sections() -> Vec<Section> {
     vec![]
 }

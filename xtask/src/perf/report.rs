@@ -227,7 +227,11 @@ fn ratio(r: f64) -> String {
 
 fn flops(f: f64) -> String {
     if f.is_finite() && f > 0.0 {
-        let e = f.log10().floor() as i32;
+        let mut e = f.log10().floor() as i32;
+        // 9.996e10 prints as 1.00e11, not 10.00e10.
+        if (f / 10f64.powi(e) * 100.0).round() >= 1000.0 {
+            e += 1;
+        }
         format!("{:.2}e{e}", f / 10f64.powi(e))
     } else {
         "—".to_string()
@@ -694,11 +698,10 @@ fn blocks(run: &Run) -> Vec<Block> {
         let a = med(sm, &newton::step_id(avg), "total");
         rows.push(Row {
             measure: format!(
-                "{}: implicit step ({}  faces, 1 thread); ratio = director / average",
+                "{}: implicit step ({} faces, 1 thread); ratio = director / average",
                 sff.name(),
                 grouped(pf)
-            )
-            .replace("  ", " "),
+            ),
             libshell: None,
             thinshell: time(d),
             value: d,
@@ -887,9 +890,12 @@ fn blocks(run: &Run) -> Vec<Block> {
         for &level in &sz.newton {
             let id = newton::id(level, th);
             let total = med(sm, &id, "total");
+            // Shares of the sum of the stage medians (the median of the totals is another
+            // round's sum in general).
+            let sum: f64 = newton::PARTS[1..].iter().map(|p| med(sm, &id, p)).sum();
             let part = |p: &str| {
                 let v = med(sm, &id, p);
-                t(format!("{} ({:.0} %)", time(v), 100.0 * v / total))
+                t(format!("{} ({:.0} %)", time(v), 100.0 * v / sum))
             };
             let lf = run.facts.levels.get(&level);
             rows.push(vec![
@@ -908,7 +914,7 @@ fn blocks(run: &Run) -> Vec<Block> {
             "faces",
             "unknowns",
             "threads",
-            "iteration",
+            "iteration (median)",
             "assembly",
             "factorisation",
             "solve",
@@ -1176,6 +1182,8 @@ mod tests {
         assert_eq!(time(0.279), "279 ms");
         assert_eq!(time(2.031), "2.03 s");
         assert_eq!(flops(6.4e9), "6.40e9");
+        assert_eq!(flops(9.996e10), "1.00e11");
+        assert_eq!(flops(5.65e10), "5.65e10");
         assert_eq!(Target::AtLeast(1.5).verdict(1.6), "met");
         assert_eq!(Target::AtLeast(2.0).verdict(1.0), "gap: 2.00× short");
         assert_eq!(Target::AtMost(1.2).verdict(1.28), "gap: 0.08 over");
