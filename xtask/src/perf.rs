@@ -215,6 +215,7 @@ pub fn run(opts: &Options) -> Result<()> {
     let rounds = if opts.quick { 1 } else { opts.rounds };
     let sizes = Sizes::new(opts.quick);
     let t0 = Instant::now();
+    let load_start = report::load_average();
     // Fail before the long part if the docs file cannot take the section.
     let docs = std::fs::read_to_string(&opts.docs_path)
         .with_context(|| format!("reading {}", opts.docs_path.display()))?;
@@ -267,6 +268,7 @@ pub fn run(opts: &Options) -> Result<()> {
         big_runs: big,
         extra,
         total_s: t0.elapsed().as_secs_f64(),
+        load_start,
     };
     report::write(opts, &run, &docs)
 }

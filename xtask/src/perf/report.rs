@@ -89,6 +89,8 @@ pub(crate) struct Run {
     /// Sections of [`super::extra_sections`], in order (markdown).
     pub(crate) extra: Vec<String>,
     pub(crate) total_s: f64,
+    /// The 1-minute load average when the run started.
+    pub(crate) load_start: Option<f64>,
 }
 
 /// The sizes of the issue's figures.
@@ -376,15 +378,39 @@ fn machine() -> String {
                 .and_then(|kb| kb.parse::<u64>().ok())
         })
         .map_or("unknown memory".to_string(), |kb| bytes(kb * 1024));
-    let load = std::fs::read_to_string("/proc/loadavg")
-        .ok()
-        .and_then(|l| l.split_whitespace().next().map(str::to_string))
-        .unwrap_or_else(|| "?".to_string());
+    let load = load_average().map_or("?".to_string(), |l| format!("{l:.2}"));
     format!(
         "Machine: {cpu}, {cores} cores, {mem} RAM; {} UTC; git {}; load average {load} at the end of the run.",
         today(),
         git_rev()
     )
+}
+
+/// The 1-minute load average (/proc/loadavg).
+pub(crate) fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// A warning when other work ran: the larger load average (start or end of the run) above half
+/// the cores means the timings are inflated and the ratios noisy.
+fn load_warning(start: Option<f64>) -> Option<String> {
+    let cores = std::thread::available_parallelism().map_or(1, usize::from) as f64;
+    let worst = start
+        .into_iter()
+        .chain(load_average())
+        .fold(f64::NAN, f64::max);
+    (worst > 0.5 * cores).then(|| {
+        format!(
+            "**Loaded machine**: load average up to {worst:.1} on {cores} cores during this run, \
+             so the timings are inflated (other processes shared the cores) and single ratios are \
+             noisy; quote figures from a run on a quiet machine."
+        )
+    })
 }
 
 /// `git rev-parse --short=12 HEAD`, plus a note when tracked files other than the docs differ.
@@ -476,6 +502,14 @@ fn blocks(run: &Run) -> Vec<Block> {
     );
     line(&mut b, String::new());
     b.push(Block::Line(t(machine())));
+    line(&mut b, String::new());
+    // Always one line (masked comparisons see the same text whatever the load).
+    b.push(Block::Line(t(load_warning(run.load_start).unwrap_or_else(
+        || {
+            "Quiet machine: load average below half the cores at the start and end of the run."
+                .to_string()
+        },
+    ))));
     line(&mut b, String::new());
     line(
         &mut b,
