@@ -7,6 +7,7 @@
 //! - `accuracy`: error against known answers vs wall time for every accuracy knob.
 //! - `verify`: the verification suite against analytic and published answers (issue #16).
 //! - `test`: every test of the project (the README's test command).
+//! - `perf`: issue #17's performance table (docs/performance.md's generated section).
 
 mod accuracy;
 mod bench_sphere;
@@ -14,6 +15,7 @@ mod bench_square;
 mod hard_cases;
 #[cfg(test)]
 mod one_build;
+mod perf;
 mod plot;
 mod render;
 mod test;
@@ -89,6 +91,38 @@ enum Task {
         #[arg(long)]
         only: Option<String>,
     },
+    /// Issue #17's performance figures (per-face evaluation, gather, factorisation, orderings,
+    /// Newton iterations and their growth, implicit steps per form) in interleaved rounds.
+    /// Rewrites the generated section of docs/performance.md and writes target/xtask/perf.json.
+    Perf {
+        /// Smallest sizes and one round (seconds; the test runs this).
+        #[arg(long)]
+        quick: bool,
+        /// Also the 327 680-face (icosphere level 7) Newton iteration: time and peak memory,
+        /// in a child process per thread count.
+        #[arg(long)]
+        big: bool,
+        /// Interleaved rounds; the report quotes medians over them.
+        #[arg(long, default_value_t = 7)]
+        rounds: usize,
+        /// The markdown file whose generated section is rewritten (default:
+        /// <workspace>/docs/performance.md).
+        #[arg(long)]
+        docs: Option<PathBuf>,
+        /// The JSON file with every sample (default: target/xtask/perf.json).
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Internal: one `perf --big` measurement in its own process (peak memory = its VmHWM).
+    #[command(hide = true)]
+    PerfChild {
+        #[arg(long)]
+        level: usize,
+        #[arg(long)]
+        threads: usize,
+        #[arg(long)]
+        rounds: usize,
+    },
     /// Every test of the project: the Rust tests, then the stages that need outside tools
     /// (installed on first use). The README's test command; `.ci/run` calls it.
     Test {
@@ -143,6 +177,24 @@ fn main() -> ExitCode {
             json_path: json.unwrap_or_else(|| out_dir().join("verify.json")),
             only,
         }),
+        Task::Perf {
+            quick,
+            big,
+            rounds,
+            docs,
+            json,
+        } => perf::run(&perf::Options {
+            quick,
+            big,
+            rounds,
+            docs_path: docs.unwrap_or_else(|| workspace_root().join("docs").join("performance.md")),
+            json_path: json.unwrap_or_else(|| out_dir().join("perf.json")),
+        }),
+        Task::PerfChild {
+            level,
+            threads,
+            rounds,
+        } => perf::child_main(level, threads, rounds),
         Task::Test { rust_only } => test::run(&test::Options { rust_only }),
     };
     match result {
