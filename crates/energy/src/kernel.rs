@@ -8,7 +8,7 @@ use crate::sff::SecondFundamentalForm;
 use crate::stencil::FaceStencil;
 pub use crate::terms::{EnergyTerms, HessianMode, Terms};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 
 /// Rest forms of a face: ā (m², SPD) and b̄ (m, symmetric), barycentric basis.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -157,21 +157,21 @@ pub fn eval_face<const N: usize, F>(
     } else if mode.is_none() {
         // Gradient only: reverse mode through b, no Jacobian. The law's evaluation at b made
         // for the weights is kept for the energy and the a-part (not evaluated twice).
-        let saved = Cell::new(None);
+        // (RefCell: `weights` is a `&dyn Fn`; borrowing avoids copying the LawEval around.)
+        let seen = Cell::new(None);
+        let cell = RefCell::new(LawEval::default());
         let weights = |bm: &Matrix2<f64>| {
             let b = sym_entries(bm);
-            let mut le = LawEval::default();
-            law.eval(material, &face, &a, &b, terms, Order::Gradient, &mut le);
-            saved.set(Some((b, le)));
-            grad_b(&le, &b)
+            let mut lw = cell.borrow_mut();
+            law.eval(material, &face, &a, &b, terms, Order::Gradient, &mut lw);
+            seen.set(Some(b));
+            grad_b(&lw, &b)
         };
         let (bm, _, g) = form.b_and_weighted_gradient(stencil, &weights);
         out.gradient += g;
         let b = sym_entries(&bm);
-        if let Some((bw, lw)) = saved.get()
-            && bw == b
-        {
-            le = lw;
+        if seen.get() == Some(b) {
+            le = cell.into_inner();
             law_done = true;
         }
         b
@@ -201,7 +201,8 @@ pub fn eval_face<const N: usize, F>(
             hbb += k * 2.0;
         }
         let kj = hbb * d.jacobian;
-        out.hessian += d.jacobian.transpose() * kj;
+        // In place (no N×N temporary): H += Jᵀ (K J).
+        out.hessian.gemm_tr(1.0, &d.jacobian, &kj, 1.0);
         if coupled {
             // J_aᵀ H_ab J_b and its transpose; J_a only touches the first 9 dofs.
             let ja = membrane_jacobian(&e1, &e2);
@@ -260,7 +261,7 @@ fn add_membrane_part<const N: usize>(
     if mode.is_some() {
         let kj = k_sum * ja;
         let mut hb = out.hessian.fixed_view_mut::<9, 9>(0, 0);
-        hb += ja.transpose() * kj;
+        hb.gemm_tr(1.0, &ja, &kj, 1.0);
         if mode != Some(HessianMode::GaussNewton) {
             // Σ_k g_k ∇²a_k = (Sᵀ C S) ⊗ I, C = [[2g11, g12], [g12, 2g22]], S = [e1; e2] selector.
             let sel = [(-1.0, -1.0), (1.0, 0.0), (0.0, 1.0)];

@@ -385,17 +385,21 @@ impl EdgeDirector {
                 -omega * d * f1,
             );
             let v = gd * c1 + u * (0.5 * c2);
-            let mut m = PMat::from_fn(|l, k| v[l] * u[k] + u[l] * v[k]);
-            if let Some(ht) = ht {
-                m += ht * c3;
-            }
-            if let Some(hd) = hd {
-                let mut top = m.fixed_view_mut::<9, 9>(0, 0);
-                top += hd * c0;
-            }
-            for k in 0..POS {
-                for l in 0..POS {
-                    h[(map[l], map[k])] += m[(l, k)];
+            // By 3×3 vertex blocks straight into the face Hessian (the q block of a boundary
+            // edge is zero and skipped).
+            let n_blocks = if s.flap[i] { 4 } else { 3 };
+            for bc in 0..n_blocks {
+                let (uc, vc) = (u.fixed_rows::<3>(3 * bc), v.fixed_rows::<3>(3 * bc));
+                for br in 0..n_blocks {
+                    let (ur, vr) = (u.fixed_rows::<3>(3 * br), v.fixed_rows::<3>(3 * br));
+                    let mut m = vr * uc.transpose() + ur * vc.transpose();
+                    if let Some(ht) = &ht {
+                        m += ht.fixed_view::<3, 3>(3 * br, 3 * bc) * c3;
+                    }
+                    if let (Some(hd), true) = (&hd, br < 3 && bc < 3) {
+                        m += hd.fixed_view::<3, 3>(3 * br, 3 * bc) * c0;
+                    }
+                    add_block(h, blk[br], blk[bc], &m);
                 }
             }
             let p = map[POS];
