@@ -254,11 +254,15 @@ fn add_membrane_part<const N: usize>(
         g += ka * (a - ca) * 2.0;
         k_sum += ka * 2.0;
     }
-    let ja = membrane_jacobian(e1, e2);
-    let grad = ja.transpose() * g;
-    let mut gr = out.gradient.fixed_rows_mut::<9>(0);
-    gr += grad;
+    // J_aᵀ g written out (rows of J_a: a11 = e1·e1, a12 = e1·e2, a22 = e2·e2).
+    let g1 = e1 * (2.0 * g[0]) + e2 * g[1];
+    let g2 = e1 * g[1] + e2 * (2.0 * g[2]);
+    for (blk, v) in [(0, -(g1 + g2)), (1, g1), (2, g2)] {
+        let mut r = out.gradient.fixed_rows_mut::<3>(3 * blk);
+        r += v;
+    }
     if mode.is_some() {
+        let ja = membrane_jacobian(e1, e2);
         let kj = k_sum * ja;
         let mut hb = out.hessian.fixed_view_mut::<9, 9>(0, 0);
         hb.gemm_tr(1.0, &ja, &kj, 1.0);
