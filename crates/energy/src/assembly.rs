@@ -191,7 +191,7 @@ impl Assembler {
     /// state `rest` and, when damping is on, the damping state; writes the gradient and/or
     /// Hessian requested in `out`. With neither requested (`EvalOutput::default()`, the
     /// line-search case) the faces run the lean energy-only kernel
-    /// [`eval_face_energy`](crate::eval_face_energy) and no per-face buffer is touched.
+    /// [`crate::eval_face_energy`] and no per-face buffer is touched.
     ///
     /// Errors: `model.terms` differ from the assembler's ([`EnergyError::TermsMismatch`]);
     /// invalid material; wrong lengths; damping on without a [`DampingState`]; a Hessian not

@@ -112,7 +112,7 @@ fn add_jt_m_j<const N: usize>(
 }
 
 impl SecondFundamentalForm<18> for MidEdgeAverage {
-    /// b from the six products n_e·e1, n_e·e2 (the coefficients in [`COEF`] written out:
+    /// b from the six products n_e·e1, n_e·e2 (the coefficients `COEF` written out:
     /// b11 = 2 (n1 − n0)·e1, b12 = (n1 − n0)·e2 + (n2 − n0)·e1, b22 = 2 (n2 − n0)·e2), one
     /// reciprocal per normalisation. This is the energy-only path's form, so it is kept lean.
     fn b(&self, s: &FaceStencil) -> Matrix2<f64> {
