@@ -6,9 +6,9 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Matrix2, Vector3};
 use thinshell_energy::{
-    DirectorVariant, EdgeAngles, EdgeDirector, FaceDamping, FaceEval, FaceRest, FaceStencil,
-    HessianMode, Layer, Material, MaterialModel, MidEdgeAverage, Terms, Want, eval_face,
-    forms::first_fundamental_form,
+    DirectorVariant, EdgeAngles, EdgeDirector, EnergyConstants, FaceDamping, FaceEval, FaceRest,
+    FaceStencil, HessianMode, Layer, Material, MaterialModel, MidEdgeAverage, Terms, Want,
+    eval_face, eval_face_energy, forms::first_fundamental_form,
 };
 
 /// An interior face of a gently curved sheet with its three flaps.
@@ -121,6 +121,22 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    // The energy-only kernel of the assembler's energy path (issue #17).
+    let constants = EnergyConstants::new(&material);
+    g.bench_function("energy(eval_face_energy)", |b| {
+        b.iter(|| {
+            let e = eval_face_energy(
+                sff,
+                &material,
+                &constants,
+                black_box(&s),
+                &rest,
+                None,
+                Terms::ELASTIC,
+            );
+            black_box(e.total())
+        })
+    });
     g.finish();
 
     // Bending alone, mid-edge average (18 dofs) vs edge directors (21 dofs), exact Hessian.

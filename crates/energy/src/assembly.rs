@@ -17,7 +17,8 @@ mod pattern;
 use crate::dofs::{DofMap, check_len};
 use crate::error::EnergyError;
 use crate::kernel::{
-    EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want, eval_face,
+    EnergyConstants, EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want,
+    eval_face, eval_face_energy,
 };
 use crate::linalg::ProjectPsd;
 use crate::rest::{DampingState, RestState};
@@ -188,7 +189,9 @@ impl Assembler {
 
     /// Energy terms (J) of `model.terms` at positions `x` (m, one per vertex) with the rest
     /// state `rest` and, when damping is on, the damping state; writes the gradient and/or
-    /// Hessian requested in `out`.
+    /// Hessian requested in `out`. With neither requested (`EvalOutput::default()`, the
+    /// line-search case) the faces run the lean energy-only kernel
+    /// [`crate::eval_face_energy`] and no per-face buffer is touched.
     ///
     /// Errors: `model.terms` differ from the assembler's ([`EnergyError::TermsMismatch`]);
     /// invalid material; wrong lengths; damping on without a [`DampingState`]; a Hessian not
@@ -326,11 +329,45 @@ impl Assembler {
         F: SecondFundamentalForm<N> + ?Sized,
         SMatrix<f64, N, N>: ProjectPsd,
     {
+        let with_angles = self.director.is_some();
+        let stencils = &self.stencils;
+        if !want.gradient && want.hessian.is_none() {
+            // Energy only (every line-search trial): the lean kernel, no per-face buffers.
+            let constants = EnergyConstants::new(&model.material);
+            let bad_face = self
+                .energies
+                .par_iter_mut()
+                .enumerate()
+                .map(|(f, energy)| {
+                    let stencil = if with_angles {
+                        stencils.stencil_at(f, x, phi)
+                    } else {
+                        stencils.stencil(f, x)
+                    };
+                    let (face_rest, face_damping) = face_data(rest, damping, f);
+                    *energy = eval_face_energy(
+                        form,
+                        &model.material,
+                        &constants,
+                        &stencil,
+                        &face_rest,
+                        face_damping.as_ref(),
+                        model.terms,
+                    );
+                    (!energy.total().is_finite()).then_some(f)
+                })
+                .flatten()
+                .min();
+            return match bad_face {
+                Some(f) => Err(EnergyError::NonFinite {
+                    face: FaceId::new(f),
+                }),
+                None => Ok(()),
+            };
+        }
         let slots = self.pattern.slots;
         let vertex_slots = slots.min(6);
-        let with_angles = self.director.is_some();
         let (grad_stride, hess_stride) = (self.pattern.grad_stride, self.pattern.hess_stride);
-        let stencils = &self.stencils;
         let copy_gradient = want.gradient || want.hessian.is_some();
         // Local dof of (slot, axis): positions 3s + a, edge angle 18 + e (axis 0).
         let local = |s: usize, a: usize| -> Option<usize> {

@@ -3,11 +3,12 @@
 
 use crate::density::sv_quadratic;
 use crate::linalg::{ProjectPsd, inv2, sym_entries};
-use crate::material::{FaceGeometry, LawEval, Material, Order};
+use crate::material::{FaceGeometry, LawEval, Material, MaterialModel, Order};
 use crate::sff::SecondFundamentalForm;
 use crate::stencil::FaceStencil;
 pub use crate::terms::{EnergyTerms, HessianMode, Terms};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
+use std::cell::{Cell, RefCell};
 
 /// Rest forms of a face: ā (m², SPD) and b̄ (m, symmetric), barycentric basis.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -140,6 +141,8 @@ pub fn eval_face<const N: usize, F>(
         (false, None) => Order::Energy,
     };
     let mut le = LawEval::default();
+    // Whether `le` already holds the law at (a, b) to the order needed.
+    let mut law_done = false;
     // ∂E/∂b of the law plus the damping quadratic in b, at b.
     let grad_b = |le: &LawEval, b: &Vector3<f64>| match &damp {
         Some((_, (k, c))) => le.gb + k * (b - c) * 2.0,
@@ -152,16 +155,26 @@ pub fn eval_face<const N: usize, F>(
     } else if !need_grad {
         sym_entries(&form.b(stencil))
     } else if mode.is_none() {
-        // Gradient only: reverse mode through b, no Jacobian.
+        // Gradient only: reverse mode through b, no Jacobian. The law's evaluation at b made
+        // for the weights is kept for the energy and the a-part (not evaluated twice).
+        // (RefCell: `weights` is a `&dyn Fn`; borrowing avoids copying the LawEval around.)
+        let seen = Cell::new(None);
+        let cell = RefCell::new(LawEval::default());
         let weights = |bm: &Matrix2<f64>| {
             let b = sym_entries(bm);
-            let mut le = LawEval::default();
-            law.eval(material, &face, &a, &b, terms, Order::Gradient, &mut le);
-            grad_b(&le, &b)
+            let mut lw = cell.borrow_mut();
+            law.eval(material, &face, &a, &b, terms, Order::Gradient, &mut lw);
+            seen.set(Some(b));
+            grad_b(&lw, &b)
         };
         let (bm, _, g) = form.b_and_weighted_gradient(stencil, &weights);
         out.gradient += g;
-        sym_entries(&bm)
+        let b = sym_entries(&bm);
+        if seen.get() == Some(b) {
+            le = cell.into_inner();
+            law_done = true;
+        }
+        b
     } else {
         // The contracted Hessian's weights need ∂E/∂b, hence b, first.
         let exact = mode != Some(HessianMode::GaussNewton);
@@ -188,7 +201,8 @@ pub fn eval_face<const N: usize, F>(
             hbb += k * 2.0;
         }
         let kj = hbb * d.jacobian;
-        out.hessian += d.jacobian.transpose() * kj;
+        // In place (no N×N temporary): H += Jᵀ (K J).
+        out.hessian.gemm_tr(1.0, &d.jacobian, &kj, 1.0);
         if coupled {
             // J_aᵀ H_ab J_b and its transpose; J_a only touches the first 9 dofs.
             let ja = membrane_jacobian(&e1, &e2);
@@ -200,7 +214,7 @@ pub fn eval_face<const N: usize, F>(
         }
         b
     };
-    if !(uses_b && mode.is_some()) {
+    if !(law_done || uses_b && mode.is_some()) {
         // The Hessian branch above has evaluated the law already.
         law.eval(material, &face, &a, &b, terms, order, &mut le);
     }
@@ -240,14 +254,18 @@ fn add_membrane_part<const N: usize>(
         g += ka * (a - ca) * 2.0;
         k_sum += ka * 2.0;
     }
-    let ja = membrane_jacobian(e1, e2);
-    let grad = ja.transpose() * g;
-    let mut gr = out.gradient.fixed_rows_mut::<9>(0);
-    gr += grad;
+    // J_aᵀ g written out (rows of J_a: a11 = e1·e1, a12 = e1·e2, a22 = e2·e2).
+    let g1 = e1 * (2.0 * g[0]) + e2 * g[1];
+    let g2 = e1 * g[1] + e2 * (2.0 * g[2]);
+    for (blk, v) in [(0, -(g1 + g2)), (1, g1), (2, g2)] {
+        let mut r = out.gradient.fixed_rows_mut::<3>(3 * blk);
+        r += v;
+    }
     if mode.is_some() {
+        let ja = membrane_jacobian(e1, e2);
         let kj = k_sum * ja;
         let mut hb = out.hessian.fixed_view_mut::<9, 9>(0, 0);
-        hb += ja.transpose() * kj;
+        hb.gemm_tr(1.0, &ja, &kj, 1.0);
         if mode != Some(HessianMode::GaussNewton) {
             // Σ_k g_k ∇²a_k = (Sᵀ C S) ⊗ I, C = [[2g11, g12], [g12, 2g22]], S = [e1; e2] selector.
             let sel = [(-1.0, -1.0), (1.0, 0.0), (0.0, 1.0)];
@@ -281,4 +299,114 @@ fn membrane_jacobian(e1: &Vector3<f64>, e2: &Vector3<f64>) -> SMatrix<f64, 3, 9>
         }
     }
     ja
+}
+
+/// Material constants of the energy-only kernel [`eval_face_energy`], computed once per mesh
+/// evaluation instead of once per face: h/8 and h³/24 (m, m³), α/2 and β (Pa), η/E (s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EnergyConstants {
+    h_8: f64,
+    h3_24: f64,
+    half_alpha: f64,
+    beta: f64,
+    eta_over_e: f64,
+    /// The law is St. Venant–Kirchhoff: its energies are evaluated in closed form here.
+    stvk: bool,
+}
+
+impl EnergyConstants {
+    /// The constants of `material` (not validated: [`crate::Assembler::evaluate`] validates).
+    pub fn new(material: &Material) -> Self {
+        let h = material.thickness;
+        Self {
+            h_8: h / 8.0,
+            h3_24: h * h * h / 24.0,
+            half_alpha: 0.5 * material.alpha(),
+            beta: material.beta(),
+            eta_over_e: material.viscosity / material.young,
+            stvk: matches!(material.model, MaterialModel::StVK),
+        }
+    }
+
+    /// ‖A⁻¹D‖²_SV = α/2 tr(M)² + β tr(M²), M = A⁻¹D, for symmetric A⁻¹ and D = (d11, d12, d22):
+    /// the quadratic form of [`sv_quadratic`] (without its scale) written out, ~20 flops.
+    #[inline]
+    fn sv_norm_sq(&self, a_inv: &Matrix2<f64>, d: &Vector3<f64>) -> f64 {
+        let (p, q, r) = (
+            a_inv[(0, 0)],
+            0.5 * (a_inv[(0, 1)] + a_inv[(1, 0)]),
+            a_inv[(1, 1)],
+        );
+        let m00 = p * d[0] + q * d[1];
+        let m01 = p * d[1] + q * d[2];
+        let m10 = q * d[0] + r * d[1];
+        let m11 = q * d[1] + r * d[2];
+        let t = m00 + m11;
+        self.half_alpha * t * t + self.beta * (m00 * m00 + 2.0 * m01 * m10 + m11 * m11)
+    }
+}
+
+/// Energy terms (J) of one face, the same quantity as [`eval_face`] with nothing but the
+/// energy wanted, by a lean path for line-search trials: no gradient or Hessian buffers, b
+/// from [`SecondFundamentalForm::b`] only when bending or damping is on, and the St.
+/// Venant–Kirchhoff and damping energies in closed form (‖ā⁻¹(a − ā)‖²_SV directly, not
+/// through the 3×3 quadratic-form matrices) with `constants` hoisted out of the face loop.
+/// Other laws go through [`ElasticLaw::eval`](crate::ElasticLaw::eval) at [`Order::Energy`].
+/// Agrees with [`eval_face`] to round-off (tested to 1e-12 relative).
+pub fn eval_face_energy<const N: usize, F>(
+    form: &F,
+    material: &Material,
+    constants: &EnergyConstants,
+    stencil: &FaceStencil,
+    rest: &FaceRest,
+    damping: Option<&FaceDamping>,
+    terms: Terms,
+) -> EnergyTerms
+where
+    F: SecondFundamentalForm<N> + ?Sized,
+{
+    let k = constants;
+    let damping = if terms.damping { damping } else { None };
+    let x = &stencil.x;
+    let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
+    let a = Vector3::new(e1.dot(&e1), e1.dot(&e2), e2.dot(&e2));
+    let b_bar = sym_entries(&rest.b_bar);
+    let b = if terms.bend || damping.is_some() {
+        sym_entries(&form.b(stencil))
+    } else {
+        b_bar
+    };
+    let area = rest.a_bar.determinant().sqrt();
+    let a_bar_inv = inv2(&rest.a_bar);
+    let mut e = EnergyTerms::default();
+    if k.stvk {
+        if terms.stretch {
+            e.stretch = k.h_8 * area * k.sv_norm_sq(&a_bar_inv, &(a - sym_entries(&rest.a_bar)));
+        }
+        if terms.bend {
+            e.bend = k.h3_24 * area * k.sv_norm_sq(&a_bar_inv, &(b - b_bar));
+        }
+    } else {
+        let face = FaceGeometry {
+            a_bar: sym_entries(&rest.a_bar),
+            b_bar,
+            a_bar_inv,
+            area,
+        };
+        let mut le = LawEval::default();
+        material
+            .model
+            .law()
+            .eval(material, &face, &a, &b, terms, Order::Energy, &mut le);
+        e.stretch = le.stretch;
+        e.bend = le.bend;
+    }
+    if let Some(d) = damping {
+        let ap_inv = inv2(&d.a_prev);
+        let c = k.eta_over_e / d.dt * area;
+        e.damping = c
+            * (k.h_8 * k.sv_norm_sq(&ap_inv, &(a - sym_entries(&d.a_prev)))
+                + k.h3_24 * k.sv_norm_sq(&ap_inv, &(b - sym_entries(&d.b_prev))));
+    }
+    e
 }

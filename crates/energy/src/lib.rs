@@ -96,7 +96,8 @@ pub use dofs::DofMap;
 pub use error::EnergyError;
 pub use forms::first_fundamental_form;
 pub use kernel::{
-    EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want, eval_face,
+    EnergyConstants, EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want,
+    eval_face, eval_face_energy,
 };
 pub use linalg::{ProjectPsd, project_psd};
 pub use mass::lumped_mass;

@@ -37,19 +37,34 @@ impl ElasticLaw for StVK {
         out.clear(order);
         let (h, alpha, beta) = (m.thickness, m.alpha(), m.beta());
         let quadratic = |scale: f64, d: Vector3<f64>, stretch: bool, out: &mut LawEval| {
-            let k = sv_quadratic(&face.a_bar_inv, alpha, beta, scale * face.area);
-            let kd = k * d;
+            let c = scale * face.area;
             let (e, g, hh) = if stretch {
                 (&mut out.stretch, &mut out.ga, &mut out.haa)
             } else {
                 (&mut out.bend, &mut out.gb, &mut out.hbb)
             };
-            *e = d.dot(&kd);
-            if order != Order::Energy {
-                *g = kd * 2.0;
-            }
             if order == Order::Hessian {
+                let k = sv_quadratic(&face.a_bar_inv, alpha, beta, c);
+                let kd = k * d;
+                *e = d.dot(&kd);
+                *g = kd * 2.0;
                 *hh = k * 2.0;
+                return;
+            }
+            // K d without forming K (energy and gradient paths): K = c (α/2 v vᵀ + β Q) with
+            // v = (p, 2q, r) and Q of `sv_quadratic`, for ā⁻¹ = [[p, q], [q, r]].
+            let ai = &face.a_bar_inv;
+            let (p, q, r) = (ai[(0, 0)], 0.5 * (ai[(0, 1)] + ai[(1, 0)]), ai[(1, 1)]);
+            let v = Vector3::new(p, 2.0 * q, r);
+            let qd = Vector3::new(
+                p * p * d[0] + 2.0 * p * q * d[1] + q * q * d[2],
+                2.0 * p * q * d[0] + 2.0 * (q * q + p * r) * d[1] + 2.0 * q * r * d[2],
+                q * q * d[0] + 2.0 * q * r * d[1] + r * r * d[2],
+            );
+            let kd = (v * (0.5 * alpha * v.dot(&d)) + qd * beta) * c;
+            *e = d.dot(&kd);
+            if order == Order::Gradient {
+                *g = kd * 2.0;
             }
         };
         if terms.stretch {

@@ -112,25 +112,32 @@ fn add_jt_m_j<const N: usize>(
 }
 
 impl SecondFundamentalForm<18> for MidEdgeAverage {
+    /// b from the six products n_e·e1, n_e·e2 (the coefficients `COEF` written out:
+    /// b11 = 2 (n1 − n0)·e1, b12 = (n1 − n0)·e2 + (n2 − n0)·e1, b22 = 2 (n2 − n0)·e2), one
+    /// reciprocal per normalisation. This is the energy-only path's form, so it is kept lean.
     fn b(&self, s: &FaceStencil) -> Matrix2<f64> {
         let x = &s.x;
-        let nf = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
-        let mut n = [nf; 3];
-        for (e, ne) in n.iter_mut().enumerate() {
-            if s.flap[e] {
-                let [i0, i1, i2] = neighbour_blocks(e);
-                let ng = (x[i1] - x[i0]).cross(&(x[i2] - x[i0])).normalize();
-                *ne = (nf + ng).normalize();
-            }
-        }
         let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
-        let mut bk = [0.0; 3];
-        for (k, row) in COEF.iter().enumerate() {
-            for (e, &(al, be)) in row.iter().enumerate() {
-                bk[k] += n[e].dot(&(e1 * al + e2 * be));
-            }
+        let cf = e1.cross(&e2);
+        let nf = cf * (1.0 / cf.norm());
+        let mut d1 = [0.0; 3];
+        let mut d2 = [0.0; 3];
+        for e in 0..3 {
+            let n = if s.flap[e] {
+                let [i0, i1, i2] = neighbour_blocks(e);
+                let cg = (x[i1] - x[i0]).cross(&(x[i2] - x[i0]));
+                let sum = nf + cg * (1.0 / cg.norm());
+                sum * (1.0 / sum.norm())
+            } else {
+                nf
+            };
+            d1[e] = n.dot(&e1);
+            d2[e] = n.dot(&e2);
         }
-        Matrix2::new(bk[0], bk[1], bk[1], bk[2])
+        let b11 = 2.0 * (d1[1] - d1[0]);
+        let b12 = (d2[1] - d2[0]) + (d1[2] - d1[0]);
+        let b22 = 2.0 * (d2[2] - d2[0]);
+        Matrix2::new(b11, b12, b12, b22)
     }
 
     /// Reverse mode: with p_e = Σ_k w_k (α_ke e1 + β_ke e2), w·b = Σ_e n_e·p_e. The adjoint p_e
@@ -146,7 +153,7 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
         let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
         let cf = e1.cross(&e2);
         let lf = cf.norm();
-        let nf = cf / lf;
+        let nf = cf * (1.0 / lf);
         // Interior edges: (s = n_f + n_g, |s|, n_g, |c_g|).
         let mut inner: [Option<InteriorEdge>; 3] = [None; 3];
         let mut n = [nf; 3];
@@ -155,20 +162,18 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
                 let gi = neighbour_blocks(e);
                 let cg = (x[gi[1]] - x[gi[0]]).cross(&(x[gi[2]] - x[gi[0]]));
                 let lg = cg.norm();
-                let ng = cg / lg;
+                let ng = cg * (1.0 / lg);
                 let sum = nf + ng;
                 let ls = sum.norm();
-                n[e] = sum / ls;
+                n[e] = sum * (1.0 / ls);
                 inner[e] = Some((n[e], ls, ng, lg));
             }
         }
-        let mut bk = [0.0; 3];
-        for (k, row) in COEF.iter().enumerate() {
-            for (e, &(al, be)) in row.iter().enumerate() {
-                bk[k] += n[e].dot(&(e1 * al + e2 * be));
-            }
-        }
-        let b = Matrix2::new(bk[0], bk[1], bk[1], bk[2]);
+        // b from n_e·e1, n_e·e2 as in `b` ([`COEF`] written out).
+        let d1: [f64; 3] = std::array::from_fn(|e| n[e].dot(&e1));
+        let d2: [f64; 3] = std::array::from_fn(|e| n[e].dot(&e2));
+        let b12 = (d2[1] - d2[0]) + (d1[2] - d1[0]);
+        let b = Matrix2::new(2.0 * (d1[1] - d1[0]), b12, b12, 2.0 * (d2[2] - d2[0]));
         let w = weights(&b);
         let mut g = SVector::<f64, 18>::zeros();
         let add = |g: &mut SVector<f64, 18>, blk: usize, v: &Vector3<f64>| {
@@ -176,7 +181,7 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
             r += v;
         };
         // Pull a vector back through m = u/|u|: (I − m mᵀ) v / |u|.
-        let pull = |m: &Vector3<f64>, len: f64, v: &Vector3<f64>| (v - m * m.dot(v)) / len;
+        let pull = |m: &Vector3<f64>, len: f64, v: &Vector3<f64>| (v - m * m.dot(v)) * (1.0 / len);
         let mut mu_f = Vector3::zeros();
         for e in 0..3 {
             let (ca, cb) = edge_weights(&w, e);
