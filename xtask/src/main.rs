@@ -6,6 +6,7 @@
 //! - `hard-cases`: heavy variants of the numerical hard cases (issue #8, docs/robustness.md).
 //! - `accuracy`: error against known answers vs wall time for every accuracy knob.
 //! - `verify`: the verification suite against analytic and published answers (issue #16).
+//! - `perf`: issue #17 performance sections (factor reuse, iterative fallback).
 //! - `test`: every test of the project (the README's test command).
 
 mod accuracy;
@@ -14,6 +15,7 @@ mod bench_square;
 mod hard_cases;
 #[cfg(test)]
 mod one_build;
+mod perf;
 mod plot;
 mod render;
 mod test;
@@ -89,6 +91,13 @@ enum Task {
         #[arg(long)]
         only: Option<String>,
     },
+    /// Issue #17 performance sections (this branch: factorisation reuse, iterative fallback),
+    /// printed as markdown.
+    Perf {
+        /// Small cases only (seconds).
+        #[arg(long)]
+        quick: bool,
+    },
     /// Every test of the project: the Rust tests, then the stages that need outside tools
     /// (installed on first use). The README's test command; `.ci/run` calls it.
     Test {
@@ -143,6 +152,7 @@ fn main() -> ExitCode {
             json_path: json.unwrap_or_else(|| out_dir().join("verify.json")),
             only,
         }),
+        Task::Perf { quick } => perf::run(quick),
         Task::Test { rust_only } => test::run(&test::Options { rust_only }),
     };
     match result {
