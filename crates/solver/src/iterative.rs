@@ -122,7 +122,7 @@ impl Ic0 {
 
     fn try_factorize(&mut self, h: SparseColMatRef<'_, usize, f64>, alpha: f64) -> bool {
         let n = self.col_ptr.len() - 1;
-        let (cp, ri) = (&self.col_ptr, &self.row_idx);
+        let (cp, ri, map) = (&self.col_ptr, &self.row_idx, &mut self.map);
         let l = &mut self.values;
         l.copy_from_slice(h.val());
         for j in 0..n {
@@ -137,23 +137,23 @@ impl Ic0 {
             }
             let d = d.sqrt();
             l[cp[k]] = d;
-            for p in cp[k] + 1..cp[k + 1] {
-                l[p] /= d;
+            for v in &mut l[cp[k] + 1..cp[k + 1]] {
+                *v /= d;
             }
             for pj in cp[k] + 1..cp[k + 1] {
                 let j = ri[pj];
                 let ljk = l[pj];
-                for q in cp[j]..cp[j + 1] {
-                    self.map[ri[q]] = q;
+                for (q, &i) in ri.iter().enumerate().take(cp[j + 1]).skip(cp[j]) {
+                    map[i] = q;
                 }
                 for pi in pj..cp[k + 1] {
-                    let q = self.map[ri[pi]];
+                    let q = map[ri[pi]];
                     if q != usize::MAX {
                         l[q] -= l[pi] * ljk;
                     }
                 }
-                for q in cp[j]..cp[j + 1] {
-                    self.map[ri[q]] = usize::MAX;
+                for &i in &ri[cp[j]..cp[j + 1]] {
+                    map[i] = usize::MAX;
                 }
             }
         }
@@ -219,12 +219,11 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// Solves `(H + shift·I) x = b` by PCG from `x = 0`, with the preconditioner
+/// Solves `H x = b` by PCG from `x = 0`, with the preconditioner
 /// `precond(r) : r ← M⁻¹ r` (M symmetric positive definite). See the [module docs](self) for
 /// the stopping rules; `x` holds the last iterate whatever the outcome.
 pub fn pcg(
     h: SparseColMatRef<'_, usize, f64>,
-    shift: f64,
     b: &[f64],
     x: &mut [f64],
     tol: f64,
@@ -252,10 +251,11 @@ pub fn pcg(
     p.copy_from_slice(z);
     let mut rz = dot(r, z);
     while outcome.iterations < max_iterations {
-        sym_lower_matvec(h, shift, p, hp);
+        sym_lower_matvec(h, 0.0, p, hp);
         let php = dot(p, hp);
         outcome.iterations += 1;
-        if !(php > 0.0) {
+        // NaN counts as non-positive curvature too.
+        if php.is_nan() || php <= 0.0 {
             outcome.negative_curvature = true;
             return Ok(outcome);
         }
@@ -307,7 +307,7 @@ mod tests {
         let b: Vec<f64> = (0..50).map(|i| (i as f64).sin()).collect();
         let mut x = vec![0.0; 50];
         let mut s = PcgScratch::new(50);
-        let o = pcg(h.as_ref(), 0.0, &b, &mut x, 1e-12, 10, &mut s, |r| {
+        let o = pcg(h.as_ref(), &b, &mut x, 1e-12, 10, &mut s, |r| {
             ic.apply(r);
             Ok(())
         })
@@ -330,10 +330,11 @@ mod tests {
         let mut x = vec![0.0; 20];
         let mut s = PcgScratch::new(20);
         // H − 3I is indefinite (eigenvalues of the Laplacian lie in (0, 4)).
-        let o = pcg(h.as_ref(), -3.0, &b, &mut x, 1e-12, 100, &mut s, |_| Ok(())).expect("pcg");
+        let shifted = lap(20, -3.0);
+        let o = pcg(shifted.as_ref(), &b, &mut x, 1e-12, 100, &mut s, |_| Ok(())).expect("pcg");
         assert!(o.negative_curvature && !o.converged, "{o:?}");
         // Positive definite: unpreconditioned CG converges within n iterations.
-        let o = pcg(h.as_ref(), 0.0, &b, &mut x, 1e-10, 100, &mut s, |_| Ok(())).expect("pcg");
+        let o = pcg(h.as_ref(), &b, &mut x, 1e-10, 100, &mut s, |_| Ok(())).expect("pcg");
         assert!(o.converged && o.iterations <= 20, "{o:?}");
     }
 }

@@ -867,7 +867,7 @@ impl Precond {
             Precond::Jacobi(inv) => {
                 let val = h.val();
                 for (i, &o) in inv.iter_mut().zip(diag_offsets) {
-                    if !(val[o] > 0.0) {
+                    if val[o].is_nan() || val[o] <= 0.0 {
                         return false;
                     }
                     *i = 1.0 / val[o];
@@ -941,7 +941,6 @@ fn try_reuse(
     let t = Instant::now();
     let o = pcg(
         hessian.as_ref(),
-        0.0,
         x_trial,
         dx,
         eta,
@@ -1064,7 +1063,6 @@ fn solve_direction(
             let t = Instant::now();
             let o = pcg(
                 hessian.as_ref(),
-                0.0,
                 x_trial,
                 dx,
                 eta,
@@ -1142,7 +1140,6 @@ fn estimate_correction(
     // Tight enough that the estimate decides the step test (the correction is tiny here).
     let o = pcg(
         hessian.as_ref(),
-        0.0,
         x_trial,
         dx,
         1e-6,

@@ -36,7 +36,10 @@ fn sheet(n: usize) -> (ShellSystem, Vec<Vector3<f64>>, f64) {
 }
 
 fn max_distance(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y).norm()).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).norm())
+        .fold(0.0, f64::max)
 }
 
 /// Runs `steps` implicit steps; returns the final positions, factorisations, reused steps.

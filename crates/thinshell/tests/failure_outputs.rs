@@ -225,7 +225,10 @@ fn a_factor_beyond_the_memory_budget_is_refused_before_factorising() {
         "{err}"
     );
     // Neither the factor nor the iterative fallback fits: both estimates are named.
-    assert!(err.contains("iterative fallback (preconditioned CG)"), "{err}");
+    assert!(
+        err.contains("iterative fallback (preconditioned CG)"),
+        "{err}"
+    );
     // Over the factor's estimate (203 KiB) but not the fallback's (108 KiB): the run completes
     // by preconditioned CG and says so once.
     let o = bin()
