@@ -26,10 +26,12 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 
+mod fallback;
 mod kernels;
 mod linear;
 mod newton;
 mod report;
+mod reuse;
 
 pub(crate) use newton::child_main;
 
@@ -61,7 +63,10 @@ pub(crate) type Section = (&'static str, fn(bool) -> Result<String>);
 /// heading, its tables and the command). They run after the interleaved rounds and are appended
 /// after the tables above (the test's masked comparison replaces them by a placeholder).
 pub(crate) fn extra_sections() -> Vec<Section> {
-    vec![]
+    vec![
+        ("factor reuse", reuse::section),
+        ("iterative fallback", fallback::section),
+    ]
 }
 
 /// The mesh sizes of a run (icosphere levels; level ℓ has 20·4^ℓ faces).
@@ -271,4 +276,17 @@ pub fn run(opts: &Options) -> Result<()> {
         load_start,
     };
     report::write(opts, &run, &docs)
+}
+
+#[cfg(test)]
+mod tests {
+    /// The contributed sections run in their quick form and produce their tables.
+    #[test]
+    fn quick_extra_sections_produce_tables() -> anyhow::Result<()> {
+        let r = super::reuse::section(true)?;
+        assert!(r.contains("### Factor reuse") && r.lines().count() > 6, "{r}");
+        let f = super::fallback::section(true)?;
+        assert!(f.contains("CG + IC(0)") && !f.contains("failed"), "{f}");
+        Ok(())
+    }
 }

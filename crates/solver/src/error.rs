@@ -146,6 +146,26 @@ pub enum SolverError {
         /// The memory budget, bytes.
         budget: u64,
     },
+    /// Neither the Cholesky factor nor the iterative fallback that replaces it
+    /// ([`NewtonSettings::fallback`](crate::NewtonSettings::fallback)) fits in the memory
+    /// budget.
+    #[error(
+        "{n} unknowns: the Cholesky factor needs an estimated {} (symbolic analysis) and the iterative fallback (preconditioned CG) {}, more than the {} available ({})",
+        crate::memory::human_bytes(*factor_estimate),
+        crate::memory::human_bytes(*estimate),
+        crate::memory::human_bytes(*budget),
+        crate::memory::BUDGET_RULE
+    )]
+    InsufficientMemoryForIterative {
+        /// Unknowns (matrix dimension).
+        n: usize,
+        /// Estimated bytes of the Cholesky factor and its scratch memory.
+        factor_estimate: u64,
+        /// Estimated bytes of the fallback's preconditioner and CG vectors.
+        estimate: u64,
+        /// The memory budget, bytes.
+        budget: u64,
+    },
     /// The energy crate failed (assembly, rest state, masses, dof map).
     #[error("objective evaluation failed: {0}")]
     Energy(#[from] EnergyError),
@@ -324,6 +344,20 @@ impl PartialEq for SolverError {
                     budget: z,
                 },
             ) => a == x && b == y && c == z,
+            (
+                InsufficientMemoryForIterative {
+                    n: a,
+                    factor_estimate: b,
+                    estimate: c,
+                    budget: d,
+                },
+                InsufficientMemoryForIterative {
+                    n: w,
+                    factor_estimate: x,
+                    estimate: y,
+                    budget: z,
+                },
+            ) => a == w && b == x && c == y && d == z,
             (Energy(a), Energy(x)) => a.to_string() == x.to_string(),
             (Objective(a), Objective(x)) => a.to_string() == x.to_string(),
             _ => false,
@@ -451,6 +485,18 @@ impl std::fmt::Debug for SolverError {
             } => f
                 .debug_struct("InsufficientMemory")
                 .field("n", n)
+                .field("estimate", estimate)
+                .field("budget", budget)
+                .finish(),
+            InsufficientMemoryForIterative {
+                n,
+                factor_estimate,
+                estimate,
+                budget,
+            } => f
+                .debug_struct("InsufficientMemoryForIterative")
+                .field("n", n)
+                .field("factor_estimate", factor_estimate)
                 .field("estimate", estimate)
                 .field("budget", budget)
                 .finish(),

@@ -107,6 +107,7 @@ pub use faer;
 pub use nalgebra;
 
 pub mod error;
+pub mod iterative;
 pub mod ldlt;
 pub mod linear;
 pub mod memory;
@@ -120,8 +121,8 @@ pub mod shell;
 pub use error::{PathFailure, SolverError};
 pub use linear::{FactorStats, RegularizationKind, RegularizationParams, SparseCholesky};
 pub use newton::{
-    Convergence, HessianPolicy, IterationHessian, NewtonReport, NewtonSettings, NewtonTimings,
-    NewtonWorkspace, RegularizationEvent, newton_solve,
+    Convergence, HessianPolicy, IterationHessian, IterativeFallback, LinearSolver, NewtonReport,
+    NewtonSettings, NewtonTimings, NewtonWorkspace, RegularizationEvent, newton_solve,
 };
 pub use objective::Objective;
 pub use ordering::Ordering;

@@ -56,7 +56,11 @@ use faer::Par;
 use faer::sparse::SparseColMat;
 
 use crate::SolverError;
-use crate::linear::{FactorError, FactorStats, RegularizationParams, SparseCholesky};
+use crate::iterative::{Ic0, PcgScratch, pcg};
+use crate::linear::{
+    FactorError, FactorOutcome, FactorStats, RegularizationKind, RegularizationParams,
+    SparseCholesky,
+};
 use crate::objective::Objective;
 use crate::ordering::Ordering;
 use crate::progress::{NewtonProgress, ProgressHook};
@@ -119,6 +123,62 @@ pub struct NewtonSettings {
     /// Let faer factorise and solve on the rayon thread pool (results may then differ in the
     /// last bits between thread counts).
     pub parallel: bool,
+    /// Factorisation reuse: while the last Cholesky factor is of an unshifted Hessian of the
+    /// same kind ([`IterationHessian`]), solve `H dx = −∇f` by CG preconditioned with it
+    /// (inexact Newton, tolerance [`reuse_tolerance`](Self::reuse_tolerance)) instead of
+    /// refactorising; refactorise when CG needs more than
+    /// [`reuse_max_iterations`](Self::reuse_max_iterations) or meets non-positive curvature.
+    /// The factor is kept across solves (implicit steps). The convergence tests and the line
+    /// search are unchanged, so the equilibria are the same (to the step tolerance).
+    pub reuse_factor: bool,
+    /// CG iterations a reused factor may take (≥ 1); a solve that needs more refactorises, and
+    /// one that needs more than half of them refactorises at the next iteration.
+    pub reuse_max_iterations: usize,
+    /// Relative residual `‖H dx + ∇f‖₂ / ‖∇f‖₂` a direction from a reused factor must reach, in
+    /// (0, 1) (default 1e-6: the direction is the Newton direction to about that relative
+    /// accuracy, so the Newton path, the adaptive policy's and the watchdog's decisions are
+    /// those of the direct solve; looser values took more Newton iterations and different
+    /// paths on the static cylinder, see docs/performance.md).
+    pub reuse_tolerance: f64,
+    /// Largest relative residual `‖H dx + ∇f‖₂ / ‖∇f‖₂` of a CG direction of the iterative
+    /// fallback, in (0, 1): the
+    /// forcing term is `min(cg_forcing, ‖∇f‖∞ / ‖∇f₀‖∞)` (∇f₀ at the start of the solve, floor
+    /// 1e-12), so the inexact Newton iteration keeps its quadratic convergence.
+    pub cg_forcing: f64,
+    /// What the solve does when the Cholesky factor estimated by the symbolic analysis does not
+    /// fit in the memory budget ([`crate::memory::memory_budget`]).
+    pub fallback: IterativeFallback,
+    /// Iteration limit of one CG solve of the iterative fallback (≥ 1); a truncated CG
+    /// direction is still a descent direction (used with the line search, never for the
+    /// convergence test).
+    pub cg_max_iterations: usize,
+    /// Use the iterative solver ([`fallback`](Self::fallback), IC(0) when `Off`) even when the
+    /// Cholesky factor fits: for measuring the crossover between the two, and for meshes where
+    /// CG is the faster.
+    pub force_iterative: bool,
+}
+
+/// The linear solver used when the Cholesky factor does not fit in memory.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum IterativeFallback {
+    /// CG preconditioned by the zero-fill incomplete Cholesky factor IC(0) of the Hessian
+    /// (diagonally shifted where it would break down; [`crate::iterative::Ic0`]).
+    #[default]
+    Ic0,
+    /// CG preconditioned by the Hessian's diagonal (Jacobi): least memory, most iterations.
+    Jacobi,
+    /// No fallback: [`SolverError::InsufficientMemory`].
+    Off,
+}
+
+/// How the Newton directions of a solve were computed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum LinearSolver {
+    /// Sparse Cholesky factorisations (possibly reused as CG preconditioners).
+    #[default]
+    Direct,
+    /// The iterative fallback: the Cholesky factor did not fit in the memory budget.
+    Iterative(IterativeFallback),
 }
 
 impl Default for NewtonSettings {
@@ -139,6 +199,13 @@ impl Default for NewtonSettings {
             regularization: Some(RegularizationParams::default()),
             ordering: Ordering::default(),
             parallel: false,
+            reuse_factor: false,
+            reuse_max_iterations: 20,
+            reuse_tolerance: 1e-6,
+            cg_forcing: 1e-2,
+            fallback: IterativeFallback::Ic0,
+            cg_max_iterations: 5000,
+            force_iterative: false,
         }
     }
 }
@@ -176,6 +243,22 @@ impl NewtonSettings {
         }
         if let Some(r) = &self.regularization {
             r.validate()?;
+        }
+        if self.reuse_max_iterations == 0 {
+            return Err(bad("reuse_max_iterations", 0.0, "must be at least 1"));
+        }
+        if !(self.reuse_tolerance > 0.0 && self.reuse_tolerance < 1.0) {
+            return Err(bad(
+                "reuse_tolerance",
+                self.reuse_tolerance,
+                "must lie in (0, 1)",
+            ));
+        }
+        if !(self.cg_forcing > 0.0 && self.cg_forcing < 1.0) {
+            return Err(bad("cg_forcing", self.cg_forcing, "must lie in (0, 1)"));
+        }
+        if self.cg_max_iterations == 0 {
+            return Err(bad("cg_max_iterations", 0.0, "must be at least 1"));
         }
         Ok(())
     }
@@ -231,7 +314,7 @@ pub struct NewtonTimings {
     pub assembly: Duration,
     /// Numeric Cholesky factorisations (including failed attempts).
     pub factorization: Duration,
-    /// Triangular solves.
+    /// Triangular solves and CG iterations.
     pub solve: Duration,
     /// Energy-only evaluations of the line search (backtracked trials; not in `assembly`).
     pub line_search: Duration,
@@ -278,6 +361,16 @@ pub struct NewtonReport {
     pub regularizations: Vec<RegularizationEvent>,
     /// Time per stage.
     pub timings: NewtonTimings,
+    /// Numeric factorisations (Cholesky attempts, successful or not; with the iterative
+    /// fallback, IC(0) preconditioners built).
+    pub factorizations: usize,
+    /// Iterations whose direction came from CG preconditioned with a reused factor
+    /// ([`NewtonSettings::reuse_factor`]).
+    pub reused_steps: usize,
+    /// CG iterations over the whole solve (reuse and fallback).
+    pub cg_iterations: usize,
+    /// Direct, or the iterative fallback (the factor did not fit in memory).
+    pub linear_solver: LinearSolver,
 }
 
 impl NewtonReport {
@@ -309,7 +402,22 @@ impl NewtonReport {
 /// factorisation, the Hessian matrix, vectors, and the remembered regularisation shift.
 /// Build it once (e.g. per simulation) and pass it to every [`newton_solve`].
 pub struct NewtonWorkspace {
-    cholesky: SparseCholesky,
+    /// The direct solver; `None` when its factor does not fit in memory (`fallback` is set).
+    cholesky: Option<SparseCholesky>,
+    /// The iterative fallback's preconditioner and the symbolic statistics of the refused
+    /// factor.
+    fallback: Option<Fallback>,
+    /// Position of each diagonal entry in the Hessian's value array.
+    diag_offsets: Vec<usize>,
+    /// CG work vectors (reuse and fallback).
+    pcg: PcgScratch,
+    /// Kind of Hessian of the last Cholesky factor when it is unshifted and may precondition CG
+    /// ([`NewtonSettings::reuse_factor`]); `None`: refactorise.
+    reusable: Option<IterationHessian>,
+    /// Statistics of the symbolic analysis (of the refused factor with the fallback).
+    stats: FactorStats,
+    /// Built with [`NewtonSettings::force_iterative`].
+    forced: bool,
     hessian: SparseColMat<usize, f64>,
     g: Vec<f64>,
     g_trial: Vec<f64>,
@@ -327,6 +435,8 @@ impl std::fmt::Debug for NewtonWorkspace {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("NewtonWorkspace")
             .field("cholesky", &self.cholesky)
+            .field("fallback", &self.fallback.as_ref().map(|f| f.kind))
+            .field("reusable", &self.reusable)
             .field("n_dofs", &self.g.len())
             .field("mu", &self.mu)
             .field("ordering", &self.ordering)
@@ -354,14 +464,111 @@ impl NewtonWorkspace {
             });
         }
         let coords = objective.dof_coordinates();
-        let cholesky = SparseCholesky::new(
-            hessian.symbolic(),
-            settings.ordering,
-            coords.as_deref(),
-            settings.par(),
-        )?;
+        let diag_offsets = crate::linear::diagonal_offsets(hessian.symbolic())?;
+        let direct = if settings.force_iterative {
+            // No numeric factor: the refusal's fields stand for "iterative by request".
+            Err(SolverError::InsufficientMemory {
+                n,
+                estimate: 0,
+                budget: u64::MAX,
+            })
+        } else {
+            SparseCholesky::new(
+                hessian.symbolic(),
+                settings.ordering,
+                coords.as_deref(),
+                settings.par(),
+            )
+        };
+        let (cholesky, fallback) = match direct {
+            Ok(c) => (Some(c), None),
+            Err(SolverError::InsufficientMemory {
+                n: dim,
+                estimate,
+                budget,
+            }) => {
+                let refused = SolverError::InsufficientMemory {
+                    n: dim,
+                    estimate,
+                    budget,
+                };
+                let nnz = hessian.val().len();
+                let kind = match settings.fallback {
+                    IterativeFallback::Off if settings.force_iterative => IterativeFallback::Ic0,
+                    k => k,
+                };
+                let iterative = match kind {
+                    IterativeFallback::Off => return Err(refused),
+                    IterativeFallback::Ic0 => Ic0::memory_estimate(n, nnz),
+                    IterativeFallback::Jacobi => (7 * n * 8) as u64,
+                };
+                if iterative > budget {
+                    return Err(SolverError::InsufficientMemoryForIterative {
+                        n,
+                        factor_estimate: estimate,
+                        estimate: iterative,
+                        budget,
+                    });
+                }
+                let start = Instant::now();
+                let (symbolic, used) = crate::linear::analyse(
+                    hessian.symbolic(),
+                    settings.ordering,
+                    coords.as_deref(),
+                )?;
+                let factor_len = symbolic.len_val();
+                let stats = FactorStats {
+                    n,
+                    nnz_lower: nnz,
+                    factor_len: symbolic.len_val(),
+                    flops: crate::linear::factor_flops(&symbolic),
+                    ordering: used,
+                    supernodal: matches!(
+                        symbolic.raw(),
+                        faer::sparse::linalg::cholesky::SymbolicCholeskyRaw::Supernodal(_)
+                    ),
+                    symbolic_time: start.elapsed(),
+                    // By request: the factor's values (its scratch is not sized).
+                    memory_estimate: if settings.force_iterative {
+                        (factor_len * 8) as u64
+                    } else {
+                        estimate
+                    },
+                };
+                drop(symbolic);
+                let precond = match kind {
+                    IterativeFallback::Jacobi => Precond::Jacobi(vec![0.0; n]),
+                    _ => Precond::Ic0(Ic0::new(hessian.as_ref())?),
+                };
+                (
+                    None,
+                    Some(Fallback {
+                        kind,
+                        precond,
+                        stats,
+                        iterative_estimate: iterative,
+                    }),
+                )
+            }
+            Err(e) => return Err(e),
+        };
+        let stats = match (&cholesky, &fallback) {
+            (Some(c), _) => *c.stats(),
+            (None, Some(f)) => f.stats,
+            (None, None) => {
+                return Err(SolverError::Linear(
+                    "neither a direct nor an iterative solver was set up".into(),
+                ));
+            }
+        };
         Ok(NewtonWorkspace {
+            forced: settings.force_iterative,
+            stats,
             cholesky,
+            fallback,
+            diag_offsets,
+            pcg: PcgScratch::new(n),
+            reusable: None,
             hessian,
             g: vec![0.0; n],
             g_trial: vec![0.0; n],
@@ -379,7 +586,34 @@ impl NewtonWorkspace {
     /// or Hessian pattern does): [`newton_solve`] rejects a wrong size but otherwise factorises
     /// with the ordering and parallelism the workspace was built with.
     pub fn matches(&self, settings: &NewtonSettings) -> bool {
-        self.ordering == settings.ordering && self.parallel == settings.parallel
+        self.ordering == settings.ordering
+            && self.parallel == settings.parallel
+            && self.forced == settings.force_iterative
+            && self
+                .fallback
+                .as_ref()
+                .is_none_or(|f| f.kind == settings.fallback || self.forced)
+    }
+
+    /// How this workspace solves: [`LinearSolver::Direct`], or the iterative fallback chosen
+    /// because the Cholesky factor did not fit in the memory budget.
+    pub fn linear_solver(&self) -> LinearSolver {
+        match &self.fallback {
+            None => LinearSolver::Direct,
+            Some(f) => LinearSolver::Iterative(f.kind),
+        }
+    }
+
+    /// Estimated bytes of the iterative fallback's preconditioner and CG vectors (`None` for
+    /// a direct workspace, whose estimate is [`FactorStats::memory_estimate`]).
+    pub fn iterative_memory_estimate(&self) -> Option<u64> {
+        self.fallback.as_ref().map(|f| f.iterative_estimate)
+    }
+
+    /// Forgets the factor kept for reuse ([`NewtonSettings::reuse_factor`]): the next
+    /// iteration factorises afresh (e.g. after the objective changed discontinuously).
+    pub fn invalidate_factor(&mut self) {
+        self.reusable = None;
     }
 
     /// The Hessian matrix the workspace was analysed for (its pattern; values of the last
@@ -409,9 +643,10 @@ impl NewtonWorkspace {
         self.g.len()
     }
 
-    /// Statistics of the symbolic factorisation (ordering, fill, flops).
+    /// Statistics of the symbolic factorisation (ordering, fill, flops); with the iterative
+    /// fallback, those of the factor that was refused.
     pub fn factor_stats(&self) -> &FactorStats {
-        self.cholesky.stats()
+        &self.stats
     }
 
     /// The remembered relative regularisation shift (0 when the last factorisation needed none).
@@ -459,6 +694,10 @@ struct Record {
     backtracks: usize,
     regularizations: Vec<RegularizationEvent>,
     timings: NewtonTimings,
+    factorizations: usize,
+    reused_steps: usize,
+    cg_iterations: usize,
+    linear_solver: LinearSolver,
 }
 
 impl Record {
@@ -478,6 +717,10 @@ impl Record {
             backtracks: self.backtracks,
             regularizations: self.regularizations,
             timings: self.timings,
+            factorizations: self.factorizations,
+            reused_steps: self.reused_steps,
+            cg_iterations: self.cg_iterations,
+            linear_solver: self.linear_solver,
         }
     }
 }
@@ -576,14 +819,339 @@ impl NewtonWorkspace {
                 found: x.len(),
             });
         }
+        let Some(cholesky) = self.cholesky.as_mut() else {
+            return Err(SolverError::Linear(
+                "the positive-definiteness test needs a Cholesky factorisation, which does not \
+                 fit in the memory budget (the solve used the iterative fallback)"
+                    .into(),
+            ));
+        };
         let mut timings = NewtonTimings::default();
         assemble(objective, x, &mut self.hessian, false, 0, &mut timings)?;
-        match self.cholesky.factorize(self.hessian.as_ref()) {
-            Ok(()) => Ok(true),
+        self.reusable = None;
+        match cholesky.factorize(self.hessian.as_ref()) {
+            Ok(()) => {
+                // An unshifted factor of the own Hessian: the next solve may reuse it.
+                self.reusable = Some(IterationHessian::Own);
+                Ok(true)
+            }
             Err(FactorError::NotPositiveDefinite { .. }) => Ok(false),
             Err(FactorError::Other(e)) => Err(e),
         }
     }
+}
+
+/// The iterative fallback of a workspace whose Cholesky factor does not fit in memory.
+struct Fallback {
+    kind: IterativeFallback,
+    precond: Precond,
+    /// Symbolic statistics of the refused factor.
+    stats: FactorStats,
+    /// Estimated bytes of the preconditioner and the CG vectors.
+    iterative_estimate: u64,
+}
+
+/// The fallback's preconditioner.
+enum Precond {
+    Ic0(Ic0),
+    /// Inverse diagonal.
+    Jacobi(Vec<f64>),
+}
+
+impl Precond {
+    /// Builds the preconditioner of `h`; `false` when it cannot (a non-positive diagonal
+    /// entry: h is not positive definite).
+    fn build(&mut self, h: &SparseColMat<usize, f64>, diag_offsets: &[usize]) -> bool {
+        match self {
+            Precond::Ic0(ic) => ic.factorize(h.as_ref()).is_ok(),
+            Precond::Jacobi(inv) => {
+                let val = h.val();
+                for (i, &o) in inv.iter_mut().zip(diag_offsets) {
+                    if val[o].is_nan() || val[o] <= 0.0 {
+                        return false;
+                    }
+                    *i = 1.0 / val[o];
+                }
+                true
+            }
+        }
+    }
+
+    fn apply(&self, r: &mut [f64]) {
+        match self {
+            Precond::Ic0(ic) => ic.apply(r),
+            Precond::Jacobi(inv) => r.iter_mut().zip(inv).for_each(|(r, d)| *r *= d),
+        }
+    }
+}
+
+/// The relative residual a CG direction must reach: `min(cg_forcing, ‖∇f‖∞ / ‖∇f₀‖∞)`, at
+/// least 1e-12 (Eisenstat–Walker-like: loose far from the solution, tight near it, so that
+/// inexact Newton keeps its quadratic convergence).
+fn forcing(limit: f64, g: f64, g0: f64) -> f64 {
+    let ratio = if g0 > 0.0 { g / g0 } else { 1.0 };
+    limit.min(ratio).max(1e-12)
+}
+
+/// Levenberg–Marquardt damping of the PSD Hessian: shortens and turns the step towards the
+/// gradient where the quadratic model overshoots (large rotations of a thin shell, whose
+/// Gauss–Newton model sees no membrane cost of bending out of plane from flat).
+fn apply_damping(ws: &mut NewtonWorkspace, damping: f64) {
+    if damping <= 0.0 {
+        return;
+    }
+    let val = ws.hessian.val_mut();
+    let mean = ws.diag_offsets.iter().map(|&o| val[o].abs()).sum::<f64>()
+        / ws.diag_offsets.len().max(1) as f64;
+    for &o in &ws.diag_offsets {
+        val[o] += damping * mean;
+    }
+}
+
+/// Factorisation reuse: when allowed and the kept factor is of an unshifted Hessian of this
+/// `kind`, solves `H dx = −∇f` by CG preconditioned with it. Returns whether `ws.dx` holds the
+/// direction; a failed attempt (too many iterations, non-positive curvature) leaves the
+/// caller to factorise.
+fn try_reuse(
+    ws: &mut NewtonWorkspace,
+    kind: IterationHessian,
+    eta: f64,
+    settings: &NewtonSettings,
+    rec: &mut Record,
+) -> Result<bool, SolverError> {
+    if !settings.reuse_factor || ws.reusable != Some(kind) {
+        return Ok(false);
+    }
+    let NewtonWorkspace {
+        cholesky: Some(cholesky),
+        hessian,
+        g,
+        dx,
+        x_trial,
+        pcg: scratch,
+        ..
+    } = ws
+    else {
+        return Ok(false);
+    };
+    // x_trial is free until the line search: it holds the right-hand side.
+    for (b, g) in x_trial.iter_mut().zip(g.iter()) {
+        *b = -g;
+    }
+    let t = Instant::now();
+    let o = pcg(
+        hessian.as_ref(),
+        x_trial,
+        dx,
+        eta,
+        settings.reuse_max_iterations,
+        scratch,
+        |r| cholesky.solve_in_place(r),
+    )?;
+    rec.timings.solve += t.elapsed();
+    rec.cg_iterations += o.iterations;
+    if o.converged && !o.negative_curvature {
+        rec.reused_steps += 1;
+        if 2 * o.iterations > settings.reuse_max_iterations {
+            // The factor is drifting away from the Hessian: refactorise at the next iteration
+            // rather than pay more CG iterations there.
+            ws.reusable = None;
+        }
+        Ok(true)
+    } else {
+        Ok(false)
+    }
+}
+
+/// Computes `ws.dx = −(H + shift)⁻¹ ∇f` for the Hessian in `ws` (of `kind`), with the shift
+/// search of `params` (see [`SparseCholesky::factorize_regularized`]): by a Cholesky
+/// factorisation, or by the iterative fallback, where non-positive curvature met by CG plays
+/// the part of a failed factorisation. Returns the shift and whether dx is exact (Cholesky, or
+/// CG converged to the forcing term `eta`).
+fn solve_direction(
+    ws: &mut NewtonWorkspace,
+    kind: IterationHessian,
+    params: &RegularizationParams,
+    eta: f64,
+    settings: &NewtonSettings,
+    rec: &mut Record,
+) -> Result<(FactorOutcome, bool), FactorError> {
+    ws.reusable = None;
+    if let Some(cholesky) = ws.cholesky.as_mut() {
+        let t = Instant::now();
+        let r = cholesky.factorize_regularized(&mut ws.hessian, params, &mut ws.mu);
+        rec.timings.factorization += t.elapsed();
+        let outcome = match r {
+            Ok(o) => {
+                rec.factorizations += o.attempts;
+                o
+            }
+            Err(e) => {
+                if matches!(e, FactorError::NotPositiveDefinite { .. }) {
+                    rec.factorizations += params.max_attempts + 1;
+                }
+                return Err(e);
+            }
+        };
+        for (d, g) in ws.dx.iter_mut().zip(&ws.g) {
+            *d = -g;
+        }
+        let t = Instant::now();
+        cholesky
+            .solve_in_place(&mut ws.dx)
+            .map_err(FactorError::Other)?;
+        rec.timings.solve += t.elapsed();
+        if outcome.mu <= SMALL_SHIFT {
+            ws.reusable = Some(kind);
+        }
+        return Ok((outcome, true));
+    }
+    let NewtonWorkspace {
+        fallback: Some(fallback),
+        hessian,
+        g,
+        dx,
+        x_trial,
+        pcg: scratch,
+        diag_offsets,
+        mu,
+        ..
+    } = ws
+    else {
+        return Err(FactorError::Other(SolverError::Linear(
+            "a Newton workspace without a linear solver".into(),
+        )));
+    };
+    // The shift search of `factorize_regularized`, with CG's curvature test in place of the
+    // factorisation's pivots.
+    let mut trial = if *mu > 0.0 && *mu * params.shrink >= params.initial {
+        *mu * params.shrink
+    } else {
+        0.0
+    };
+    let backup: Vec<f64> = diag_offsets.iter().map(|&o| hessian.val()[o]).collect();
+    let scale = {
+        let s = backup.iter().map(|d| d.abs()).sum::<f64>() / backup.len().max(1) as f64;
+        if s.is_finite() && s > 0.0 { s } else { 1.0 }
+    };
+    for (b, g) in x_trial.iter_mut().zip(g.iter()) {
+        *b = -g;
+    }
+    let mut attempts = 0;
+    let mut shifted_attempts = 0;
+    let result = loop {
+        attempts += 1;
+        let mut max_shift = 0.0f64;
+        {
+            let val = hessian.val_mut();
+            for (&o, &d) in diag_offsets.iter().zip(&backup) {
+                let shift = match params.kind {
+                    RegularizationKind::Identity => trial * scale,
+                    RegularizationKind::Diagonal => trial * d.abs().max(1e-6 * scale),
+                };
+                max_shift = max_shift.max(shift);
+                val[o] = d + shift;
+            }
+        }
+        let t = Instant::now();
+        let built = fallback.precond.build(hessian, diag_offsets);
+        rec.timings.factorization += t.elapsed();
+        rec.factorizations += 1;
+        let mut positive = built;
+        let mut converged = false;
+        if built {
+            let t = Instant::now();
+            let o = pcg(
+                hessian.as_ref(),
+                x_trial,
+                dx,
+                eta,
+                settings.cg_max_iterations,
+                scratch,
+                |r| {
+                    fallback.precond.apply(r);
+                    Ok(())
+                },
+            )
+            .map_err(FactorError::Other)?;
+            rec.timings.solve += t.elapsed();
+            rec.cg_iterations += o.iterations;
+            positive = !o.negative_curvature;
+            converged = o.converged;
+        }
+        if positive {
+            *mu = trial;
+            break Ok((
+                FactorOutcome {
+                    mu: trial,
+                    max_shift,
+                    attempts,
+                },
+                converged,
+            ));
+        }
+        if shifted_attempts >= params.max_attempts {
+            break Err(FactorError::NotPositiveDefinite { pivot: 0 });
+        }
+        shifted_attempts += 1;
+        trial = if trial == 0.0 {
+            params.initial
+        } else {
+            trial * params.growth
+        };
+    };
+    let val = hessian.val_mut();
+    for (&o, &d) in diag_offsets.iter().zip(&backup) {
+        val[o] = d;
+    }
+    result
+}
+
+/// Estimates the Newton correction at the new iterate with the last factor (or, with the
+/// iterative fallback, by CG on the last Hessian): `ws.dx = −H⁻¹∇f`. Returns whether the
+/// estimate is usable (CG converged).
+fn estimate_correction(
+    ws: &mut NewtonWorkspace,
+    settings: &NewtonSettings,
+    rec: &mut Record,
+) -> Result<bool, SolverError> {
+    if let Some(cholesky) = ws.cholesky.as_mut() {
+        for (d, g) in ws.dx.iter_mut().zip(&ws.g) {
+            *d = -g;
+        }
+        cholesky.solve_in_place(&mut ws.dx)?;
+        return Ok(true);
+    }
+    let NewtonWorkspace {
+        fallback: Some(fallback),
+        hessian,
+        g,
+        dx,
+        x_trial,
+        pcg: scratch,
+        ..
+    } = ws
+    else {
+        return Ok(false);
+    };
+    for (b, g) in x_trial.iter_mut().zip(g.iter()) {
+        *b = -g;
+    }
+    // Tight enough that the estimate decides the step test (the correction is tiny here).
+    let o = pcg(
+        hessian.as_ref(),
+        x_trial,
+        dx,
+        1e-6,
+        settings.cg_max_iterations,
+        scratch,
+        |r| {
+            fallback.precond.apply(r);
+            Ok(())
+        },
+    )?;
+    rec.cg_iterations += o.iterations;
+    Ok(o.converged && !o.negative_curvature)
 }
 
 /// Minimises `objective` from `x` (overwritten with the result).
@@ -641,6 +1209,10 @@ pub fn newton_solve<O: Objective + ?Sized>(
         backtracks: 0,
         regularizations: Vec::new(),
         timings: NewtonTimings::default(),
+        factorizations: 0,
+        reused_steps: 0,
+        cg_iterations: 0,
+        linear_solver: ws.linear_solver(),
     };
 
     let t = Instant::now();
@@ -663,6 +1235,8 @@ pub fn newton_solve<O: Objective + ?Sized>(
     rec.residuals.push(norm_inf(&ws.g) / force_scale);
     rec.values.push(f);
     let mut iteration = 0;
+    // The initial gradient, the reference of the CG forcing term.
+    let g0 = norm_inf(&ws.g);
 
     // Adaptive policy state: whether the next iteration tries the own Hessian, how many good
     // PSD steps to wait before trying it again, and that wait after the next failure.
@@ -698,7 +1272,12 @@ pub fn newton_solve<O: Objective + ?Sized>(
             });
         }
 
-        // Hessian and factorisation.
+        // Hessian, then the Newton direction dx = −H⁻¹∇f: by CG preconditioned with the kept
+        // factor (reuse), or by a (possibly shifted) factorisation, or by the iterative
+        // fallback. `exact`: dx solves the system to the forcing term (not truncated), so
+        // that an unshifted one may serve the convergence tests.
+        let eta = forcing(settings.cg_forcing, norm_inf(&ws.g), g0);
+        let eta_reuse = forcing(settings.reuse_tolerance, norm_inf(&ws.g), g0);
         let mut kind = assemble(
             objective,
             x,
@@ -707,8 +1286,14 @@ pub fn newton_solve<O: Objective + ?Sized>(
             iteration,
             &mut rec.timings,
         )?;
-        let mut plain = None;
-        if adaptive && kind == IterationHessian::Own && try_own {
+        if kind == IterationHessian::Psd {
+            apply_damping(ws, damping);
+        }
+        let mut direction = None;
+        if try_reuse(ws, kind, eta_reuse, settings, &mut rec)? {
+            direction = Some((FactorOutcome::default(), true));
+        }
+        if direction.is_none() && adaptive && kind == IterationHessian::Own && try_own {
             // The own Hessian, shifted by at most SMALL_SHIFT (far below bending stiffness:
             // it only lifts the tiny negative eigenvalues of a nearly converged, slightly
             // compressed shell); anything more indefinite switches to the PSD Hessian.
@@ -716,13 +1301,8 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 max_attempts: small_shift_attempts(&reg_params),
                 ..reg_params
             };
-            let t = Instant::now();
-            let r = ws
-                .cholesky
-                .factorize_regularized(&mut ws.hessian, &small, &mut ws.mu);
-            rec.timings.factorization += t.elapsed();
-            match r {
-                Ok(o) => plain = Some(o),
+            match solve_direction(ws, kind, &small, eta, settings, &mut rec) {
+                Ok(d) => direction = Some(d),
                 Err(FactorError::NotPositiveDefinite { .. }) => {
                     rec.failed_factorizations += 1;
                     ws.mu = 0.0;
@@ -737,47 +1317,31 @@ pub fn newton_solve<O: Objective + ?Sized>(
                         iteration,
                         &mut rec.timings,
                     )?;
+                    apply_damping(ws, damping);
+                    if try_reuse(ws, kind, eta_reuse, settings, &mut rec)? {
+                        direction = Some((FactorOutcome::default(), true));
+                    }
                 }
                 Err(FactorError::Other(e)) => return Err(e),
             }
         }
-        if kind == IterationHessian::Psd && damping > 0.0 {
-            // Levenberg–Marquardt damping of the PSD Hessian: shortens and turns the step
-            // towards the gradient where the quadratic model overshoots (large rotations of a
-            // thin shell, whose Gauss–Newton model sees no membrane cost of bending out of
-            // plane from flat).
-            let offsets = ws.cholesky.diagonal_offsets();
-            let val = ws.hessian.val_mut();
-            let mean =
-                offsets.iter().map(|&o| val[o].abs()).sum::<f64>() / offsets.len().max(1) as f64;
-            for &o in offsets {
-                val[o] += damping * mean;
-            }
-        }
-        let outcome = match plain {
-            Some(o) => o,
-            None => {
-                let t = Instant::now();
-                let outcome =
-                    ws.cholesky
-                        .factorize_regularized(&mut ws.hessian, &reg_params, &mut ws.mu);
-                rec.timings.factorization += t.elapsed();
-                match outcome {
-                    Ok(o) => o,
-                    Err(FactorError::NotPositiveDefinite { pivot }) => {
-                        return Err(if settings.regularization.is_some() {
-                            SolverError::RegularizationFailed {
-                                iteration,
-                                mu: ws.mu,
-                                attempts: reg_params.max_attempts + 1,
-                            }
-                        } else {
-                            SolverError::NotPositiveDefinite { iteration, pivot }
-                        });
-                    }
-                    Err(FactorError::Other(e)) => return Err(e),
+        let (outcome, exact) = match direction {
+            Some(d) => d,
+            None => match solve_direction(ws, kind, &reg_params, eta, settings, &mut rec) {
+                Ok(d) => d,
+                Err(FactorError::NotPositiveDefinite { pivot }) => {
+                    return Err(if settings.regularization.is_some() {
+                        SolverError::RegularizationFailed {
+                            iteration,
+                            mu: ws.mu,
+                            attempts: reg_params.max_attempts + 1,
+                        }
+                    } else {
+                        SolverError::NotPositiveDefinite { iteration, pivot }
+                    });
                 }
-            }
+                Err(FactorError::Other(e)) => return Err(e),
+            },
         };
         if outcome.mu > 0.0 {
             rec.regularizations.push(RegularizationEvent {
@@ -787,14 +1351,9 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 attempts: outcome.attempts,
             });
         }
+        // A direction that may stand for the unshifted Newton correction in the tests below.
+        let unshifted = outcome.mu <= SMALL_SHIFT && exact;
 
-        // Newton direction dx = −H⁻¹∇f.
-        for (d, g) in ws.dx.iter_mut().zip(&ws.g) {
-            *d = -g;
-        }
-        let t = Instant::now();
-        ws.cholesky.solve_in_place(&mut ws.dx)?;
-        rec.timings.solve += t.elapsed();
         if let Some(dof) = first_non_finite(&ws.dx) {
             return Err(SolverError::NonFinite {
                 what: "Newton direction",
@@ -806,7 +1365,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
 
         // An unshifted Newton correction below the step tolerance, or one whose predicted
         // decrease f cannot resolve: x is converged. The step is not taken.
-        if outcome.mu <= SMALL_SHIFT && watch.is_none() {
+        if unshifted && watch.is_none() {
             let dx_max = norm_inf(&ws.dx);
             rec.corrections.push(dx_max / length_scale);
             if dx_max <= step_limit {
@@ -895,11 +1454,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 rec.watchdog_steps += 1;
                 break f_t;
             }
-            if backtracks == 0
-                && watch.is_none()
-                && outcome.mu <= SMALL_SHIFT
-                && -0.5 * slope <= value_noise(f)
-            {
+            if backtracks == 0 && watch.is_none() && unshifted && -0.5 * slope <= value_noise(f) {
                 // The unshifted Newton step predicts a decrease below the round-off of f and
                 // its full step is not distinguishable from x: x is at the round-off floor
                 // (typically a solve restarted at its own equilibrium), not stuck.
@@ -1042,19 +1597,20 @@ pub fn newton_solve<O: Objective + ?Sized>(
 
         // After a full unshifted step, estimate the next correction with the same
         // factorisation (one triangular solve): a short one ends the solve here.
-        if outcome.mu <= SMALL_SHIFT && backtracks == 0 && watch.is_none() && !watched_step {
+        if unshifted && backtracks == 0 && watch.is_none() && !watched_step {
             if gradient_test
                 && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
             {
                 return Ok(rec.report(iteration, Convergence::Gradient));
             }
-            for (d, g) in ws.dx.iter_mut().zip(&ws.g) {
-                *d = -g;
-            }
             let t = Instant::now();
-            ws.cholesky.solve_in_place(&mut ws.dx)?;
+            let solved = estimate_correction(ws, settings, &mut rec)?;
             rec.timings.solve += t.elapsed();
-            let est = norm_inf(&ws.dx);
+            let est = if solved {
+                norm_inf(&ws.dx)
+            } else {
+                f64::INFINITY
+            };
             if est.is_finite() && est <= step_limit {
                 rec.corrections.push(est / length_scale);
                 return Ok(rec.report(iteration, Convergence::Step));

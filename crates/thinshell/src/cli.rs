@@ -173,6 +173,8 @@ struct Writer {
     densities: Option<crate::face_fields::FaceEnergyDensity>,
     /// Rows of `steps.csv` written (after the header).
     csv_rows: usize,
+    /// The notice that Newton solves fell back to CG has been printed.
+    iterative_noticed: bool,
     /// Totals over the whole run (across resumes).
     totals: Totals,
     /// Checkpointing: when, the scene's identity, and the last one written.
@@ -390,6 +392,15 @@ impl Observer for Writer {
         if self.checkpoint_due(sim) {
             self.checkpoint(sim);
         }
+        if r.iterative && !self.iterative_noticed {
+            self.iterative_noticed = true;
+            self.say(format!(
+                "notice: step {}: the Cholesky factor does not fit in the memory budget; Newton \
+                 solves use preconditioned CG ({} CG iterations in this step; convergence is \
+                 checked as usual)",
+                r.step, r.cg_iterations
+            ));
+        }
         if r.stable == Some(false) {
             self.say(format!(
                 "warning: step {}: the equilibrium is not a minimum (the exact Hessian is not \
@@ -551,6 +562,7 @@ fn drive(
         frames: record.frames,
         last_frame: record.last_frame,
         csv_rows: record.csv_rows,
+        iterative_noticed: false,
         totals: record.totals,
         checkpoint_every: options.checkpoint_every,
         scene_hash: crate::sim::scene_hash(&scene),

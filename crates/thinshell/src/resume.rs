@@ -236,6 +236,20 @@ pub(crate) fn memory_refusal(e: &StepError, sim: &Simulation) -> Option<String> 
             thinshell_solver::memory::human_bytes(*budget),
             thinshell_solver::memory::BUDGET_RULE,
         )),
+        StepFailure::Solver(SolverError::InsufficientMemoryForIterative {
+            n,
+            factor_estimate,
+            estimate,
+            budget,
+        }) => Some(format!(
+            "mesh of {} vertices, {} faces ({n} unknowns): the Cholesky factor needs an estimated {} (symbolic analysis) and the iterative fallback (preconditioned CG) {}, more than the {} available ({}); refused before factorising",
+            sim.mesh().n_vertices(),
+            sim.mesh().n_faces(),
+            thinshell_solver::memory::human_bytes(*factor_estimate),
+            thinshell_solver::memory::human_bytes(*estimate),
+            thinshell_solver::memory::human_bytes(*budget),
+            thinshell_solver::memory::BUDGET_RULE,
+        )),
         _ => None,
     }
 }

@@ -224,7 +224,28 @@ fn a_factor_beyond_the_memory_budget_is_refused_before_factorising() {
         err.contains("needs an estimated") && err.contains("4.0 KiB"),
         "{err}"
     );
-    // A generous limit runs.
+    // Neither the factor nor the iterative fallback fits: both estimates are named.
+    assert!(
+        err.contains("iterative fallback (preconditioned CG)"),
+        "{err}"
+    );
+    // Over the factor's estimate (203 KiB) but not the fallback's (108 KiB): the run completes
+    // by preconditioned CG and says so once.
+    let o = bin()
+        .env("THINSHELL_MEMORY_LIMIT", "150K")
+        .args(["run", "--quiet", "--out"])
+        .arg(&out)
+        .arg(&scene)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(
+        err.matches("Newton solves use preconditioned CG").count(),
+        1,
+        "{err}"
+    );
+    // A generous limit runs (directly: no notice).
     let o = bin()
         .env("THINSHELL_MEMORY_LIMIT", "1G")
         .args(["run", "--quiet", "--out"])
@@ -232,5 +253,7 @@ fn a_factor_beyond_the_memory_budget_is_refused_before_factorising() {
         .arg(&scene)
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("preconditioned CG"), "{err}");
 }

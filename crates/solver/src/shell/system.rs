@@ -336,6 +336,12 @@ impl ShellSystem {
             .collect())
     }
 
+    /// The Hessian's sparsity pattern (lower triangle, all values 0), e.g. to size its
+    /// factorisation before a solve.
+    pub fn hessian_template(&self) -> faer::sparse::SparseColMat<usize, f64> {
+        self.assembler.hessian_template()
+    }
+
     /// Free dofs (Newton's unknowns) of positions `x` (m) and edge angles `phi` (rad, one per
     /// edge, or empty for all 0): free coordinates, then ℓ̄·φ_e (m) of the free edges.
     pub fn gather(&self, x: &[Vector3<f64>], phi: &[f64]) -> Vec<f64> {

@@ -716,6 +716,29 @@ pub struct NewtonSpec {
     /// `adaptive` (default), `exact`, `gauss_newton`, `projected`.
     #[serde(default)]
     pub hessian: HessianSpec,
+    /// Reuse the last Cholesky factor as the preconditioner of CG while it converges quickly
+    /// (`thinshell_solver::NewtonSettings::reuse_factor`).
+    #[serde(default)]
+    pub reuse_factor: Option<bool>,
+    /// Linear solver when the Cholesky factor does not fit in memory: `ic0` (default),
+    /// `jacobi`, `off` (refuse).
+    #[serde(default)]
+    pub fallback: Option<FallbackSpec>,
+    /// Solve by preconditioned CG even when the Cholesky factor fits (default false).
+    #[serde(default)]
+    pub force_iterative: Option<bool>,
+}
+
+/// The iterative fallback (`thinshell_solver::IterativeFallback`).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FallbackSpec {
+    /// CG preconditioned by incomplete Cholesky IC(0).
+    Ic0,
+    /// CG preconditioned by the diagonal.
+    Jacobi,
+    /// No fallback: a factor over the memory budget is refused.
+    Off,
 }
 
 /// Output format.

@@ -22,9 +22,9 @@ use super::Simulation;
 use crate::reference::{map_xy, wrap_cylinder};
 use crate::scene::Scene;
 use crate::scene::schema::{
-    BendingForm, Effect, GrowthModelKind, GrowthSpec, HessianSpec, IntegratorKind, LayerSpec,
-    LoadRamp, MaterialModelName, MaterialSpec, MeshSpec, RegionSpec, RestSource, StimulusKind,
-    Surface as SceneSurface,
+    BendingForm, Effect, FallbackSpec, GrowthModelKind, GrowthSpec, HessianSpec, IntegratorKind,
+    LayerSpec, LoadRamp, MaterialModelName, MaterialSpec, MeshSpec, RegionSpec, RestSource,
+    StimulusKind, Surface as SceneSurface,
 };
 
 /// Why a scene could not be turned into a simulation.
@@ -349,6 +349,19 @@ impl Simulation {
             }
             if nw.regularization == Some(false) {
                 settings.regularization = None;
+            }
+            if let Some(v) = nw.force_iterative {
+                settings.force_iterative = v;
+            }
+            if let Some(v) = nw.reuse_factor {
+                settings.reuse_factor = v;
+            }
+            if let Some(v) = nw.fallback {
+                settings.fallback = match v {
+                    FallbackSpec::Ic0 => thinshell_solver::IterativeFallback::Ic0,
+                    FallbackSpec::Jacobi => thinshell_solver::IterativeFallback::Jacobi,
+                    FallbackSpec::Off => thinshell_solver::IterativeFallback::Off,
+                };
             }
             settings.hessian = policy;
             settings.validate().map_err(|source| BuildError::Solver {

@@ -93,6 +93,14 @@ pub struct StepRecord {
     pub stable: Option<bool>,
     /// Path-following steps (`[path]`): the step's path quantities; `None` otherwise.
     pub path: Option<PathRecord>,
+    /// Numeric factorisations of the step's Newton solve (issue #17: fewer with
+    /// `integrator.newton.reuse_factor`).
+    pub factorizations: usize,
+    /// CG iterations of the step (factor reuse, iterative fallback).
+    pub cg_iterations: usize,
+    /// The step's Newton solve used the iterative fallback (the Cholesky factor did not fit in
+    /// the memory budget).
+    pub iterative: bool,
     /// Wall time of the step, s.
     pub wall_s: f64,
     /// Of which: energy assembly, s.
@@ -474,6 +482,9 @@ impl Simulation {
         if let Some(n) = &report.newton {
             record.newton_iterations = n.iterations;
             record.backtracks = n.backtracks;
+            record.factorizations = n.factorizations;
+            record.cg_iterations = n.cg_iterations;
+            record.iterative = n.linear_solver != thinshell_solver::LinearSolver::Direct;
             record.regularizations = n.regularizations.len();
             record.residual = n.residuals.last().copied().unwrap_or(0.0);
             record.gauss_newton_iterations = n
