@@ -194,7 +194,7 @@ mod tests {
                 let a = SparseColMat::try_new_from_triplets(n, n, &triplets).unwrap();
                 let eig = m.clone().symmetric_eigen();
                 let negative = eig.eigenvalues.iter().filter(|v| **v < 0.0).count();
-                for ordering in [Ordering::Amd, Ordering::NestedDissection] {
+                for ordering in [Ordering::Amd, Ordering::NestedDissection, Ordering::Metis] {
                     let mut f = SparseLdlt::new(a.symbolic(), ordering, Par::Seq).unwrap();
                     assert_eq!(
                         matches!(f.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)),

@@ -20,7 +20,10 @@ use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
 use crate::SolverError;
-use crate::ordering::{DEFAULT_LEAF_SIZE, Ordering, inverse_permutation, nested_dissection};
+use crate::ordering::{
+    DEFAULT_LEAF_SIZE, METIS_LEAF_SIZE, Ordering, inverse_permutation, metis_nested_dissection,
+    nested_dissection,
+};
 
 /// How the diagonal shift of a regularised factorisation is shaped.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -124,7 +127,7 @@ pub struct FactorStats {
     pub factor_len: usize,
     /// Predicted flops of the numeric factorisation, Σ over columns of (column count)².
     pub flops: f64,
-    /// Ordering actually used (`Amd` or `NestedDissection`, never `Auto`).
+    /// Ordering actually used (never `Auto`).
     pub ordering: Ordering,
     /// Whether faer chose the supernodal (blocked) factorisation.
     pub supernodal: bool,
@@ -406,8 +409,9 @@ pub fn diagonal_offsets(
 }
 
 /// The symbolic analysis of a lower-triangle `pattern` under `ordering`, and the ordering used:
-/// `Auto` tries AMD, graph nested dissection and (with `coordinates`, m per dof) geometric
-/// nested dissection, and keeps the one with the fewest factorisation flops. Shared by the
+/// `Auto` tries AMD, graph nested dissection, METIS nested dissection and (with `coordinates`,
+/// m per dof) geometric nested dissection, and keeps the one with the fewest factorisation
+/// flops. Shared by the
 /// Cholesky and LDLᵀ factorisations.
 pub(crate) fn analyse(
     pattern: SymbolicSparseColMatRef<'_, usize>,
@@ -420,15 +424,24 @@ pub(crate) fn analyse(
             symbolic_nd(pattern, coordinates)?,
             Ordering::NestedDissection,
         ),
+        Ordering::Metis => (symbolic_metis(pattern)?, Ordering::Metis),
         Ordering::Auto => {
             let mut best = (symbolic_amd(pattern)?, Ordering::Amd);
-            let mut candidates = vec![symbolic_nd(pattern, None)?];
+            let mut candidates = vec![(symbolic_nd(pattern, None)?, Ordering::NestedDissection)];
             if coordinates.is_some() {
-                candidates.push(symbolic_nd(pattern, coordinates)?);
+                candidates.push((
+                    symbolic_nd(pattern, coordinates)?,
+                    Ordering::NestedDissection,
+                ));
             }
-            for nd in candidates {
-                if factor_flops(&nd) < factor_flops(&best.0) {
-                    best = (nd, Ordering::NestedDissection);
+            // METIS can only fail on input it rejects or out of memory: the other candidates
+            // still stand then.
+            if let Ok(m) = symbolic_metis(pattern) {
+                candidates.push((m, Ordering::Metis));
+            }
+            for (symbolic, used) in candidates {
+                if factor_flops(&symbolic) < factor_flops(&best.0) {
+                    best = (symbolic, used);
                 }
             }
             best
@@ -515,8 +528,23 @@ pub(crate) fn symbolic_nd(
     coordinates: Option<&[[f64; 3]]>,
 ) -> Result<SymbolicCholesky<usize>, SolverError> {
     let fwd = nested_dissection(pattern, coordinates, DEFAULT_LEAF_SIZE)?;
-    let inv = inverse_permutation(&fwd);
-    let perm = PermRef::new_checked(&fwd, &inv, fwd.len());
+    symbolic_custom(pattern, &fwd)
+}
+
+pub(crate) fn symbolic_metis(
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+) -> Result<SymbolicCholesky<usize>, SolverError> {
+    let fwd = metis_nested_dissection(pattern, METIS_LEAF_SIZE)?;
+    symbolic_custom(pattern, &fwd)
+}
+
+/// Symbolic analysis with the permutation `fwd` (`fwd[new] = old`).
+fn symbolic_custom(
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+    fwd: &[usize],
+) -> Result<SymbolicCholesky<usize>, SolverError> {
+    let inv = inverse_permutation(fwd);
+    let perm = PermRef::new_checked(fwd, &inv, fwd.len());
     factorize_symbolic_cholesky(
         pattern,
         Side::Lower,

@@ -63,7 +63,12 @@ fn solves_spd_systems_with_every_ordering_and_refactorises() {
     let (a, coords) = grid(20, 0.5);
     let n = a.ncols();
     let b: Vec<f64> = (0..n).map(|i| ((i * 7) % 13) as f64 - 6.0).collect();
-    for ordering in [Ordering::Amd, Ordering::NestedDissection, Ordering::Auto] {
+    for ordering in [
+        Ordering::Amd,
+        Ordering::NestedDissection,
+        Ordering::Metis,
+        Ordering::Auto,
+    ] {
         for c in [Some(coords.as_slice()), None] {
             for par in [Par::Seq, Par::rayon(2)] {
                 let mut chol = SparseCholesky::new(a.symbolic(), ordering, c, par).unwrap();
