@@ -51,7 +51,11 @@ fn main() {
         .nth(1)
         .map(|s| s.split(',').map(|x| x.parse().unwrap()).collect())
         .unwrap_or(vec![3, 4, 5]);
-    let numeric = std::env::args().nth(2).map(|s| s == "1").unwrap_or(false);
+    let mode = std::env::args().nth(2).unwrap_or_default();
+    let numeric = mode == "1";
+    if mode == "threads" {
+        return threads(&levels);
+    }
     for level in levels {
         for sff in [SffKind::MidEdgeAverage, SffKind::default()] {
             let (sys, _) = shrinking_sphere(level, sff);
@@ -159,6 +163,51 @@ fn main() {
                     tnum
                 );
             }
+        }
+    }
+}
+
+/// Sequential vs two-thread (split) factorisation with the METIS ordering, interleaved rounds;
+/// prints the medians.
+fn threads(levels: &[usize]) {
+    use thinshell_solver::{Ordering, SparseCholesky};
+    for &level in levels {
+        for sff in [SffKind::MidEdgeAverage, SffKind::default()] {
+            let (sys, _) = shrinking_sphere(level, sff);
+            let asm = Assembler::for_model(&sys.mesh, sys.dofs(), &sys.model).unwrap();
+            let mut h = asm.hessian_template();
+            spd(&mut h);
+            let mut seq =
+                SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::Seq).unwrap();
+            let mut two =
+                SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::rayon(2)).unwrap();
+            let (mut ts, mut tp) = (Vec::new(), Vec::new());
+            for _ in 0..7 {
+                let t = Instant::now();
+                seq.factorize(h.as_ref()).unwrap();
+                ts.push(t.elapsed().as_secs_f64());
+                let t = Instant::now();
+                two.factorize(h.as_ref()).unwrap();
+                tp.push(t.elapsed().as_secs_f64());
+            }
+            ts.sort_by(f64::total_cmp);
+            tp.sort_by(f64::total_cmp);
+            let total = seq.stats().flops;
+            let [a, b, d] = two.split_flops().unwrap_or([total, 0.0, 0.0]);
+            println!(
+                "L{level} {:>18} n {:>7}: flops 1 thread {total:.3e}, split halves {a:.3e} + {b:.3e}, dense {d:.3e}: critical path / sequential {:.2} (dense on 1 thread) {:.2} (on 2)",
+                sff.name(),
+                h.ncols(),
+                (a.max(b) + d) / total,
+                (a.max(b) + d / 2.0) / total,
+            );
+            println!(
+                "   split {} 1 thread {:.3}s, 2 threads {:.3}s, ratio {:.2}",
+                two.is_split(),
+                ts[3],
+                tp[3],
+                ts[3] / tp[3]
+            );
         }
     }
 }

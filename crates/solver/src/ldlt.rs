@@ -50,7 +50,7 @@ impl SparseLdlt {
         par: Par,
     ) -> Result<SparseLdlt, SolverError> {
         crate::linear::diagonal_offsets(pattern)?;
-        let (symbolic, _) = crate::linear::analyse(pattern, ordering, None)?;
+        let (symbolic, _, _) = crate::linear::analyse(pattern, ordering, None)?;
         let (factor_mem, solve_mem, _) = crate::linear::scratch(
             &symbolic,
             symbolic.factorize_numeric_ldlt_scratch::<f64>(par, Default::default()),
