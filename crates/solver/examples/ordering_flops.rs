@@ -4,7 +4,9 @@
 //! and docs/performance.md come from here.
 //!
 //! Run: `cargo run --release -p thinshell-solver --example ordering_flops -- 3,4,5,6 [1]`
-//! (icosphere levels; a second argument `1` also times the numeric factorisation).
+//! (icosphere levels; a second argument `1` also times the numeric factorisation, `threads`
+//! compares one and two threads, `one` / `two` only factorise 10 times on one / two threads,
+//! for `perf stat`).
 #![allow(clippy::unwrap_used, clippy::type_complexity, missing_docs)]
 use std::time::Instant;
 
@@ -55,6 +57,9 @@ fn main() {
     let numeric = mode == "1";
     if mode == "threads" {
         return threads(&levels);
+    }
+    if mode == "one" || mode == "two" {
+        return repeat(&levels, mode == "two");
     }
     for level in levels {
         for sff in [SffKind::MidEdgeAverage, SffKind::default()] {
@@ -209,5 +214,28 @@ fn threads(levels: &[usize]) {
                 ts[3] / tp[3]
             );
         }
+    }
+}
+
+/// Ten factorisations with the METIS ordering on one or two threads (mid-edge average), for
+/// `perf stat -e task-clock`: CPUs utilised shows whether the second thread works.
+fn repeat(levels: &[usize], two: bool) {
+    use thinshell_solver::{Ordering, SparseCholesky};
+    for &level in levels {
+        let (sys, _) = shrinking_sphere(level, SffKind::MidEdgeAverage);
+        let asm = Assembler::for_model(&sys.mesh, sys.dofs(), &sys.model).unwrap();
+        let mut h = asm.hessian_template();
+        spd(&mut h);
+        let par = if two { Par::rayon(2) } else { Par::Seq };
+        let mut chol = SparseCholesky::new(h.symbolic(), Ordering::Metis, None, par).unwrap();
+        let t = Instant::now();
+        for _ in 0..10 {
+            chol.factorize(h.as_ref()).unwrap();
+        }
+        println!(
+            "L{level}: split {}, 10 factorisations {:.3}s",
+            chol.is_split(),
+            t.elapsed().as_secs_f64()
+        );
     }
 }
