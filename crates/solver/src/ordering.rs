@@ -46,9 +46,10 @@ pub enum Ordering {
     NestedDissection,
     /// Nested dissection with METIS's multilevel bisection on the compressed graph
     /// ([`metis_nested_dissection`]; deterministic: fixed seed). The default: on the shell
-    /// Hessian it needs the fewest flops of the four on every size measured (1 280 to 81 920
-    /// faces), 16 % fewer than geometric nested dissection at 20 480 faces and 1.7× fewer
-    /// with edge directors (module docs).
+    /// sphere's Hessian it needs the fewest flops of the four on every size measured (1 280 to
+    /// 81 920 faces), 16 % fewer than geometric nested dissection at 20 480 faces and 1.7×
+    /// fewer with edge directors (module docs); on a flat 101 × 101 sheet geometric nested
+    /// dissection is 5 % better (3.37e9 vs 3.55e9 flops, `ordering` bench; `Auto` finds it).
     #[default]
     Metis,
     /// Analyse with AMD, METIS, graph-based and (given coordinates) geometric nested
