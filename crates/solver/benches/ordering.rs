@@ -1,9 +1,15 @@
-//! AMD vs geometric nested dissection on the shell Hessian pattern.
+//! AMD vs nested dissection (geometric, graph, METIS) on the shell Hessian pattern, and the
+//! factorisation on one vs two threads.
 //!
 //! The pattern is that of the discrete-shell Hessian on a level-5 icosphere (10 242 vertices,
 //! 20 480 faces, 30 726 dofs): every face couples its three vertices and its three flap
 //! vertices (two rings), each coupling a dense 3×3 block. Values make the matrix diagonally
 //! dominant (SPD); the cost of a Cholesky factorisation does not depend on them.
+//!
+//! `factorize_threads/{1,2}_threads`: the numeric factorisation with the default (METIS)
+//! ordering at 20 480 faces with `Par::Seq` and with `Par::rayon(2)` (the split over the two
+//! halves of the top-level dissection, `SparseCholesky::new`); meaningful on an idle machine
+//! with at least two cores only.
 //!
 //! Run: `cargo bench -p thinshell-solver --bench ordering`
 #![allow(clippy::unwrap_used, missing_docs)]
@@ -64,6 +70,7 @@ fn bench_pattern(
         ("amd", Ordering::Amd, None),
         ("nd_geometric", Ordering::NestedDissection, Some(coords)),
         ("nd_graph", Ordering::NestedDissection, None),
+        ("metis", Ordering::Metis, None),
     ];
     for (name, ordering, co) in cases {
         let chol = SparseCholesky::new(h.symbolic(), ordering, co, Par::Seq).unwrap();
@@ -79,26 +86,45 @@ fn bench_pattern(
         group.bench_function(format!("symbolic_{name}"), |b| {
             b.iter(|| black_box(SparseCholesky::new(h.symbolic(), ordering, co, Par::Seq).unwrap()))
         });
-        let mut pars = vec![("seq", Par::Seq)];
-        if name == "nd_geometric" {
-            pars.push(("rayon2", Par::rayon(2)));
-        }
-        for (pname, par) in pars {
-            let mut chol = SparseCholesky::new(h.symbolic(), ordering, co, par).unwrap();
-            group.bench_function(format!("numeric_{name}_{pname}"), |b| {
-                b.iter(|| chol.factorize(black_box(h.as_ref())).unwrap())
-            });
-            let mut rhs = vec![1.0; n];
-            group.bench_function(format!("solve_{name}_{pname}"), |b| {
-                b.iter(|| chol.solve_in_place(black_box(&mut rhs)).unwrap())
-            });
-        }
+        let mut chol = SparseCholesky::new(h.symbolic(), ordering, co, Par::Seq).unwrap();
+        group.bench_function(format!("numeric_{name}_seq"), |b| {
+            b.iter(|| chol.factorize(black_box(h.as_ref())).unwrap())
+        });
+        let mut rhs = vec![1.0; n];
+        group.bench_function(format!("solve_{name}_seq"), |b| {
+            b.iter(|| chol.solve_in_place(black_box(&mut rhs)).unwrap())
+        });
+    }
+    group.finish();
+}
+
+/// One vs two threads, the default ordering, 20 480 faces.
+fn bench_threads(c: &mut Criterion, h: &SparseColMat<usize, f64>) {
+    let mut group = c.benchmark_group("factorize_threads");
+    group.sample_size(10);
+    for (name, par) in [("1_thread", Par::Seq), ("2_threads", Par::rayon(2))] {
+        let mut chol = SparseCholesky::new(h.symbolic(), Ordering::default(), None, par).unwrap();
+        let s = chol.stats();
+        eprintln!(
+            "factorize_threads {name}: split = {}, predicted flops = {:.3e}, split parts [A, B, dense] = {:?}",
+            chol.is_split(),
+            s.flops,
+            chol.split_flops()
+        );
+        group.bench_function(name, |b| {
+            b.iter(|| chol.factorize(black_box(h.as_ref())).unwrap())
+        });
+        let mut rhs = vec![1.0; h.ncols()];
+        group.bench_function(format!("solve_{name}"), |b| {
+            b.iter(|| chol.solve_in_place(black_box(&mut rhs)).unwrap())
+        });
     }
     group.finish();
 }
 
 fn bench_orderings(c: &mut Criterion) {
     let (h, coords) = shell_matrix(&generators::icosphere(1.0, 5).unwrap());
+    bench_threads(c, &h);
     bench_pattern(c, "icosphere5", &h, &coords);
     // 101 × 101 vertices.
     let (h, coords) = shell_matrix(&generators::rectangle(100.0, 100.0, 100, 100).unwrap());

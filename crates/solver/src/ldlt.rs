@@ -50,7 +50,7 @@ impl SparseLdlt {
         par: Par,
     ) -> Result<SparseLdlt, SolverError> {
         crate::linear::diagonal_offsets(pattern)?;
-        let (symbolic, _) = crate::linear::analyse(pattern, ordering, None)?;
+        let (symbolic, _, _) = crate::linear::analyse(pattern, ordering, None)?;
         let (factor_mem, solve_mem, _) = crate::linear::scratch(
             &symbolic,
             symbolic.factorize_numeric_ldlt_scratch::<f64>(par, Default::default()),
@@ -194,7 +194,7 @@ mod tests {
                 let a = SparseColMat::try_new_from_triplets(n, n, &triplets).unwrap();
                 let eig = m.clone().symmetric_eigen();
                 let negative = eig.eigenvalues.iter().filter(|v| **v < 0.0).count();
-                for ordering in [Ordering::Amd, Ordering::NestedDissection] {
+                for ordering in [Ordering::Amd, Ordering::NestedDissection, Ordering::Metis] {
                     let mut f = SparseLdlt::new(a.symbolic(), ordering, Par::Seq).unwrap();
                     assert_eq!(
                         matches!(f.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)),

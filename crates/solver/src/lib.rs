@@ -10,7 +10,8 @@
 //!   and the last accepted iterate;
 //! - [`linear::SparseCholesky`]: faer's supernodal LLᵀ with the symbolic analysis done once per
 //!   pattern and all memory reused;
-//! - [`ordering`]: AMD or a geometric nested dissection ([`Ordering`]);
+//! - [`ordering`]: AMD, METIS nested dissection (the default) or a geometric nested dissection
+//!   ([`Ordering`]);
 //! - [`path`]: path following past limit points and snap-backs — arc-length continuation
 //!   (Riks/Crisfield) and displacement control ([`PathTracer`] on any [`LoadedObjective`];
 //!   [`ShellPath`] on a shell), with the stability of every point from the inertia of the

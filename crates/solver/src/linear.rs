@@ -11,16 +11,26 @@ use std::time::{Duration, Instant};
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltError as DenseLltError;
+use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::linalg::triangular_solve::{
+    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
+};
 use faer::perm::PermRef;
+use faer::reborrow::ReborrowMut;
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::supernodal::{SupernodalLltRef, SymbolicSupernodalCholesky};
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
     factorize_symbolic_cholesky,
 };
-use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par, Side};
+use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
+use faer::{Accum, Conj, Mat, MatMut, Par, Side};
 
 use crate::SolverError;
-use crate::ordering::{DEFAULT_LEAF_SIZE, Ordering, inverse_permutation, nested_dissection};
+use crate::ordering::{
+    DEFAULT_LEAF_SIZE, METIS_LEAF_SIZE, Ordering, inverse_permutation, metis_dissection_with_split,
+    nested_dissection,
+};
 
 /// How the diagonal shift of a regularised factorisation is shaped.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -124,7 +134,7 @@ pub struct FactorStats {
     pub factor_len: usize,
     /// Predicted flops of the numeric factorisation, Σ over columns of (column count)².
     pub flops: f64,
-    /// Ordering actually used (`Amd` or `NestedDissection`, never `Auto`).
+    /// Ordering actually used (never `Auto`).
     pub ordering: Ordering,
     /// Whether faer chose the supernodal (blocked) factorisation.
     pub supernodal: bool,
@@ -155,10 +165,7 @@ pub enum FactorError {
 /// A sparse LLᵀ factorisation whose symbolic part, factor storage and scratch memory are reused
 /// for every matrix with the same pattern.
 pub struct SparseCholesky {
-    symbolic: SymbolicCholesky<usize>,
-    l_values: Vec<f64>,
-    factor_mem: MemBuffer,
-    solve_mem: MemBuffer,
+    engine: Engine,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     diag_offsets: Vec<usize>,
@@ -166,6 +173,21 @@ pub struct SparseCholesky {
     par: Par,
     stats: FactorStats,
     factorized: bool,
+}
+
+/// How the numeric factorisation runs (one per factorisation: the size difference of the
+/// variants does not matter).
+#[allow(clippy::large_enum_variant)]
+enum Engine {
+    /// One faer supernodal factorisation, sequential.
+    Whole {
+        symbolic: SymbolicCholesky<usize>,
+        l_values: Vec<f64>,
+        factor_mem: MemBuffer,
+        solve_mem: MemBuffer,
+    },
+    /// The two halves of the top nested-dissection split on two threads ([`SplitFactor`]).
+    Split(Box<SplitFactor>),
 }
 
 impl std::fmt::Debug for SparseCholesky {
@@ -180,8 +202,17 @@ impl std::fmt::Debug for SparseCholesky {
 
 impl SparseCholesky {
     /// Symbolic analysis of a square pattern holding the lower triangle with every diagonal
-    /// entry present. `coordinates` (per dof, m) feed the geometric nested dissection; `par`
-    /// selects faer's parallelism for factorisation and solve.
+    /// entry present. `coordinates` (per dof, m) feed the geometric nested dissection.
+    ///
+    /// `par`: with [`Par::Seq`] (or one thread) faer factorises sequentially. With two or more
+    /// threads and an [`Ordering::Metis`] ordering (chosen or picked by `Auto`) whose predicted
+    /// flops reach [`SPLIT_MIN_FLOPS`], the two halves of the top-level dissection are
+    /// factorised concurrently on the rayon pool (`rayon::join`, each half by faer on one
+    /// thread) and their separator's Schur complement densely with faer on `par`: faer's own
+    /// parallelism only splits the dense kernels inside each supernode, which are too small on
+    /// shell Hessians (two threads were 1.6× slower than one at 20 480 faces). Otherwise the
+    /// factorisation stays sequential. Results are deterministic for a given `par` (the split
+    /// reorders round-off: they differ from the sequential factorisation in the last bits).
     pub fn new(
         pattern: SymbolicSparseColMatRef<'_, usize>,
         ordering: Ordering,
@@ -191,25 +222,54 @@ impl SparseCholesky {
         let start = Instant::now();
         let n = pattern.ncols();
         let diag_offsets = diagonal_offsets(pattern)?;
-        let (symbolic, used) = analyse(pattern, ordering, coordinates)?;
-        let factor_req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
-        let solve_req = symbolic.solve_in_place_scratch::<f64>(1, par);
-        let (factor_mem, solve_mem, estimate) = scratch(&symbolic, factor_req, solve_req)?;
+        let (symbolic, used, split) = analyse(pattern, ordering, coordinates)?;
+        let flops = factor_flops(&symbolic);
+        let factor_len = symbolic.len_val();
+        let supernodal = matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_));
+        let (engine, estimate) = match split {
+            Some((perm, sizes))
+                if par.degree() >= 2
+                    && flops >= SPLIT_MIN_FLOPS
+                    && sizes.iter().all(|&k| k > 0) =>
+            {
+                // The split holds about the whole factor plus three dense separator blocks:
+                // refuse it before allocating.
+                let [_, _, sep] = sizes;
+                let estimate = factor_memory_estimate(factor_len + 3 * sep * sep, 0, 0);
+                check_budget(symbolic.nrows(), estimate)?;
+                drop(symbolic);
+                let f = SplitFactor::new(pattern, perm, sizes, par)?;
+                let estimate = f.memory();
+                (Engine::Split(Box::new(f)), estimate)
+            }
+            _ => {
+                let factor_req =
+                    symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
+                let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
+                let (factor_mem, solve_mem, estimate) = scratch(&symbolic, factor_req, solve_req)?;
+                (
+                    Engine::Whole {
+                        l_values: vec![0.0; factor_len],
+                        symbolic,
+                        factor_mem,
+                        solve_mem,
+                    },
+                    estimate,
+                )
+            }
+        };
         let stats = FactorStats {
             n,
             nnz_lower: pattern.row_idx().len(),
-            factor_len: symbolic.len_val(),
-            flops: factor_flops(&symbolic),
+            factor_len,
+            flops,
             ordering: used,
-            supernodal: matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)),
+            supernodal,
             symbolic_time: start.elapsed(),
             memory_estimate: estimate,
         };
         Ok(SparseCholesky {
-            l_values: vec![0.0; symbolic.len_val()],
-            symbolic,
-            factor_mem,
-            solve_mem,
+            engine,
             col_ptr: pattern.col_ptr().to_vec(),
             row_idx: pattern.row_idx().to_vec(),
             diag_backup: vec![0.0; n],
@@ -240,24 +300,57 @@ impl SparseCholesky {
     pub fn factorize(&mut self, h: SparseColMatRef<'_, usize, f64>) -> Result<(), FactorError> {
         self.factorized = false;
         same_pattern(h, &self.col_ptr, &self.row_idx).map_err(FactorError::Other)?;
-        let stack = MemStack::new(&mut self.factor_mem);
-        match self.symbolic.factorize_numeric_llt(
-            &mut self.l_values,
-            h,
-            Side::Lower,
-            Default::default(),
-            self.par,
-            stack,
-            Default::default(),
-        ) {
-            Ok(_) => {
-                self.factorized = true;
-                Ok(())
+        match &mut self.engine {
+            Engine::Whole {
+                symbolic,
+                l_values,
+                factor_mem,
+                ..
+            } => {
+                let stack = MemStack::new(factor_mem);
+                symbolic
+                    .factorize_numeric_llt(
+                        l_values,
+                        h,
+                        Side::Lower,
+                        Default::default(),
+                        Par::Seq,
+                        stack,
+                        Default::default(),
+                    )
+                    // The low-level API reports the dense error type directly (not wrapped in
+                    // `sparse::linalg::LltError::Numeric` as the high-level `Llt` does).
+                    .map_err(|DenseLltError::NonPositivePivot { index }| {
+                        FactorError::NotPositiveDefinite { pivot: index }
+                    })?;
             }
-            // The low-level API reports the dense error type directly (not wrapped in
-            // `sparse::linalg::LltError::Numeric` as the high-level `Llt` does).
-            Err(DenseLltError::NonPositivePivot { index }) => {
-                Err(FactorError::NotPositiveDefinite { pivot: index })
+            Engine::Split(f) => f.factorize(h.val())?,
+        }
+        self.factorized = true;
+        Ok(())
+    }
+
+    /// Whether the factorisation runs on two threads (the split described at
+    /// [`new`](Self::new)).
+    pub fn is_split(&self) -> bool {
+        matches!(self.engine, Engine::Split(_))
+    }
+
+    /// Predicted flops of the split factorisation's parts, `[half A, half B, dense]` (halves as
+    /// [`factor_flops`], each including its copy of the separator block; dense: the two Schur
+    /// products and the separator's Cholesky, s³/3 each), `None` when not split. The two
+    /// halves run concurrently, so the critical path is `max(A, B) + dense` (the dense part
+    /// itself runs on `par`), against [`FactorStats::flops`] on one thread.
+    pub fn split_flops(&self) -> Option<[f64; 3]> {
+        match &self.engine {
+            Engine::Whole { .. } => None,
+            Engine::Split(f) => {
+                let s = f.sizes[2] as f64;
+                Some([
+                    factor_flops(&f.halves[0].symbolic),
+                    factor_flops(&f.halves[1].symbolic),
+                    s * s * s,
+                ])
             }
         }
     }
@@ -340,14 +433,24 @@ impl SparseCholesky {
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolverError> {
         let n = self.stats.n;
         ready_to_solve(self.factorized, n, rhs)?;
-        let llt = LltRef::new(&self.symbolic, &self.l_values);
-        let stack = MemStack::new(&mut self.solve_mem);
-        llt.solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(rhs, n, 1),
-            self.par,
-            stack,
-        );
+        match &mut self.engine {
+            Engine::Whole {
+                symbolic,
+                l_values,
+                solve_mem,
+                ..
+            } => {
+                let llt = LltRef::new(symbolic, l_values);
+                let stack = MemStack::new(solve_mem);
+                llt.solve_in_place_with_conj(
+                    Conj::No,
+                    MatMut::from_column_major_slice_mut(rhs, n, 1),
+                    Par::Seq,
+                    stack,
+                );
+            }
+            Engine::Split(f) => f.solve_in_place(rhs),
+        }
         Ok(())
     }
 }
@@ -406,29 +509,48 @@ pub fn diagonal_offsets(
 }
 
 /// The symbolic analysis of a lower-triangle `pattern` under `ordering`, and the ordering used:
-/// `Auto` tries AMD, graph nested dissection and (with `coordinates`, m per dof) geometric
-/// nested dissection, and keeps the one with the fewest factorisation flops. Shared by the
+/// `Auto` tries AMD, graph nested dissection, METIS nested dissection and (with `coordinates`,
+/// m per dof) geometric nested dissection, and keeps the one with the fewest factorisation
+/// flops. Shared by the
 /// Cholesky and LDLᵀ factorisations.
 pub(crate) fn analyse(
     pattern: SymbolicSparseColMatRef<'_, usize>,
     ordering: Ordering,
     coordinates: Option<&[[f64; 3]]>,
-) -> Result<(SymbolicCholesky<usize>, Ordering), SolverError> {
+) -> Result<(SymbolicCholesky<usize>, Ordering, Option<TopSplit>), SolverError> {
     Ok(match ordering {
-        Ordering::Amd => (symbolic_amd(pattern)?, Ordering::Amd),
+        Ordering::Amd => (symbolic_amd(pattern)?, Ordering::Amd, None),
         Ordering::NestedDissection => (
             symbolic_nd(pattern, coordinates)?,
             Ordering::NestedDissection,
+            None,
         ),
+        Ordering::Metis => {
+            let (symbolic, split) = symbolic_metis(pattern)?;
+            (symbolic, Ordering::Metis, split)
+        }
         Ordering::Auto => {
-            let mut best = (symbolic_amd(pattern)?, Ordering::Amd);
-            let mut candidates = vec![symbolic_nd(pattern, None)?];
+            let mut best = (symbolic_amd(pattern)?, Ordering::Amd, None);
+            let mut candidates = vec![(
+                symbolic_nd(pattern, None)?,
+                Ordering::NestedDissection,
+                None,
+            )];
             if coordinates.is_some() {
-                candidates.push(symbolic_nd(pattern, coordinates)?);
+                candidates.push((
+                    symbolic_nd(pattern, coordinates)?,
+                    Ordering::NestedDissection,
+                    None,
+                ));
             }
-            for nd in candidates {
-                if factor_flops(&nd) < factor_flops(&best.0) {
-                    best = (nd, Ordering::NestedDissection);
+            // METIS can only fail on input it rejects or out of memory: the other candidates
+            // still stand then.
+            if let Ok((m, split)) = symbolic_metis(pattern) {
+                candidates.push((m, Ordering::Metis, split));
+            }
+            for candidate in candidates {
+                if factor_flops(&candidate.0) < factor_flops(&best.0) {
+                    best = candidate;
                 }
             }
             best
@@ -450,20 +572,27 @@ pub(crate) fn scratch(
         factor_req.size_bytes(),
         solve_req.size_bytes(),
     );
-    if let Some(budget) = crate::memory::memory_budget()
-        && estimate > budget
-    {
-        return Err(SolverError::InsufficientMemory {
-            n: symbolic.nrows(),
-            estimate,
-            budget,
-        });
-    }
+    check_budget(symbolic.nrows(), estimate)?;
     let factor_mem = MemBuffer::try_new(factor_req)
         .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
     let solve_mem = MemBuffer::try_new(solve_req)
         .map_err(|_| SolverError::Linear("out of memory for solve scratch".into()))?;
     Ok((factor_mem, solve_mem, estimate))
+}
+
+/// Refuses ([`SolverError::InsufficientMemory`]) an `n`-dof factor needing `estimate` bytes
+/// beyond [`memory_budget`](crate::memory::memory_budget).
+fn check_budget(n: usize, estimate: u64) -> Result<(), SolverError> {
+    if let Some(budget) = crate::memory::memory_budget()
+        && estimate > budget
+    {
+        return Err(SolverError::InsufficientMemory {
+            n,
+            estimate,
+            budget,
+        });
+    }
+    Ok(())
 }
 
 /// Errors unless `a` has exactly the analysed pattern (`col_ptr`, `row_idx`).
@@ -515,8 +644,28 @@ pub(crate) fn symbolic_nd(
     coordinates: Option<&[[f64; 3]]>,
 ) -> Result<SymbolicCholesky<usize>, SolverError> {
     let fwd = nested_dissection(pattern, coordinates, DEFAULT_LEAF_SIZE)?;
-    let inv = inverse_permutation(&fwd);
-    let perm = PermRef::new_checked(&fwd, &inv, fwd.len());
+    symbolic_custom(pattern, &fwd)
+}
+
+/// The permutation of a nested dissection and the dof counts `[a, b, s]` of its top-level
+/// halves and separator (numbered in that order; the halves are uncoupled).
+pub(crate) type TopSplit = (Vec<usize>, [usize; 3]);
+
+pub(crate) fn symbolic_metis(
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+) -> Result<(SymbolicCholesky<usize>, Option<TopSplit>), SolverError> {
+    let (fwd, split) = metis_dissection_with_split(pattern, METIS_LEAF_SIZE)?;
+    let symbolic = symbolic_custom(pattern, &fwd)?;
+    Ok((symbolic, split.map(|sizes| (fwd, sizes))))
+}
+
+/// Symbolic analysis with the permutation `fwd` (`fwd[new] = old`).
+fn symbolic_custom(
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+    fwd: &[usize],
+) -> Result<SymbolicCholesky<usize>, SolverError> {
+    let inv = inverse_permutation(fwd);
+    let perm = PermRef::new_checked(fwd, &inv, fwd.len());
     factorize_symbolic_cholesky(
         pattern,
         Side::Lower,
@@ -553,6 +702,361 @@ pub fn factor_flops(symbolic: &SymbolicCholesky<usize>) -> f64 {
                         .sum::<f64>()
                 })
                 .sum()
+        }
+    }
+}
+
+/// Factorisations below this many predicted flops stay on one thread: splitting costs two
+/// extra dense products of the top separator's size and a thread hand-off.
+pub const SPLIT_MIN_FLOPS: f64 = 2e8;
+
+/// The factorisation on two threads (see [`SparseCholesky::new`]): with the top-level nested
+/// dissection split of the permuted matrix into halves `A`, `B` (uncoupled) and separator `S`,
+/// each thread factorises `M_A = [H_AA H_AS; H_SA H_SS]` (resp. `M_B`) with faer, whose
+/// trailing block is `C_A C_Aᵀ = H_SS − L_SA L_SAᵀ`; the Schur complement of the whole matrix
+/// is then `C_A C_Aᵀ + C_B C_Bᵀ − H_SS`, factorised densely. `H` is positive definite exactly
+/// when `M_A`, `M_B` and that complement are.
+struct SplitFactor {
+    /// `perm[new] = old` of the whole ordering.
+    perm: Vec<usize>,
+    /// Dofs of A, B, S.
+    sizes: [usize; 3],
+    halves: [Half; 2],
+    /// Positions in `h`'s value array of the S × S lower entries and their (row, col) in S.
+    s_entries: Vec<(usize, usize, usize)>,
+    /// Dense s × s: the Schur complement, then its Cholesky factor (lower).
+    schur: Mat<f64>,
+    schur_mem: MemBuffer,
+    /// Permuted right-hand side / solution.
+    work: Vec<f64>,
+    par: Par,
+}
+
+/// One half `M = [H_XX H_XS; H_SX H_SS]` of a [`SplitFactor`].
+struct Half {
+    symbolic: SymbolicCholesky<usize>,
+    matrix: SparseColMat<usize, f64>,
+    /// (position in `h`'s value array, position in `matrix`'s).
+    scatter: Vec<(usize, usize)>,
+    l_values: Vec<f64>,
+    factor_mem: MemBuffer,
+    solve_mem: MemBuffer,
+    /// The trailing s × s block of the factor, dense lower.
+    c: Mat<f64>,
+    rhs: Vec<f64>,
+    tmp: Vec<f64>,
+}
+
+impl Half {
+    /// `range`: the half's dofs in the permuted numbering; the separator follows it.
+    fn new(
+        pattern: SymbolicSparseColMatRef<'_, usize>,
+        inv: &[usize],
+        range: std::ops::Range<usize>,
+        sep_start: usize,
+    ) -> Result<Half, SolverError> {
+        let n = pattern.ncols();
+        let nx = range.len();
+        let s = n - sep_start;
+        let m = nx + s;
+        let local = |new: usize| -> Option<usize> {
+            if range.contains(&new) {
+                Some(new - range.start)
+            } else if new >= sep_start {
+                Some(nx + new - sep_start)
+            } else {
+                None
+            }
+        };
+        // (col, row, source position), lower triangle of M.
+        let mut entries = Vec::new();
+        for j in 0..n {
+            for p in pattern.col_ptr()[j]..pattern.col_ptr()[j + 1] {
+                let i = pattern.row_idx()[p];
+                if let (Some(a), Some(b)) = (local(inv[i]), local(inv[j])) {
+                    entries.push((a.min(b), a.max(b), p));
+                }
+            }
+        }
+        entries.sort_unstable();
+        let mut col_ptr = vec![0usize; m + 1];
+        for &(c, _, _) in &entries {
+            col_ptr[c + 1] += 1;
+        }
+        for c in 0..m {
+            col_ptr[c + 1] += col_ptr[c];
+        }
+        let row_idx: Vec<usize> = entries.iter().map(|e| e.1).collect();
+        let scatter = entries.iter().enumerate().map(|(q, e)| (e.2, q)).collect();
+        let structure = SymbolicSparseColMat::new_checked(m, m, col_ptr, None, row_idx);
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        // An explicit identity: faer's `SymmetricOrdering::Identity` reads the pattern as the
+        // upper triangle whatever the side.
+        let identity: Vec<usize> = (0..m).collect();
+        let symbolic = factorize_symbolic_cholesky(
+            structure.as_ref(),
+            Side::Lower,
+            SymmetricOrdering::Custom(PermRef::new_checked(&identity, &identity, m)),
+            params,
+        )
+        .map_err(|e| SolverError::Linear(format!("{e:?}")))?;
+        let factor_mem = MemBuffer::try_new(
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+        )
+        .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
+        let solve_mem = MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq))
+            .map_err(|_| SolverError::Linear("out of memory for solve scratch".into()))?;
+        let nnz = structure.row_idx().len();
+        Ok(Half {
+            l_values: vec![0.0; symbolic.len_val()],
+            symbolic,
+            matrix: SparseColMat::new(structure, vec![0.0; nnz]),
+            scatter,
+            factor_mem,
+            solve_mem,
+            c: Mat::zeros(s, s),
+            rhs: vec![0.0; m],
+            tmp: vec![0.0; s],
+        })
+    }
+
+    fn supernodal(&self) -> Option<&SymbolicSupernodalCholesky<usize>> {
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => Some(s),
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        }
+    }
+
+    /// Factorises `M` (values from `h`) and copies the trailing block into `c`. Errors with
+    /// the failing pivot in `M`'s numbering.
+    fn factorize(&mut self, h: &[f64]) -> Result<(), usize> {
+        let val = self.matrix.val_mut();
+        for &(src, dst) in &self.scatter {
+            val[dst] = h[src];
+        }
+        let stack = MemStack::new(&mut self.factor_mem);
+        self.symbolic
+            .factorize_numeric_llt(
+                &mut self.l_values,
+                self.matrix.as_ref(),
+                Side::Lower,
+                Default::default(),
+                Par::Seq,
+                stack,
+                Default::default(),
+            )
+            .map_err(|DenseLltError::NonPositivePivot { index }| index)?;
+        let Some(sn) = (match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => Some(s),
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        }) else {
+            return Err(0);
+        };
+        let m = self.rhs.len();
+        let s = self.c.nrows();
+        let first = m - s;
+        self.c.as_mut().fill(0.0);
+        let (begin, end, ptr) = (
+            sn.supernode_begin(),
+            sn.supernode_end(),
+            sn.col_ptr_for_val(),
+        );
+        for k in 0..sn.n_supernodes() {
+            if end[k] <= first {
+                continue;
+            }
+            let width = end[k] - begin[k];
+            let pattern = sn.supernode(k).pattern();
+            let rows = width + pattern.len();
+            for col in begin[k].max(first)..end[k] {
+                let base = ptr[k] + (col - begin[k]) * rows;
+                for r in (col - begin[k])..width {
+                    self.c[(begin[k] + r - first, col - first)] = self.l_values[base + r];
+                }
+                for (q, &row) in pattern.iter().enumerate() {
+                    self.c[(row - first, col - first)] = self.l_values[base + width + q];
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Forward substitution with `L_M` on `[b_X; 0]` (`b_X` already in `rhs`); leaves `y_X` in
+    /// `rhs` and returns `C·t = −L_SX y_X` in `tmp`.
+    fn forward(&mut self) {
+        let m = self.rhs.len();
+        let s = self.c.nrows();
+        let first = m - s;
+        self.rhs[first..].fill(0.0);
+        if let SymbolicCholeskyRaw::Supernodal(sn) = self.symbolic.raw() {
+            let l = SupernodalLltRef::new(sn, &self.l_values);
+            let stack = MemStack::new(&mut self.solve_mem);
+            l.l_solve_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(&mut self.rhs, m, 1),
+                Par::Seq,
+                stack,
+            );
+        }
+        let t = &self.rhs[first..];
+        for i in 0..s {
+            self.tmp[i] = (0..=i).map(|j| self.c[(i, j)] * t[j]).sum();
+        }
+    }
+
+    /// Back substitution with `L_Mᵀ` on `[y_X; C_ᵀ x_S]`: leaves `x_X` in `rhs[..first]`.
+    fn backward(&mut self, x_s: &[f64]) {
+        let m = self.rhs.len();
+        let s = self.c.nrows();
+        let first = m - s;
+        for j in 0..s {
+            self.rhs[first + j] = (j..s).map(|i| self.c[(i, j)] * x_s[i]).sum();
+        }
+        if let SymbolicCholeskyRaw::Supernodal(sn) = self.symbolic.raw() {
+            let l = SupernodalLltRef::new(sn, &self.l_values);
+            let stack = MemStack::new(&mut self.solve_mem);
+            l.l_transpose_solve_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(&mut self.rhs, m, 1),
+                Par::Seq,
+                stack,
+            );
+        }
+    }
+}
+
+impl SplitFactor {
+    fn new(
+        pattern: SymbolicSparseColMatRef<'_, usize>,
+        perm: Vec<usize>,
+        sizes: [usize; 3],
+        par: Par,
+    ) -> Result<SplitFactor, SolverError> {
+        let n = pattern.ncols();
+        let [a, b, s] = sizes;
+        let inv = inverse_permutation(&perm);
+        let sep = a + b;
+        let mut s_entries = Vec::new();
+        for j in 0..n {
+            for p in pattern.col_ptr()[j]..pattern.col_ptr()[j + 1] {
+                let (ni, nj) = (inv[pattern.row_idx()[p]], inv[j]);
+                if ni >= sep && nj >= sep {
+                    s_entries.push((p, ni.max(nj) - sep, ni.min(nj) - sep));
+                } else if (ni < a && (a..sep).contains(&nj)) || (nj < a && (a..sep).contains(&ni)) {
+                    return Err(SolverError::Linear(
+                        "nested-dissection split: the two halves are coupled".into(),
+                    ));
+                }
+            }
+        }
+        let halves = [
+            Half::new(pattern, &inv, 0..a, sep)?,
+            Half::new(pattern, &inv, a..sep, sep)?,
+        ];
+        if halves.iter().any(|h| h.supernodal().is_none()) {
+            return Err(SolverError::Linear("split factor is not supernodal".into()));
+        }
+        let schur_mem = MemBuffer::try_new(
+            faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
+                s,
+                par,
+                Default::default(),
+            ),
+        )
+        .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
+        Ok(SplitFactor {
+            perm,
+            sizes,
+            halves,
+            s_entries,
+            schur: Mat::zeros(s, s),
+            schur_mem,
+            work: vec![0.0; n],
+            par,
+        })
+    }
+
+    /// Bytes held by the factors, the Schur complement and scratch.
+    fn memory(&self) -> u64 {
+        let s = self.sizes[2];
+        let halves: usize = self
+            .halves
+            .iter()
+            .map(|h| 8 * (h.l_values.len() + h.matrix.val().len() + s * s))
+            .sum();
+        (halves + 8 * s * s) as u64
+    }
+
+    fn factorize(&mut self, h: &[f64]) -> Result<(), FactorError> {
+        let [a, b, _] = self.sizes;
+        let [h0, h1] = &mut self.halves;
+        let (r0, r1) = rayon::join(|| h0.factorize(h), || h1.factorize(h));
+        r0.map_err(|p| FactorError::NotPositiveDefinite {
+            pivot: if p < a { p } else { p + b },
+        })?;
+        r1.map_err(|p| FactorError::NotPositiveDefinite { pivot: a + p })?;
+        // S = C_A C_Aᵀ + C_B C_Bᵀ − H_SS (lower triangle).
+        let mut schur = self.schur.as_mut();
+        schur.fill(0.0);
+        for &(p, i, j) in &self.s_entries {
+            schur[(i, j)] = -h[p];
+        }
+        for half in &self.halves {
+            triangular::matmul(
+                schur.rb_mut(),
+                BlockStructure::TriangularLower,
+                Accum::Add,
+                half.c.as_ref(),
+                BlockStructure::TriangularLower,
+                half.c.as_ref().transpose(),
+                BlockStructure::TriangularUpper,
+                1.0,
+                self.par,
+            );
+        }
+        let stack = MemStack::new(&mut self.schur_mem);
+        faer::linalg::cholesky::llt::factor::cholesky_in_place(
+            schur,
+            Default::default(),
+            self.par,
+            stack,
+            Default::default(),
+        )
+        .map_err(|DenseLltError::NonPositivePivot { index }| {
+            FactorError::NotPositiveDefinite {
+                pivot: a + b + index,
+            }
+        })?;
+        Ok(())
+    }
+
+    fn solve_in_place(&mut self, rhs: &mut [f64]) {
+        let [a, b, s] = self.sizes;
+        let sep = a + b;
+        for (new, &old) in self.perm.iter().enumerate() {
+            self.work[new] = rhs[old];
+        }
+        let [h0, h1] = &mut self.halves;
+        h0.rhs[..a].copy_from_slice(&self.work[..a]);
+        h1.rhs[..b].copy_from_slice(&self.work[a..sep]);
+        rayon::join(|| h0.forward(), || h1.forward());
+        // y_S = L_S⁻¹ (b_S − L_SA y_A − L_SB y_B), then x_S = L_S⁻ᵀ y_S.
+        let (_, x_s) = self.work.split_at_mut(sep);
+        for ((x, p), q) in x_s.iter_mut().zip(&h0.tmp).zip(&h1.tmp) {
+            *x += p + q;
+        }
+        let mut xs = MatMut::from_column_major_slice_mut(x_s, s, 1);
+        solve_lower_triangular_in_place(self.schur.as_ref(), xs.rb_mut(), self.par);
+        solve_upper_triangular_in_place(self.schur.as_ref().transpose(), xs.rb_mut(), self.par);
+        let x_s = &self.work[sep..];
+        rayon::join(|| h0.backward(x_s), || h1.backward(x_s));
+        self.work[..a].copy_from_slice(&h0.rhs[..a]);
+        self.work[a..sep].copy_from_slice(&h1.rhs[..b]);
+        for (new, &old) in self.perm.iter().enumerate() {
+            rhs[old] = self.work[new];
         }
     }
 }

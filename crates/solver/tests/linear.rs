@@ -63,7 +63,12 @@ fn solves_spd_systems_with_every_ordering_and_refactorises() {
     let (a, coords) = grid(20, 0.5);
     let n = a.ncols();
     let b: Vec<f64> = (0..n).map(|i| ((i * 7) % 13) as f64 - 6.0).collect();
-    for ordering in [Ordering::Amd, Ordering::NestedDissection, Ordering::Auto] {
+    for ordering in [
+        Ordering::Amd,
+        Ordering::NestedDissection,
+        Ordering::Metis,
+        Ordering::Auto,
+    ] {
         for c in [Some(coords.as_slice()), None] {
             for par in [Par::Seq, Par::rayon(2)] {
                 let mut chol = SparseCholesky::new(a.symbolic(), ordering, c, par).unwrap();
@@ -293,4 +298,79 @@ fn bad_patterns_are_rejected() {
         ),
         Err(SolverError::DimensionMismatch { .. })
     ));
+}
+
+/// The Hessian pattern of the level-4 shrinking sphere (7 686 dofs, the shell's two-ring
+/// stencil) with the values of `shift·I + graph Laplacian` (eigenvalues ≥ shift when positive;
+/// a negative shift makes it indefinite).
+fn shell_laplacian(shift: f64) -> SparseColMat<usize, f64> {
+    use thinshell_energy::{Assembler, SffKind};
+    let (sys, _) = thinshell_testkit::fixtures::shrinking_sphere(4, SffKind::MidEdgeAverage);
+    let mut h = Assembler::for_model(&sys.mesh, sys.dofs(), &sys.model)
+        .unwrap()
+        .hessian_template();
+    let n = h.ncols();
+    let col_ptr = h.symbolic().col_ptr().to_vec();
+    let rows = h.symbolic().row_idx().to_vec();
+    let mut degree = vec![0.0; n];
+    for j in 0..n {
+        for &i in &rows[col_ptr[j]..col_ptr[j + 1]] {
+            if i != j {
+                degree[i] += 1.0;
+                degree[j] += 1.0;
+            }
+        }
+    }
+    let val = h.val_mut();
+    for j in 0..n {
+        for p in col_ptr[j]..col_ptr[j + 1] {
+            val[p] = if rows[p] == j {
+                degree[j] + shift
+            } else {
+                -1.0
+            };
+        }
+    }
+    h
+}
+
+/// With two threads and the METIS ordering the factorisation is split over the two halves of
+/// the top-level dissection: same solution as the sequential factorisation (to round-off),
+/// deterministic, and an indefinite matrix is still refused.
+#[test]
+fn two_thread_split_factorisation_matches_the_sequential_one() {
+    let h = shell_laplacian(0.5);
+    let n = h.ncols();
+    let b: Vec<f64> = (0..n).map(|i| ((i * 7) % 13) as f64 - 6.0).collect();
+    let mut seq = SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::Seq).unwrap();
+    let mut par = SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::rayon(2)).unwrap();
+    assert!(!seq.is_split());
+    assert!(par.is_split(), "{:?}", par.stats());
+    seq.factorize(h.as_ref()).unwrap();
+    let mut x_seq = b.clone();
+    seq.solve_in_place(&mut x_seq).unwrap();
+    let mut runs = Vec::new();
+    for _ in 0..2 {
+        par.factorize(h.as_ref()).unwrap();
+        let mut x = b.clone();
+        par.solve_in_place(&mut x).unwrap();
+        let r: Vec<f64> = sym_mul(&h, &x).iter().zip(&b).map(|(p, q)| p - q).collect();
+        assert!(max_abs(&r) < 1e-9 * max_abs(&b), "residual {}", max_abs(&r));
+        let diff: Vec<f64> = x.iter().zip(&x_seq).map(|(p, q)| p - q).collect();
+        assert!(
+            max_abs(&diff) < 1e-10 * max_abs(&x_seq),
+            "split vs sequential: {}",
+            max_abs(&diff)
+        );
+        runs.push(x);
+    }
+    assert_eq!(runs[0], runs[1], "not deterministic");
+    // The Laplacian has a zero eigenvalue: any negative shift makes it indefinite.
+    let bad = shell_laplacian(-0.5);
+    assert!(matches!(
+        par.factorize(bad.as_ref()),
+        Err(FactorError::NotPositiveDefinite { .. })
+    ));
+    let mut x = b.clone();
+    assert!(par.solve_in_place(&mut x).is_err());
 }

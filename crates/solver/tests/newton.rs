@@ -198,7 +198,12 @@ fn rigid_lattice_returns_to_zero_energy_with_both_orderings() {
         })
         .collect();
     let mut solutions = Vec::new();
-    for ordering in [Ordering::Amd, Ordering::NestedDissection, Ordering::Auto] {
+    for ordering in [
+        Ordering::Amd,
+        Ordering::NestedDissection,
+        Ordering::Metis,
+        Ordering::Auto,
+    ] {
         let settings = NewtonSettings {
             ordering,
             gradient_tolerance: 1e-12,
