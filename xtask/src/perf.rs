@@ -284,7 +284,10 @@ mod tests {
     #[test]
     fn quick_extra_sections_produce_tables() -> anyhow::Result<()> {
         let r = super::reuse::section(true)?;
-        assert!(r.contains("### Factor reuse") && r.lines().count() > 6, "{r}");
+        assert!(
+            r.contains("### Factor reuse") && r.lines().count() > 6,
+            "{r}"
+        );
         let f = super::fallback::section(true)?;
         assert!(f.contains("CG + IC(0)") && !f.contains("failed"), "{f}");
         Ok(())

@@ -63,13 +63,8 @@ fn setup(level: usize, par: Par) -> Problem {
     let mass = lumped_mass(&mesh, &rest, &model.material).unwrap();
     let m_over_dt2 = (0..3 * n).map(|c| mass[c / 3] / (DT * DT)).collect();
     let coords: Vec<[f64; 3]> = (0..3 * n).map(|c| x[c / 3].into()).collect();
-    let cholesky = SparseCholesky::new(
-        hessian.symbolic(),
-        Ordering::NestedDissection,
-        Some(&coords),
-        par,
-    )
-    .unwrap();
+    let cholesky =
+        SparseCholesky::new(hessian.symbolic(), Ordering::default(), Some(&coords), par).unwrap();
     Problem {
         faces: mesh.n_faces(),
         model,

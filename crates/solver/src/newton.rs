@@ -511,7 +511,7 @@ impl NewtonWorkspace {
                     });
                 }
                 let start = Instant::now();
-                let (symbolic, used) = crate::linear::analyse(
+                let (symbolic, used, _) = crate::linear::analyse(
                     hessian.symbolic(),
                     settings.ordering,
                     coords.as_deref(),

@@ -16,10 +16,15 @@ pub(crate) fn id(level: usize, threads: usize) -> String {
 /// Every ordering the library has. The exhaustive `match` makes a new variant a compile error
 /// here, so that it cannot be left out of the report.
 pub(crate) fn orderings() -> Vec<Ordering> {
-    let all = vec![Ordering::Amd, Ordering::NestedDissection, Ordering::Auto];
+    let all = vec![
+        Ordering::Amd,
+        Ordering::NestedDissection,
+        Ordering::Metis,
+        Ordering::Auto,
+    ];
     for o in &all {
         match o {
-            Ordering::Amd | Ordering::NestedDissection | Ordering::Auto => {}
+            Ordering::Amd | Ordering::NestedDissection | Ordering::Metis | Ordering::Auto => {}
         }
     }
     all
