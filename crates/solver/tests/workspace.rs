@@ -38,6 +38,7 @@ fn static_workspace_follows_ordering_and_parallelism() {
     let mut st = Static::default();
     assert!(st.workspace().is_none());
     st.newton.ordering = Ordering::Amd;
+    st.newton.parallel = false;
     let mut state = State::at_rest(x0);
     st.step(&mut sys, &mut state).unwrap();
     let ws = st.workspace().unwrap();
