@@ -244,6 +244,52 @@ fn bytes(b: u64) -> String {
     thinshell_solver::memory::human_bytes(b)
 }
 
+/// Why a target is missed: what was measured about the cause (shown only for rows that miss).
+mod why {
+    /// The per-face reason of an evaluation kind of the first table.
+    pub(super) fn per_face(what: &str) -> &'static str {
+        match what {
+            "energy" => ENERGY,
+            "energy_gradient" => ENERGY_GRADIENT,
+            _ => "",
+        }
+    }
+    pub(super) const ENERGY: &str = "*Energy only*: this path has no gradient or Hessian \
+        buffers since #17 (`eval_face_energy`: closed-form StVK, constants hoisted; 1 180 → 757 \
+        instructions per face, callgrind, docs/performance.md \"#17 kernels\"). What is left is \
+        the scalar arithmetic of b (three normalised flap normals) and the law, one face at a \
+        time; evaluating several faces per SIMD lane (a structure-of-arrays layout) is untried.";
+    pub(super) const ENERGY_GRADIENT: &str = "*Energy + gradient*: one law evaluation and \
+        reverse mode through b (2 786 → 2 526 instructions per face); the rest is the scalar \
+        derivative of the flap normals and the scatter of 18 entries per face, not vectorised \
+        across faces.";
+    pub(super) const FACTOR: &str = "*Factorisation*: see the ordering row (more flops than \
+        METIS).";
+    pub(super) const THREADS: &str = "*Two threads*: the split factorises the two halves of the \
+        top separator concurrently, then the separator densely; its predicted critical path is \
+        0.63 of the one-thread flops at 20 480 faces, so small factors gain little.";
+    pub(super) const ORDERING: &str = "*Ordering flops*: the dissection is our own loop around \
+        METIS's multilevel bisection with minimum vertex-cover separators (the `metis` crate has \
+        no safe wrapper of METIS_NodeND, and unsafe code is forbidden here); METIS's own nested \
+        dissection also refines each separator, which ours does not (four bisections per split \
+        gained 3–5 % for 3× the ordering time, not kept).";
+    pub(super) const NEWTON: &str = "*Newton iteration ≥ 4× libshell on 2 threads*: 4× needs \
+        ≤ 189 ms for assembly, factorisation and solve, and the two-thread factorisation alone \
+        takes about that (Factorisation table); closing it needs fewer flops (the ordering row) \
+        or skipped factorisations (factor reuse, below: not the default, see there).";
+    pub(super) const GROWTH: &str = "*Growth exponent*: nested dissection factorises a 2-D mesh \
+        of n unknowns in O(n^1.5) flops, and the factorisation is most of an iteration from \
+        20 480 faces up, so the slope rises with size; two threads pull it down (the split \
+        pays more on larger factors: speed-up 1.30 at 20 480, 1.68 at 81 920 faces).";
+    pub(super) const DIRECTOR_FACE: &str = "*Director forms per face*: 21 dofs per face (the \
+        three edge angles) against 18, and 45 vertex/edge block pairs gathered against 21; the \
+        dihedral angle's Hessian, through normalised normals, still costs about 8 000 \
+        instructions per edge (callgrind); a closed-form dihedral Hessian is the next step.";
+    pub(super) const DIRECTOR_STEP: &str = "*Director forms per implicit step*: twice the \
+        unknowns (one angle per edge) and about 2.2× the predicted factorisation flops with \
+        METIS (1.53e10 against 7.03e9 at 20 480 faces), on top of the per-face cost.";
+}
+
 /// The target of a row.
 #[derive(Clone, Copy)]
 enum Target {
@@ -313,6 +359,9 @@ struct Row {
     comparable: bool,
     /// The size the libshell figure was measured at (named in quick runs).
     issue_size: Option<&'static str>,
+    /// Why the target is missed, listed under the table when it is (measured facts, see
+    /// [`why`]).
+    why: &'static str,
 }
 
 impl Row {
@@ -326,14 +375,26 @@ impl Row {
         }
     }
 
-    fn cells(&self) -> Vec<Text> {
+    /// Whether the row is judged and misses its target.
+    fn gap(&self) -> bool {
+        let comparable = self.comparable || self.libshell.is_none();
+        comparable && self.target.verdict(self.judged()).starts_with("gap")
+    }
+
+    /// The value the target judges: `AtLeast` the ratio; `AtMost` the ratio if there is one,
+    /// else the value.
+    fn judged(&self) -> f64 {
         let r = self.ratio();
-        // `AtLeast` judges the ratio; `AtMost` the ratio if there is one, else the value.
-        let judged = match self.target {
+        match self.target {
             Target::AtLeast(_) | Target::SpeedUp => r.unwrap_or(f64::NAN),
             Target::AtMost(_) => r.unwrap_or(self.value),
             Target::Recorded => self.value,
-        };
+        }
+    }
+
+    fn cells(&self) -> Vec<Text> {
+        let r = self.ratio();
+        let judged = self.judged();
         // Quick runs use other sizes: nothing is judged against the issue's libshell figures.
         let comparable = self.comparable || self.libshell.is_none();
         vec![
@@ -396,17 +457,15 @@ pub(crate) fn load_average() -> Option<f64> {
         .ok()
 }
 
-/// A warning when other work ran: the larger load average (start or end of the run) above half
-/// the cores means the timings are inflated and the ratios noisy.
+/// A warning when other work ran: a load average above half the cores when the run starts
+/// means the timings are inflated and the ratios noisy. The load at the end is not judged: it
+/// includes the run's own two-thread measures and `--big` child.
 fn load_warning(start: Option<f64>) -> Option<String> {
     let cores = std::thread::available_parallelism().map_or(1, usize::from) as f64;
-    let worst = start
-        .into_iter()
-        .chain(load_average())
-        .fold(f64::NAN, f64::max);
+    let worst = start.unwrap_or(f64::NAN);
     (worst > 0.5 * cores).then(|| {
         format!(
-            "**Loaded machine**: load average up to {worst:.1} on {cores} cores during this run, \
+            "**Loaded machine**: load average {worst:.1} on {cores} cores when this run started, \
              so the timings are inflated (other processes shared the cores) and single ratios are \
              noisy; quote figures from a run on a quiet machine."
         )
@@ -505,10 +564,7 @@ fn blocks(run: &Run) -> Vec<Block> {
     line(&mut b, String::new());
     // Always one line (masked comparisons see the same text whatever the load).
     b.push(Block::Line(t(load_warning(run.load_start).unwrap_or_else(
-        || {
-            "Quiet machine: load average below half the cores at the start and end of the run."
-                .to_string()
-        },
+        || "Quiet machine: load average below half the cores when the run started.".to_string(),
     ))));
     line(&mut b, String::new());
     line(
@@ -576,6 +632,7 @@ fn blocks(run: &Run) -> Vec<Block> {
             target,
             comparable,
             issue_size: Some(K20),
+            why: why::per_face(what),
         });
     }
     let gather = med(sm, kernels::GATHER, "total");
@@ -588,6 +645,7 @@ fn blocks(run: &Run) -> Vec<Block> {
         target: Target::AtLeast(1.0),
         comparable,
         issue_size: Some(K20),
+        why: "",
     });
     let factor_levels: Vec<(usize, f64, f64, f64)> = sz
         .factor
@@ -614,6 +672,7 @@ fn blocks(run: &Run) -> Vec<Block> {
             target: Target::AtLeast(1.0),
             comparable,
             issue_size: Some(if k == 0 { K20 } else { K80 }),
+            why: why::FACTOR,
         });
         if two {
             let t2 = med(sm, &linear::id(level, 2), "total");
@@ -629,6 +688,7 @@ fn blocks(run: &Run) -> Vec<Block> {
                 target: Target::SpeedUp,
                 comparable: true,
                 issue_size: None,
+                why: why::THREADS,
             });
         }
         if let Some(lf) = run.facts.levels.get(&level) {
@@ -645,6 +705,7 @@ fn blocks(run: &Run) -> Vec<Block> {
                 target: Target::AtLeast(1.0),
                 comparable,
                 issue_size: Some(if k == 0 { K20 } else { K80 }),
+                why: why::ORDERING,
             });
         }
     }
@@ -675,6 +736,7 @@ fn blocks(run: &Run) -> Vec<Block> {
                 target,
                 comparable,
                 issue_size: Some(if k == 0 { K20 } else { K80 }),
+                why: why::NEWTON,
             });
         }
     }
@@ -708,6 +770,7 @@ fn blocks(run: &Run) -> Vec<Block> {
             target: Target::AtMost(1.2),
             comparable,
             issue_size: Some("1 280 → 81 920 faces"),
+            why: why::GROWTH,
         });
     }
     for sff in SffKind::ALL.into_iter().filter(|k| k.director().is_some()) {
@@ -725,6 +788,7 @@ fn blocks(run: &Run) -> Vec<Block> {
             target: Target::AtMost(1.5),
             comparable: true,
             issue_size: None,
+            why: why::DIRECTOR_FACE,
         });
     }
     for sff in SffKind::ALL.into_iter().filter(|k| k.director().is_some()) {
@@ -743,6 +807,7 @@ fn blocks(run: &Run) -> Vec<Block> {
             target: Target::AtMost(1.7),
             comparable: true,
             issue_size: None,
+            why: why::DIRECTOR_STEP,
         });
     }
     if run.big {
@@ -767,6 +832,7 @@ fn blocks(run: &Run) -> Vec<Block> {
                 target: Target::Recorded,
                 comparable: true,
                 issue_size: None,
+                why: "",
             });
         }
     } else {
@@ -783,6 +849,7 @@ fn blocks(run: &Run) -> Vec<Block> {
             target: Target::Recorded,
             comparable: false,
             issue_size: None,
+            why: "",
         });
     }
     b.push(Block::Table {
@@ -798,6 +865,22 @@ fn blocks(run: &Run) -> Vec<Block> {
         .to_vec(),
         rows: rows.iter().map(Row::cells).collect(),
     });
+    let gaps: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.gap() && !r.why.is_empty())
+        .collect();
+    if !gaps.is_empty() {
+        line(&mut b, String::new());
+        line(&mut b, "Why the targets not met are missed:".to_string());
+        line(&mut b, String::new());
+        let mut seen = Vec::new();
+        for r in gaps {
+            if !seen.contains(&r.why) {
+                seen.push(r.why);
+                line(&mut b, format!("- {}", r.why));
+            }
+        }
+    }
     line(&mut b, String::new());
 
     // Per face, every form.
