@@ -14,7 +14,7 @@ use thinshell_energy::{Material, SffKind};
 use thinshell_mesh::{Mesh, VertexId, generators};
 use thinshell_solver::{Boundary, Loads};
 
-use super::solve::{Config, V3, equilibrium, stress_free, uniform_nodal_forces, vertex_at};
+use super::solve::{Config, V3, equilibrium, stress_free, unheld, uniform_nodal_forces, vertex_at};
 use super::{Curve, Outcome, Quantity, Spec};
 
 const GROUP: &str = "linear plates and shells";
@@ -339,16 +339,8 @@ fn hemisphere(mesh: Mesh, label: String, reference: f64, sff: SffKind) -> Result
     let (r, t, e, nu, scale) = (10.0, 0.04, 6.825e7, 0.3, 1e-3);
     let faces = mesh.n_faces();
     let (point_forces, v) = hemisphere_loads(&mesh, r, 2.0 * scale)?;
-    let bc = Boundary {
-        pinned_coordinates: Boundary::rigid_motion_pins(&mesh, VertexId::new(0))?,
-        ..Boundary::default()
-    };
     let x0 = mesh.positions().to_vec();
-    let loads = Loads {
-        point_forces,
-        ..Loads::default()
-    };
-    let mut sys = stress_free(mesh, sff, Material::new(t, e, nu), bc, loads)?;
+    let mut sys = unheld(mesh, sff, Material::new(t, e, nu), point_forces)?;
     let mut cfg = Config::of(&sys, x0.clone());
     let converged = equilibrium(&mut sys, &mut cfg);
     let (pulled, pushed) = hemisphere_displacements(&x0, &cfg.x, v);

@@ -10,7 +10,7 @@ use thinshell_mesh::{VertexId, generators};
 use thinshell_solver::{Boundary, Loads, PathSettings, ShellPath};
 
 use super::linear::{hemisphere_displacements, hemisphere_loads};
-use super::solve::{Config, V3, ramp, stress_free, vertex_at};
+use super::solve::{Config, V3, ramp, stress_free, unheld, vertex_at};
 use super::{Curve, Outcome, Quantity, Spec};
 
 const GROUP: &str = "geometrically nonlinear paths (Sze, Liu & Lo 2004)";
@@ -274,21 +274,8 @@ fn hemisphere_path(sff: SffKind, level: usize) -> Result<Outcome> {
     let mesh = generators::hemisphere_with_hole(r, 18f64.to_radians(), rings, around)?;
     let faces = mesh.n_faces();
     let (point_forces, v) = hemisphere_loads(&mesh, r, pmax)?;
-    let bc = Boundary {
-        pinned_coordinates: Boundary::rigid_motion_pins(&mesh, VertexId::new(0))?,
-        ..Boundary::default()
-    };
     let x0 = mesh.positions().to_vec();
-    let mut sys = stress_free(
-        mesh,
-        sff,
-        Material::new(t, e, nu),
-        bc,
-        Loads {
-            point_forces,
-            ..Loads::default()
-        },
-    )?;
+    let mut sys = unheld(mesh, sff, Material::new(t, e, nu), point_forces)?;
     let mut c = Config::of(&sys, x0.clone());
     let (mut pulled, mut pushed) = (Vec::new(), Vec::new());
     let stopped = ramp(&mut sys, &mut c, &HEMI_LEVELS, 0.1, |_, _, c| {
@@ -333,21 +320,8 @@ fn pullout(sff: SffKind, level: usize) -> Result<Outcome> {
         (a[0], V3::new(0.0, pmax, 0.0)),
         (a[1], V3::new(0.0, -pmax, 0.0)),
     ];
-    let bc = Boundary {
-        pinned_coordinates: Boundary::rigid_motion_pins(&mesh, VertexId::new(0))?,
-        ..Boundary::default()
-    };
     let x0 = mesh.positions().to_vec();
-    let mut sys = stress_free(
-        mesh,
-        sff,
-        Material::new(h, e, nu),
-        bc,
-        Loads {
-            point_forces,
-            ..Loads::default()
-        },
-    )?;
+    let mut sys = unheld(mesh, sff, Material::new(h, e, nu), point_forces)?;
     // Half the change of the distance between a pair (outward positive).
     let half_change = |x: &[V3], p: [VertexId; 2]| {
         0.5 * ((x[p[0].idx()] - x[p[1].idx()]).norm() - (x0[p[0].idx()] - x0[p[1].idx()]).norm())

@@ -23,6 +23,26 @@ pub(crate) fn stress_free(
     system(mesh, rest, sff, material, boundary, loads)
 }
 
+/// [`stress_free`] held only against rigid motion (the 3-2-1 pins of
+/// `Boundary::rigid_motion_pins` at vertex 0, no reactions) under point forces (N) that must be
+/// self-equilibrated.
+pub(crate) fn unheld(
+    mesh: Mesh,
+    sff: SffKind,
+    material: Material,
+    point_forces: Vec<(VertexId, V3)>,
+) -> Result<ShellSystem> {
+    let boundary = Boundary {
+        pinned_coordinates: Boundary::rigid_motion_pins(&mesh, VertexId::new(0))?,
+        ..Boundary::default()
+    };
+    let loads = Loads {
+        point_forces,
+        ..Loads::default()
+    };
+    stress_free(mesh, sff, material, boundary, loads)
+}
+
 /// A configuration: positions and (edge-director forms) edge angles.
 #[derive(Clone, Debug)]
 pub(crate) struct Config {
