@@ -4,9 +4,10 @@
 //! The iteration is the one of the `newton_iteration` bench: the unit icosphere shrinking under
 //! ā = 0.9 a⁰ (mid-edge average, paper), implicit Euler Δt = 1e-3 s at x = x̃ — assembly of
 //! energy, gradient and exact Hessian plus the inertia diagonal Λ/Δt², numeric Cholesky
-//! factorisation, triangular solve. Ordering, regularisation and faer parallelism are
-//! [`NewtonSettings::default`]'s, i.e. whatever the library does by default; the symbolic
-//! analysis is done once per pattern outside the timing, as in a simulation.
+//! factorisation, triangular solve. Ordering and regularisation are
+//! [`NewtonSettings::default`]'s, i.e. whatever the library does by default; the factorisation
+//! runs on the row's thread count (2 threads: `NewtonSettings::parallel = true`, opt-in); the
+//! symbolic analysis is done once per pattern outside the timing, as in a simulation.
 
 use std::cell::RefCell;
 use std::collections::BTreeMap;
@@ -55,13 +56,10 @@ pub(crate) fn par(threads: usize) -> Par {
     }
 }
 
-/// faer threads of the library's default Newton settings on a pool of `threads` threads.
-pub(crate) fn default_faer_threads(threads: usize) -> usize {
-    if NewtonSettings::default().parallel {
-        threads
-    } else {
-        1
-    }
+/// faer threads of a Newton iteration on a pool of `threads` threads: the multi-thread rows
+/// measure `NewtonSettings::parallel = true` (opt-in), the others the sequential default.
+pub(crate) fn faer_threads(threads: usize) -> usize {
+    threads
 }
 
 /// The shrinking sphere at one level: pattern, values, and one factorisation per faer thread
@@ -228,7 +226,7 @@ pub(crate) fn problem(problems: &mut Problems, level: usize) -> Result<Rc<RefCel
 
 /// Records the level's sizes and the stats of its factorisations in `facts`.
 pub(crate) fn record(facts: &mut Facts, level: usize, p: &mut Problem) -> Result<()> {
-    let faer = default_faer_threads(1);
+    let faer = faer_threads(1);
     let stats = *p.cholesky(faer)?.stats();
     facts.levels.insert(
         level,
@@ -256,7 +254,7 @@ pub(crate) fn measures(
         let pl = pool(threads)?;
         for &level in &sizes.newton {
             let p = problem(problems, level)?;
-            let faer = default_faer_threads(threads);
+            let faer = faer_threads(threads);
             {
                 let mut guard = p.borrow_mut();
                 let pm: &mut Problem = &mut guard;
@@ -336,7 +334,7 @@ pub(crate) fn child_main(level: usize, threads: usize, rounds: usize) -> Result<
         bail!("--rounds must be at least 1");
     }
     let pl = pool(threads)?;
-    let faer = default_faer_threads(threads);
+    let faer = faer_threads(threads);
     let t = Instant::now();
     let mut p = pl.install(|| -> Result<Problem> {
         let mut p = Problem::new(level)?;

@@ -577,8 +577,8 @@ fn blocks(run: &Run) -> Vec<Block> {
              squashed and rippled sphere / faces. Factorisation, Newton iteration: the shrinking \
              sphere of the `newton_iteration` bench (ā = 0.9 a⁰, implicit Euler Δt = 1e-3 s, \
              exact Hessian + Λ/Δt²), with the library's default `NewtonSettings` (ordering, \
-             regularisation, faer parallelism); the factorisation rows force faer onto 1 or 2 \
-             threads. The libshell column is the issue's side-by-side measurement (libshell \
+             regularisation) on 1 thread, and with `parallel = true` (opt-in) on 2 threads; the \
+             factorisation rows force faer onto 1 or 2 threads. The libshell column is the issue's side-by-side measurement (libshell \
              -O3 -march=native, CHOLMOD supernodal with METIS, one thread), cited, not \
              re-measured; ratio = libshell / thinshell (> 1: thinshell faster) unless the row \
              says otherwise.",
