@@ -191,6 +191,13 @@ pub fn nested_dissection(
 /// round-off sensitivity of that solve which seeds 1–5 and the other orderings do not hit.)
 const METIS_SEED: metis::Idx = 1;
 
+/// Serialises METIS calls: METIS seeds and draws from one process-wide random state (GKlib's
+/// static generator), so two threads bisecting at once (concurrent tests, several
+/// simulations on threads) interleave their draws and get different, run-dependent
+/// permutations, hence different round-off. One call at a time keeps every permutation a
+/// function of the pattern alone.
+static METIS_LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// Nested-dissection ordering of a symmetric pattern with METIS's multilevel bisection.
 ///
 /// The graph is first compressed: dofs with identical closed adjacency (the three coordinates
@@ -452,6 +459,10 @@ impl MetisBisector<'_> {
             metis::Graph::new(1, 2, &xadj, &adjncy)
                 .map_err(|e| SolverError::Linear(format!("METIS ordering: {e}")))
                 .and_then(|graph| {
+                    // A poisoned lock only means another caller panicked; METIS reseeds anyway.
+                    let _serial = METIS_LOCK
+                        .lock()
+                        .unwrap_or_else(std::sync::PoisonError::into_inner);
                     graph
                         .set_vwgt(&vwgt)
                         .set_option(metis::option::Seed(METIS_SEED))
@@ -939,6 +950,30 @@ mod tests {
         // A corner vertex has 3 neighbouring vertices, an interior one 8.
         assert_eq!(c.graph.neighbors(0).len(), 3);
         assert_eq!(c.graph.neighbors(7).len(), 8);
+    }
+
+    /// METIS draws from one process-wide random state: orderings computed on several threads
+    /// at once must still equal the one computed alone (the lock around each call).
+    #[test]
+    fn concurrent_metis_dissections_equal_the_sequential_one() {
+        let p = block_grid(16);
+        let alone = metis_nested_dissection(p.as_ref(), 16).unwrap();
+        std::thread::scope(|scope| {
+            let runs: Vec<_> = (0..4)
+                .map(|_| {
+                    scope.spawn(|| {
+                        (0..5)
+                            .map(|_| metis_nested_dissection(p.as_ref(), 16).unwrap())
+                            .collect::<Vec<_>>()
+                    })
+                })
+                .collect();
+            for r in runs {
+                for perm in r.join().unwrap() {
+                    assert_eq!(perm, alone);
+                }
+            }
+        });
     }
 
     #[test]
