@@ -125,9 +125,9 @@ pub struct NewtonSettings {
     /// split are factorised concurrently and the separator densely in parallel (1.13–1.30×
     /// faster than one thread at 20 480 faces, 1.51–1.68× at 81 920, on an idle 2-core VM:
     /// `cargo xtask perf`); otherwise sequentially. Results agree with one thread to round-off.
-    /// Off by default because a resumed run's bit-for-bit equality with an uninterrupted one
-    /// (`thinshell` tests/checkpoint.rs) failed once with it on, in a CI run on a loaded
-    /// machine, and the cause is not found yet.
+    /// Off by default for now: a bit-for-bit resume test failed once with it on, and the cause
+    /// found since (METIS's process-wide random state, now serialised; it also hit a run with
+    /// it off) has not yet been re-checked with two threads as the default.
     pub parallel: bool,
     /// Factorisation reuse: while the last Cholesky factor is of an unshifted Hessian of the
     /// same kind ([`IterationHessian`]), solve `H dx = −∇f` by CG preconditioned with it
