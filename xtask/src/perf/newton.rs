@@ -56,12 +56,6 @@ pub(crate) fn par(threads: usize) -> Par {
     }
 }
 
-/// faer threads of a Newton iteration on a pool of `threads` threads: the multi-thread rows
-/// measure `NewtonSettings::parallel = true` (opt-in), the others the sequential default.
-pub(crate) fn faer_threads(threads: usize) -> usize {
-    threads
-}
-
 /// The shrinking sphere at one level: pattern, values, and one factorisation per faer thread
 /// count asked for (symbolic analysis with the default ordering).
 pub(crate) struct Problem {
@@ -226,8 +220,8 @@ pub(crate) fn problem(problems: &mut Problems, level: usize) -> Result<Rc<RefCel
 
 /// Records the level's sizes and the stats of its factorisations in `facts`.
 pub(crate) fn record(facts: &mut Facts, level: usize, p: &mut Problem) -> Result<()> {
-    let faer = faer_threads(1);
-    let stats = *p.cholesky(faer)?.stats();
+    // The 1-thread factorisation: its stats do not depend on the thread count.
+    let stats = *p.cholesky(1)?.stats();
     facts.levels.insert(
         level,
         LevelFacts {
@@ -254,7 +248,8 @@ pub(crate) fn measures(
         let pl = pool(threads)?;
         for &level in &sizes.newton {
             let p = problem(problems, level)?;
-            let faer = faer_threads(threads);
+            // On 2 threads the factorisation is `NewtonSettings::parallel = true` (opt-in).
+            let faer = threads;
             {
                 let mut guard = p.borrow_mut();
                 let pm: &mut Problem = &mut guard;
@@ -334,7 +329,7 @@ pub(crate) fn child_main(level: usize, threads: usize, rounds: usize) -> Result<
         bail!("--rounds must be at least 1");
     }
     let pl = pool(threads)?;
-    let faer = faer_threads(threads);
+    let faer = threads;
     let t = Instant::now();
     let mut p = pl.install(|| -> Result<Problem> {
         let mut p = Problem::new(level)?;
