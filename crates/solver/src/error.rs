@@ -123,6 +123,20 @@ pub enum SolverError {
         /// The last accepted iterate (the best one found when line search is on).
         last_good: Vec<f64>,
     },
+    /// The solve was cancelled through its cancel flag ([`crate::CancelFlag`], checked before
+    /// every Newton iteration); `last_good` is the last accepted iterate.
+    #[error(
+        "cancelled after {iterations} Newton iterations (relative residual {:e})",
+        residuals.last().copied().unwrap_or(f64::NAN)
+    )]
+    Cancelled {
+        /// Iterations performed (accepted and undone).
+        iterations: usize,
+        /// Relative residual ‖∇f‖∞ / force scale of every accepted iterate (first = initial).
+        residuals: Vec<f64>,
+        /// The last accepted iterate.
+        last_good: Vec<f64>,
+    },
     /// A path-following step ([`PathTracer`](crate::PathTracer)) failed after all its
     /// cut-backs; the tracer's point is unchanged. Boxed: the details are large.
     #[error("{0}")]
@@ -330,6 +344,18 @@ impl PartialEq for SolverError {
                     last_good: z,
                 },
             ) => a == w && b == x && c == y && d == z,
+            (
+                Cancelled {
+                    iterations: a,
+                    residuals: b,
+                    last_good: c,
+                },
+                Cancelled {
+                    iterations: x,
+                    residuals: y,
+                    last_good: z,
+                },
+            ) => a == x && b == y && c == z,
             (PathFailed(a), PathFailed(x)) => a == x,
             (Linear(a), Linear(x)) => a == x,
             (
@@ -464,6 +490,16 @@ impl std::fmt::Debug for SolverError {
                 .debug_struct("NewtonDidNotConverge")
                 .field("iterations", iterations)
                 .field("tolerance", tolerance)
+                .field("residuals", &Summary(residuals))
+                .field("last_good", &Summary(last_good))
+                .finish(),
+            Cancelled {
+                iterations,
+                residuals,
+                last_good,
+            } => f
+                .debug_struct("Cancelled")
+                .field("iterations", iterations)
                 .field("residuals", &Summary(residuals))
                 .field("last_good", &Summary(last_good))
                 .finish(),

@@ -128,7 +128,7 @@ pub use newton::{
 pub use objective::Objective;
 pub use ordering::Ordering;
 pub use path::{LoadedObjective, PathControl, PathPoint, PathSettings, PathTracer};
-pub use progress::{NewtonProgress, ProgressHook};
+pub use progress::{CancelFlag, NewtonProgress, ProgressHook};
 /// The README's example, compiled and run as a doctest so that it cannot go stale.
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]

@@ -63,7 +63,7 @@ use crate::linear::{
 };
 use crate::objective::Objective;
 use crate::ordering::Ordering;
-use crate::progress::{NewtonProgress, ProgressHook};
+use crate::progress::{CancelFlag, NewtonProgress, ProgressHook};
 
 /// Which Hessian each Newton iteration factorises.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -435,6 +435,8 @@ pub struct NewtonWorkspace {
     parallel: bool,
     /// Called after every accepted iteration of [`newton_solve`].
     progress: Option<ProgressHook>,
+    /// Checked before every iteration of [`newton_solve`].
+    cancel: Option<CancelFlag>,
 }
 
 impl std::fmt::Debug for NewtonWorkspace {
@@ -584,6 +586,7 @@ impl NewtonWorkspace {
             ordering: settings.ordering,
             parallel: settings.parallel,
             progress: None,
+            cancel: None,
         })
     }
 
@@ -670,6 +673,12 @@ impl NewtonWorkspace {
     /// Sets (or clears) the observer called after every accepted Newton iteration.
     pub fn set_progress(&mut self, hook: Option<ProgressHook>) {
         self.progress = hook;
+    }
+
+    /// Sets (or clears) the flag that cancels a running solve before its next iteration
+    /// ([`SolverError::Cancelled`]).
+    pub fn set_cancel(&mut self, flag: Option<CancelFlag>) {
+        self.cancel = flag;
     }
 
     /// The gradient at the last accepted iterate of the last solve.
@@ -1264,6 +1273,21 @@ pub fn newton_solve<O: Objective + ?Sized>(
         {
             return Ok(rec.report(iteration, Convergence::Gradient));
         }
+        if ws
+            .cancel
+            .as_ref()
+            .is_some_and(|c| c.load(std::sync::atomic::Ordering::SeqCst))
+        {
+            if let Some(w) = watch.take() {
+                x.copy_from_slice(&w.x);
+                rec.residuals.truncate(w.len);
+            }
+            return Err(SolverError::Cancelled {
+                iterations: iteration + rec.watchdog_undone,
+                residuals: rec.residuals,
+                last_good: x.to_vec(),
+            });
+        }
         if iteration + rec.watchdog_undone >= settings.max_iterations {
             if let Some(w) = watch.take() {
                 // The failure carries the best point: the one before the watched step.
@@ -1390,7 +1414,14 @@ pub fn newton_solve<O: Objective + ?Sized>(
 
         // Backtracking line search. The first trial evaluates the gradient too (it is usually
         // accepted); later trials only the value.
-        let mut alpha = 1.0;
+        let mut alpha = objective.max_step(x, &ws.dx)?;
+        if !(alpha.is_finite() && alpha > 0.0 && alpha <= 1.0) {
+            return Err(SolverError::InvalidSetting {
+                name: "Objective::max_step",
+                value: alpha,
+                requirement: "the objective's step limit must lie in (0, 1]",
+            });
+        }
         let mut backtracks = 0;
         let mut trial_has_gradient;
         let f_trial = loop {

@@ -78,4 +78,12 @@ pub trait Objective {
     fn dof_coordinates(&self) -> Option<Vec<[f64; 3]>> {
         None
     }
+
+    /// Largest fraction α ∈ (0, 1] of the step `dx` from `x` that the objective admits (e.g.
+    /// contact: the step stops before any pair of primitives crosses, by continuous collision
+    /// detection). Every line search and trust-region step starts from at most this fraction.
+    /// Default 1 (no limit). Must return a finite α > 0; anything else fails the solve.
+    fn max_step(&mut self, _x: &[f64], _dx: &[f64]) -> Result<f64, SolverError> {
+        Ok(1.0)
+    }
 }

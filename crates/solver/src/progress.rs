@@ -3,6 +3,7 @@
 //! without the solver knowing how it is shown.
 
 use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use crate::IterationHessian;
@@ -28,3 +29,8 @@ pub struct NewtonProgress {
 /// (update a progress bar, print a line). Shared (`Arc`) so that integrators can keep it across
 /// rebuilt workspaces.
 pub type ProgressHook = Arc<dyn Fn(&NewtonProgress) + Send + Sync>;
+
+/// A flag that cancels a running solve: set it (from any thread, e.g. a Ctrl-C handler) and the
+/// solve stops before its next Newton iteration with [`SolverError::Cancelled`](crate::SolverError::Cancelled),
+/// carrying its last accepted iterate. The solver never clears it; the owner does.
+pub type CancelFlag = Arc<AtomicBool>;

@@ -421,7 +421,7 @@ pub fn run(
     out: Option<&Path>,
     overrides: &[String],
     quiet: bool,
-    stop: &AtomicBool,
+    stop: &Arc<AtomicBool>,
 ) -> Result<(), Failure> {
     let options = RunOptions {
         quiet,
@@ -433,13 +433,13 @@ pub fn run(
 /// `thinshell run SCENE`: runs a scene, writing frames (OBJ and/or VTK), `steps.csv`,
 /// `summary.json` and (with [`RunOptions::checkpoint_every`]) `checkpoint.bin` into `out`
 /// (default `out/<scene name>`). Ctrl-C (the `stop` flag) ends the run cleanly after the
-/// current step and writes a checkpoint there, so that `resume` continues from it.
+/// current step (a running Newton solve stops within one iteration and its step is not taken) and writes a checkpoint there, so that `resume` continues from it.
 pub fn run_with(
     scene_path: &Path,
     out: Option<&Path>,
     overrides: &[String],
     options: &RunOptions,
-    stop: &AtomicBool,
+    stop: &Arc<AtomicBool>,
 ) -> Result<(), Failure> {
     let (scene, sim) = load(scene_path, overrides)?;
     if options.checkpoint_every.is_some() && sim.is_path_following() {
@@ -485,7 +485,7 @@ pub fn run_with(
 /// `thinshell resume OUT_DIR`: continues the run whose checkpoint is `OUT_DIR/checkpoint.bin`;
 /// its frames, `.pvd`, `steps.csv` and `summary.json` continue as if it had never stopped.
 /// Without `options.checkpoint_every` the run's own setting is kept.
-pub fn resume(dir: &Path, options: &RunOptions, stop: &AtomicBool) -> Result<(), Failure> {
+pub fn resume(dir: &Path, options: &RunOptions, stop: &Arc<AtomicBool>) -> Result<(), Failure> {
     let (scene, sim, csv, record) = crate::resume::reopen(dir)?;
     let mut options = options.clone();
     if options.checkpoint_every.is_none() {
@@ -516,7 +516,7 @@ fn drive(
     record: RunRecord,
     options: &RunOptions,
     resumed: bool,
-    stop: &AtomicBool,
+    stop: &Arc<AtomicBool>,
 ) -> Result<(), Failure> {
     let io = |e: std::io::Error, p: &Path| Failure::BadInput(format!("{}: {e}", p.display()));
     let bar = (!options.quiet).then(|| {
@@ -574,6 +574,8 @@ fn drive(
         steps_done,
         scene_origin: record.scene_origin.clone(),
     };
+    // Ctrl-C also cancels a long Newton solve between its iterations (the step is not taken).
+    sim.set_cancel(Some(Arc::clone(stop)));
     let result = sim.run(&mut writer, stop);
     if let Some(bar) = &writer.bar {
         bar.finish_and_clear();

@@ -70,7 +70,7 @@ fn runs() -> &'static Runs {
         std::fs::create_dir_all(&root).expect("temp dir");
         let scene = root.join("droop.toml");
         std::fs::write(&scene, DROOP).expect("scene");
-        let stop = AtomicBool::new(false);
+        let stop = std::sync::Arc::new(AtomicBool::new(false));
         let run = |name: &str, set: &[&str]| {
             let out = root.join(name);
             let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();

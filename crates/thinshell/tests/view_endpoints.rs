@@ -44,7 +44,7 @@ fn root() -> &'static PathBuf {
         let _ = std::fs::remove_dir_all(&root);
         std::fs::create_dir_all(&root).expect("temp dir");
         std::fs::write(root.join("strip.toml"), SCENE).expect("scene");
-        let stop = AtomicBool::new(false);
+        let stop = std::sync::Arc::new(AtomicBool::new(false));
         for (name, set) in [
             ("vtk", vec![]),
             ("obj", vec!["output.formats=[\"obj\"]".to_string()]),

@@ -9,7 +9,9 @@ use thinshell_energy::{EnergyTerms, HessianMode};
 
 use super::objective::ShellObjective;
 use super::system::{ShellSystem, State};
-use crate::{NewtonReport, NewtonSettings, NewtonWorkspace, Objective, ProgressHook, SolverError};
+use crate::{
+    CancelFlag, NewtonReport, NewtonSettings, NewtonWorkspace, Objective, ProgressHook, SolverError,
+};
 
 /// What one step did.
 #[derive(Clone, Debug, PartialEq)]
@@ -67,6 +69,11 @@ pub trait Integrator {
     /// Sets (or clears) the observer of Newton iterations; integrators without a Newton solve
     /// ignore it.
     fn set_progress(&mut self, _hook: Option<ProgressHook>) {}
+
+    /// Sets (or clears) the flag that cancels a running Newton solve before its next iteration
+    /// ([`SolverError::Cancelled`]; the state is unchanged); integrators without a Newton solve
+    /// ignore it.
+    fn set_cancel(&mut self, _flag: Option<CancelFlag>) {}
 
     /// State the integrator carries from one step to the next that changes later results (a
     /// checkpoint saves it): the remembered regularisation shift of its Newton solves; 0 for
@@ -127,6 +134,8 @@ pub struct NewtonCache {
     ws: Option<NewtonWorkspace>,
     /// Handed to every workspace built.
     progress: Option<ProgressHook>,
+    /// Handed to every workspace built.
+    cancel: Option<CancelFlag>,
     /// A restored regularisation memory waiting for the workspace of the next solve.
     pending_mu: Option<f64>,
 }
@@ -136,6 +145,7 @@ impl std::fmt::Debug for NewtonCache {
         f.debug_struct("NewtonCache")
             .field("ws", &self.ws)
             .field("progress", &self.progress.is_some())
+            .field("cancel", &self.cancel.is_some())
             .field("pending_mu", &self.pending_mu)
             .finish()
     }
@@ -153,6 +163,14 @@ impl NewtonCache {
             ws.set_progress(hook.clone());
         }
         self.progress = hook;
+    }
+
+    /// Sets (or clears) the cancel flag, for this and future workspaces.
+    pub fn set_cancel(&mut self, flag: Option<CancelFlag>) {
+        if let Some(ws) = &mut self.ws {
+            ws.set_cancel(flag.clone());
+        }
+        self.cancel = flag;
     }
 
     /// The regularisation memory the next solve starts from (0 before the first solve).
@@ -190,6 +208,7 @@ impl NewtonCache {
             slot => {
                 let mut ws = NewtonWorkspace::new(objective, settings)?;
                 ws.set_progress(self.progress.clone());
+                ws.set_cancel(self.cancel.clone());
                 if let Some(mu) = self.pending_mu.take() {
                     ws.set_regularization_memory(mu);
                 }
@@ -219,6 +238,7 @@ pub(crate) fn retryable(e: &SolverError) -> bool {
     !matches!(
         e,
         SolverError::InvalidSetting { .. }
+            | SolverError::Cancelled { .. }
             | SolverError::DimensionMismatch { .. }
             | SolverError::InvalidForceScale(_)
             | SolverError::InvalidLengthScale(_)

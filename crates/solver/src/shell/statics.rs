@@ -128,6 +128,10 @@ impl Integrator for Static {
         self.cache.set_progress(hook);
     }
 
+    fn set_cancel(&mut self, flag: Option<crate::CancelFlag>) {
+        self.cache.set_cancel(flag);
+    }
+
     fn carried_state(&self) -> f64 {
         self.cache.regularization_memory()
     }

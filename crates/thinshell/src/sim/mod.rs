@@ -180,6 +180,17 @@ pub struct StepError {
     pub source: StepFailure,
 }
 
+impl StepError {
+    /// Whether the step stopped because its cancel flag was set ([`Simulation::set_cancel`]),
+    /// not because it failed.
+    pub fn is_cancelled(&self) -> bool {
+        matches!(
+            self.source,
+            StepFailure::Solver(SolverError::Cancelled { .. })
+        )
+    }
+}
+
 /// What failed in a step.
 #[derive(Debug, thiserror::Error)]
 pub enum StepFailure {
@@ -333,6 +344,14 @@ impl Simulation {
         self.integrator.set_progress(hook);
     }
 
+    /// Sets (or clears) the flag that cancels a running step's Newton solve before its next
+    /// iteration: the step then fails with [`SolverError::Cancelled`] and the state stays at
+    /// the last completed step ([`Simulation::run`] reports that as an interruption). The
+    /// owner clears the flag before stepping again.
+    pub fn set_cancel(&mut self, flag: Option<thinshell_solver::CancelFlag>) {
+        self.integrator.set_cancel(flag);
+    }
+
     /// The growth coupling, when the scene has the `growth` effect.
     pub fn growth(&self) -> Option<&Growth> {
         self.growth.as_ref()
@@ -367,7 +386,14 @@ impl Simulation {
                 interrupted = true;
                 break;
             }
-            let record = self.step()?;
+            let record = match self.step() {
+                Ok(r) => r,
+                Err(e) if e.is_cancelled() => {
+                    interrupted = true;
+                    break;
+                }
+                Err(e) => return Err(e),
+            };
             iterations += record.newton_iterations;
             gauss_newton += record.gauss_newton_iterations;
             stable = record.stable;
@@ -440,7 +466,9 @@ impl Simulation {
             Err(first) => {
                 self.state.t = time;
                 // A static step whose rest forms or loads changed is retried by continuation.
-                if static_solve && (previous_rest.is_some() || lambda != lambda_prev) {
+                let cancelled = matches!(first, SolverError::Cancelled { .. });
+                if static_solve && !cancelled && (previous_rest.is_some() || lambda != lambda_prev)
+                {
                     self.continuation(previous_rest.as_ref(), lambda_prev, lambda)
                         .map_err(|_| first)
                 } else {
@@ -565,7 +593,8 @@ impl Simulation {
                     }
                 }
                 Err(e) => {
-                    if step <= 0.5f64.powi(MAX_CONTINUATION_HALVINGS as i32) {
+                    let cancelled = matches!(e, SolverError::Cancelled { .. });
+                    if cancelled || step <= 0.5f64.powi(MAX_CONTINUATION_HALVINGS as i32) {
                         if let Some(target) = target {
                             self.system.rest = target;
                         }
