@@ -107,19 +107,28 @@ pub enum SolverError {
     },
     /// Newton reached `max_iterations` without meeting a convergence criterion.
     #[error(
-        "Newton did not converge in {iterations} iterations (relative residual ‖∇f‖∞/force scale \
-         {:e} → {:e}; converged means a Newton correction below step_tolerance × size, or a \
-         gradient tolerance {tolerance:e} where a force scale was given)",
+        "Newton did not converge in {iterations} iterations: the last unshifted Newton \
+         correction was {} × size, and converged means at most step_tolerance = \
+         {step_tolerance:e} × size (relative residual ‖∇f‖∞/force scale {:e} → {:e}; the \
+         gradient test ‖∇f‖∞ ≤ {tolerance:e} × force scale applies only where a force scale \
+         was given)",
+        last_correction.map_or_else(|| "not computed".to_string(), |c| format!("{c:e}")),
         residuals.first().copied().unwrap_or(f64::NAN),
         residuals.last().copied().unwrap_or(f64::NAN)
     )]
     NewtonDidNotConverge {
         /// Relative residual ‖∇f‖∞ / force scale of every accepted iterate (first = initial).
         residuals: Vec<f64>,
-        /// Iterations performed.
+        /// Iterations performed, rejected and undone ones included (what `max_iterations`
+        /// limits).
         iterations: usize,
-        /// The gradient tolerance that was not met.
+        /// The gradient tolerance of the gradient test (used only with a force scale).
         tolerance: f64,
+        /// `‖dx‖∞ / size` of the last unshifted Newton correction computed (the convergence
+        /// test that was not met), if any.
+        last_correction: Option<f64>,
+        /// The step tolerance that correction was tested against.
+        step_tolerance: f64,
         /// The last accepted iterate (the best one found when line search is on).
         last_good: Vec<f64>,
     },
@@ -335,15 +344,19 @@ impl PartialEq for SolverError {
                     residuals: a,
                     iterations: b,
                     tolerance: c,
+                    last_correction: e,
+                    step_tolerance: s,
                     last_good: d,
                 },
                 NewtonDidNotConverge {
                     residuals: w,
                     iterations: x,
                     tolerance: y,
+                    last_correction: e2,
+                    step_tolerance: s2,
                     last_good: z,
                 },
-            ) => a == w && b == x && c == y && d == z,
+            ) => a == w && b == x && c == y && d == z && e == e2 && s == s2,
             (
                 Cancelled {
                     iterations: a,
@@ -485,11 +498,15 @@ impl std::fmt::Debug for SolverError {
                 residuals,
                 iterations,
                 tolerance,
+                last_correction,
+                step_tolerance,
                 last_good,
             } => f
                 .debug_struct("NewtonDidNotConverge")
                 .field("iterations", iterations)
                 .field("tolerance", tolerance)
+                .field("last_correction", last_correction)
+                .field("step_tolerance", step_tolerance)
                 .field("residuals", &Summary(residuals))
                 .field("last_good", &Summary(last_good))
                 .finish(),

@@ -31,6 +31,29 @@
 //!   the diagonal (from 1e-6, ×10), good full steps lower it (÷100): a Gauss–Newton model sees
 //!   no membrane cost of bending a flat or folded sheet out of plane and overshoots there.
 //!
+//! **Indefinite own Hessians near critical points** (issue #26; [`HessianPolicy::Adaptive`]
+//! with a direct solver): PSD steps converge only linearly towards a point where the own
+//! Hessian is indefinite, and towards a saddle as readily as towards a minimum. So when the own
+//! Hessian does not factorise with the small shift, the solve first checks how indefinite it
+//! is ([`crate::curvature`]): if `H + σS` with σ ≤ 1e-2 of each unknown's own stiffness is
+//! positive definite (mildly indefinite: a saddle or a buckling region is near), it
+//! - steps along the most negative curvature direction as far as f keeps decreasing
+//!   ([`IterationHessian::NegativeCurvature`]), then
+//! - takes trust-region steps `−(H + σS)⁻¹∇f` ([`IterationHessian::Shifted`]), accepted when
+//!   the actual decrease is at least 0.1 of the exact quadratic model's, σ lowered ×16 after
+//!   very good steps and raised ×4 after poor or rejected ones, never below what keeps
+//!   `H + σS` positive definite (when that bound and not the model limits the step, the next
+//!   iteration moves along the negative curvature again);
+//! - six rejected shifted steps in a row, or an own Hessian needing more than that shift
+//!   (strongly indefinite: a compressed membrane far from equilibrium), hand over to PSD steps
+//!   as before.
+//!
+//! A converged point reached after an indefinite Hessian was met is checked: if its own
+//! Hessian is indefinite (a saddle), the solve leaves it along the negative curvature and goes
+//! on ([`NewtonSettings::escape_saddles`], default on; implicit steps keep it off). Every
+//! iteration records what it used ([`NewtonReport::hessians`], [`NewtonReport::count`]).
+//! [`HessianPolicy::AdaptivePsd`] is the policy before issue #26, for comparison.
+//!
 //! Far from a solution the PSD Hessian keeps the curvature of the forms without the shift a
 //! regularised indefinite Hessian needs (which turns Newton into a slow gradient method and can
 //! lead into a wrong local minimum); close to it the exact Hessian gives quadratic convergence.
@@ -56,7 +79,8 @@ use faer::Par;
 use faer::sparse::SparseColMat;
 
 use crate::SolverError;
-use crate::iterative::{Ic0, PcgScratch, pcg};
+use crate::curvature::{self, SHIFT_GROWTH};
+use crate::iterative::{Ic0, PcgScratch, pcg, sym_lower_matvec};
 use crate::linear::{
     FactorError, FactorOutcome, FactorStats, RegularizationKind, RegularizationParams,
     SparseCholesky,
@@ -73,6 +97,10 @@ pub enum HessianPolicy {
     /// [module docs](self)). Objectives without a PSD Hessian behave as with `Fixed`.
     #[default]
     Adaptive,
+    /// The adaptive policy as it was before issue #26: an own Hessian that is indefinite
+    /// beyond a tiny shift is replaced by the PSD Hessian at once (no trust-region steps on the
+    /// shifted own Hessian, no saddle escape). Kept for comparison (`cargo xtask hard-cases`).
+    AdaptivePsd,
     /// Always the objective's own Hessian, diagonally shifted when not positive definite.
     Fixed,
 }
@@ -85,6 +113,14 @@ pub enum IterationHessian {
     Own,
     /// The positive semi-definite Hessian ([`Objective::psd_hessian`]; Gauss–Newton for shells).
     Psd,
+    /// The own Hessian where it is indefinite, plus the scaled diagonal shift `σ·S` of a
+    /// trust-region (Levenberg–Marquardt) step: σ at least what makes it positive definite,
+    /// raised after steps whose actual decrease falls short of the exact quadratic model's and
+    /// lowered after good ones ([`crate::curvature`]).
+    Shifted,
+    /// A step along the most negative curvature direction of the own Hessian, leaving a saddle
+    /// (or a point where the shifted steps no longer decrease f).
+    NegativeCurvature,
 }
 
 /// All parameters of a Newton solve (one plain struct; [`Default`] gives robust values).
@@ -162,6 +198,17 @@ pub struct NewtonSettings {
     /// Cholesky factor fits: for measuring the crossover between the two, and for meshes where
     /// CG is the faster.
     pub force_iterative: bool,
+    /// A converged point where the own Hessian is indefinite (a saddle) is left along its most
+    /// negative curvature direction and the solve continues to a minimum (default `true`;
+    /// adaptive policy with a direct solver). `false` keeps saddles, e.g. to trace unstable
+    /// equilibria on purpose.
+    pub escape_saddles: bool,
+    /// Converged also when the Newton correction is below this fraction of the distance the
+    /// solve has moved from its start, `‖dx‖∞ ≤ relative_step_tolerance · ‖x − x₀‖∞` (≥ 0; 0
+    /// disables it, the default for static solves). Implicit steps set it (1e-6 by default):
+    /// the change over a step is the size its time discretisation error is relative to, so a
+    /// correction a million times smaller is far below that error.
+    pub relative_step_tolerance: f64,
 }
 
 /// The linear solver used when the Cholesky factor does not fit in memory.
@@ -212,6 +259,8 @@ impl Default for NewtonSettings {
             fallback: IterativeFallback::Ic0,
             cg_max_iterations: 5000,
             force_iterative: false,
+            escape_saddles: true,
+            relative_step_tolerance: 0.0,
         }
     }
 }
@@ -265,6 +314,13 @@ impl NewtonSettings {
         }
         if self.cg_max_iterations == 0 {
             return Err(bad("cg_max_iterations", 0.0, "must be at least 1"));
+        }
+        if !(self.relative_step_tolerance.is_finite() && self.relative_step_tolerance >= 0.0) {
+            return Err(bad(
+                "relative_step_tolerance",
+                self.relative_step_tolerance,
+                "must be non-negative and finite",
+            ));
         }
         Ok(())
     }
@@ -342,8 +398,10 @@ pub struct NewtonReport {
     /// Unshifted factorisations of the objective's own Hessian that failed and made the
     /// adaptive policy switch to the PSD Hessian.
     pub failed_factorizations: usize,
-    /// Steps of the own Hessian that failed the Armijo test at full length and were redone
-    /// with the PSD Hessian (adaptive policy; not counted in `iterations`).
+    /// Steps tried and rejected (not counted in `iterations`, counted against
+    /// `max_iterations`): own-Hessian steps that failed the Armijo test at full length and were
+    /// redone with the PSD Hessian, and trust-region steps whose actual decrease fell short of
+    /// the model's (redone with a larger shift).
     pub rejected_steps: usize,
     /// Full steps taken by the watchdog although they failed the Armijo test.
     pub watchdog_steps: usize,
@@ -380,6 +438,17 @@ pub struct NewtonReport {
 }
 
 impl NewtonReport {
+    /// Accepted iterations that used Hessian (or step) `kind`.
+    pub fn count(&self, kind: IterationHessian) -> usize {
+        self.hessians.iter().filter(|h| **h == kind).count()
+    }
+
+    /// Every iteration the solve paid for, the one count [`NewtonSettings::max_iterations`]
+    /// limits: accepted ones, rejected steps and iterations undone by the watchdog.
+    pub fn total_iterations(&self) -> usize {
+        self.iterations + self.rejected_steps + self.watchdog_undone
+    }
+
     /// Checks the line search's contract on [`values`](Self::values): f never rises, except
     /// after a watchdog step ([`NewtonSettings::watchdog`] = `window`), and then an iterate at
     /// most `window + 1` iterations later is back at or below the value before the rise (the
@@ -429,6 +498,10 @@ pub struct NewtonWorkspace {
     g_trial: Vec<f64>,
     dx: Vec<f64>,
     x_trial: Vec<f64>,
+    /// H·dx of a trust-region step (its predicted decrease).
+    hd: Vec<f64>,
+    /// The scaling diagonal S of the trust-region shift ([`curvature::scaling`]).
+    scale: Vec<f64>,
     mu: f64,
     /// The settings the symbolic analysis was made with.
     ordering: Ordering,
@@ -582,6 +655,8 @@ impl NewtonWorkspace {
             g_trial: vec![0.0; n],
             dx: vec![0.0; n],
             x_trial: vec![0.0; n],
+            hd: vec![0.0; n],
+            scale: vec![0.0; n],
             mu: 0.0,
             ordering: settings.ordering,
             parallel: settings.parallel,
@@ -1255,8 +1330,55 @@ pub fn newton_solve<O: Objective + ?Sized>(
 
     // Adaptive policy state: whether the next iteration tries the own Hessian, how many good
     // PSD steps to wait before trying it again, and that wait after the next failure.
-    let adaptive = settings.hessian == HessianPolicy::Adaptive && objective.has_psd_hessian();
+    let adaptive = matches!(
+        settings.hessian,
+        HessianPolicy::Adaptive | HessianPolicy::AdaptivePsd
+    ) && objective.has_psd_hessian();
+    // Trust-region steps on the shifted own Hessian where it is indefinite, and saddle escapes
+    // (issue #26): the adaptive policy with a direct solver.
+    let trust = adaptive && settings.hessian == HessianPolicy::Adaptive && ws.cholesky.is_some();
+    let escape = trust && settings.escape_saddles;
+    // Trust-region (Levenberg–Marquardt) parameter σ of shifted steps, relative to S, after the
+    // last step's ratio test (0: none), and the last shift at which own + σS factorised.
+    let mut sigma = 0.0f64;
+    let mut pd_floor = 0.0f64;
+    let mut tr_rejections = 0usize;
+    let mut escapes = 0usize;
+    // Whether an iterate of this solve met an indefinite own Hessian or used another one: only
+    // then can a converged point be a saddle (an own Hessian positive definite all along ends
+    // at a minimum).
+    let mut met_indefinite = false;
+    let mut want_escape = false;
+    let x_start = (settings.relative_step_tolerance > 0.0).then(|| x.to_vec());
     let mut try_own = true;
+    // A converged point: where an indefinite own Hessian was met on the way, first make sure
+    // it is not a saddle (leave it along negative curvature and go on if it is).
+    macro_rules! converged {
+        ($c:expr) => {{
+            if escape && met_indefinite && escapes < MAX_ESCAPES {
+                escapes += 1;
+                if let Some(fe) = escape_saddle(
+                    objective,
+                    x,
+                    f,
+                    ws,
+                    &mut rec,
+                    length_scale,
+                    force_scale,
+                    &mut sigma,
+                    &mut iteration,
+                    started,
+                    false,
+                )? {
+                    f = fe;
+                    pd_floor = sigma;
+                    try_own = true;
+                    continue;
+                }
+            }
+            return Ok(rec.report(iteration, $c));
+        }};
+    }
     // Levenberg–Marquardt damping of PSD iterations (relative to the mean |H_dd|).
     let mut damping = 0.0f64;
     let mut wait = 0usize;
@@ -1271,7 +1393,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             && gradient_test
             && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
         {
-            return Ok(rec.report(iteration, Convergence::Gradient));
+            converged!(Convergence::Gradient);
         }
         if ws
             .cancel
@@ -1288,7 +1410,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 last_good: x.to_vec(),
             });
         }
-        if iteration + rec.watchdog_undone >= settings.max_iterations {
+        if iteration + rec.watchdog_undone + rec.rejected_steps >= settings.max_iterations {
             if let Some(w) = watch.take() {
                 // The failure carries the best point: the one before the watched step.
                 x.copy_from_slice(&w.x);
@@ -1296,8 +1418,10 @@ pub fn newton_solve<O: Objective + ?Sized>(
             }
             return Err(SolverError::NewtonDidNotConverge {
                 residuals: rec.residuals,
-                iterations: iteration + rec.watchdog_undone,
+                iterations: iteration + rec.watchdog_undone + rec.rejected_steps,
                 tolerance: settings.gradient_tolerance,
+                last_correction: rec.corrections.last().copied(),
+                step_tolerance: settings.step_tolerance,
                 last_good: x.to_vec(),
             });
         }
@@ -1323,7 +1447,45 @@ pub fn newton_solve<O: Objective + ?Sized>(
         if try_reuse(ws, kind, eta_reuse, settings, &mut rec)? {
             direction = Some((FactorOutcome::default(), true));
         }
-        if direction.is_none() && adaptive && kind == IterationHessian::Own && try_own {
+        // Trust region: while the own Hessian is known to be indefinite (σ or the last
+        // positive-definite shift above the small one), go straight to the shifted search.
+        let shift_start = sigma.max(pd_floor / SHIFT_GROWTH);
+        let in_trust = trust && shift_start > SMALL_SHIFT;
+        if direction.is_none() && in_trust && kind == IterationHessian::Own && try_own {
+            if want_escape && escape && escapes < MAX_ESCAPES {
+                // The last shifted step was as good as the model (ρ > ¾) yet its length was
+                // set by the shift that keeps H + σS positive definite, not by the model:
+                // move along the negative curvature as far as f keeps decreasing.
+                want_escape = false;
+                escapes += 1;
+                if let Some(fe) = escape_saddle(
+                    objective,
+                    x,
+                    f,
+                    ws,
+                    &mut rec,
+                    length_scale,
+                    force_scale,
+                    &mut sigma,
+                    &mut iteration,
+                    started,
+                    true,
+                )? {
+                    f = fe;
+                    pd_floor = sigma;
+                    continue;
+                }
+            }
+            direction = shifted_direction(ws, Some(shift_start), &mut rec)?;
+            if let Some((o, _)) = direction {
+                kind = IterationHessian::Shifted;
+                sigma = o.mu;
+                pd_floor = o.mu;
+                met_indefinite = true;
+            }
+        }
+        if direction.is_none() && !in_trust && adaptive && kind == IterationHessian::Own && try_own
+        {
             // The own Hessian, shifted by at most SMALL_SHIFT (far below bending stiffness:
             // it only lifts the tiny negative eigenvalues of a nearly converged, slightly
             // compressed shell); anything more indefinite switches to the PSD Hessian.
@@ -1333,8 +1495,43 @@ pub fn newton_solve<O: Objective + ?Sized>(
             };
             match solve_direction(ws, kind, &small, eta, settings, &mut rec) {
                 Ok(d) => direction = Some(d),
+                Err(FactorError::NotPositiveDefinite { .. }) if trust => {
+                    // Indefinite: a trust-region step on the shifted own Hessian.
+                    rec.failed_factorizations += 1;
+                    ws.mu = 0.0;
+                    met_indefinite = true;
+                    // First leave along negative curvature (a saddle or an indefinite
+                    // region is near: shifted steps would only creep along that direction).
+                    if escape && escapes < MAX_ESCAPES {
+                        escapes += 1;
+                        if let Some(fe) = escape_saddle(
+                            objective,
+                            x,
+                            f,
+                            ws,
+                            &mut rec,
+                            length_scale,
+                            force_scale,
+                            &mut sigma,
+                            &mut iteration,
+                            started,
+                            true,
+                        )? {
+                            f = fe;
+                            pd_floor = sigma;
+                            continue;
+                        }
+                    }
+                    direction = shifted_direction(ws, None, &mut rec)?;
+                    if let Some((o, _)) = direction {
+                        kind = IterationHessian::Shifted;
+                        sigma = o.mu;
+                        pd_floor = o.mu;
+                    }
+                }
                 Err(FactorError::NotPositiveDefinite { .. }) => {
                     rec.failed_factorizations += 1;
+                    met_indefinite = true;
                     ws.mu = 0.0;
                     try_own = false;
                     wait = backoff;
@@ -1355,6 +1552,26 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 Err(FactorError::Other(e)) => return Err(e),
             }
         }
+        if direction.is_none() && trust && kind == IterationHessian::Own && try_own {
+            // No shift the search tried made the own Hessian positive definite: the PSD one.
+            try_own = false;
+            wait = backoff;
+            backoff = backoff.saturating_mul(2);
+            sigma = 0.0;
+            pd_floor = 0.0;
+            kind = assemble(
+                objective,
+                x,
+                &mut ws.hessian,
+                true,
+                iteration,
+                &mut rec.timings,
+            )?;
+            apply_damping(ws, damping);
+            if try_reuse(ws, kind, eta_reuse, settings, &mut rec)? {
+                direction = Some((FactorOutcome::default(), true));
+            }
+        }
         let (outcome, exact) = match direction {
             Some(d) => d,
             None => match solve_direction(ws, kind, &reg_params, eta, settings, &mut rec) {
@@ -1373,7 +1590,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 Err(FactorError::Other(e)) => return Err(e),
             },
         };
-        if outcome.mu > 0.0 {
+        if outcome.mu > 0.0 && kind != IterationHessian::Shifted {
             rec.regularizations.push(RegularizationEvent {
                 iteration,
                 mu: outcome.mu,
@@ -1384,6 +1601,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
         // A direction that may stand for the unshifted Newton correction in the tests below.
         let unshifted = outcome.mu <= SMALL_SHIFT && exact;
 
+        let step_limit = current_step_limit(step_limit, settings, x, x_start.as_deref());
         if let Some(dof) = first_non_finite(&ws.dx) {
             return Err(SolverError::NonFinite {
                 what: "Newton direction",
@@ -1399,7 +1617,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             let dx_max = norm_inf(&ws.dx);
             rec.corrections.push(dx_max / length_scale);
             if dx_max <= step_limit {
-                return Ok(rec.report(iteration, Convergence::Step));
+                converged!(Convergence::Step);
             }
             // Round-off: f cannot resolve the predicted decrease and the last step no longer
             // halved the gradient (while it does, Newton still makes progress on it).
@@ -1408,116 +1626,180 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 && n >= 2
                 && rec.residuals[n - 1] > 0.5 * rec.residuals[n - 2]
             {
-                return Ok(rec.report(iteration, Convergence::RoundOff));
+                converged!(Convergence::RoundOff);
             }
         }
 
-        // Backtracking line search. The first trial evaluates the gradient too (it is usually
-        // accepted); later trials only the value.
-        let mut alpha = objective.max_step(x, &ws.dx)?;
-        if !(alpha.is_finite() && alpha > 0.0 && alpha <= 1.0) {
-            return Err(SolverError::InvalidSetting {
-                name: "Objective::max_step",
-                value: alpha,
-                requirement: "the objective's step limit must lie in (0, 1]",
-            });
-        }
+        let mut alpha = step_limit_of(objective, x, &ws.dx)?;
         let mut backtracks = 0;
-        let mut trial_has_gradient;
-        let f_trial = loop {
+        let mut trial_has_gradient = true;
+        // Ratio of actual to predicted decrease of a trust-region step.
+        let mut rho = f64::NAN;
+        let f_trial = if kind == IterationHessian::Shifted {
+            // Trust-region step: taken in full when its actual decrease is at least
+            // TR_ACCEPT of the decrease the exact quadratic model predicts, otherwise
+            // redone with a larger shift.
+            sym_lower_matvec(ws.hessian.as_ref(), 0.0, &ws.dx, &mut ws.hd);
+            let dhd: f64 = ws.dx.iter().zip(&ws.hd).map(|(a, b)| a * b).sum();
+            let pred = -(alpha * slope + 0.5 * alpha * alpha * dhd);
+            if !(pred > WATCHDOG_MIN_DECREASE * value_noise(f)) {
+                // The shifted model promises nothing f can resolve: x is near a critical
+                // point of an indefinite Hessian. Leave it along negative curvature.
+                if escape && escapes < MAX_ESCAPES {
+                    escapes += 1;
+                    if let Some(fe) = escape_saddle(
+                        objective,
+                        x,
+                        f,
+                        ws,
+                        &mut rec,
+                        length_scale,
+                        force_scale,
+                        &mut sigma,
+                        &mut iteration,
+                        started,
+                        false,
+                    )? {
+                        f = fe;
+                        pd_floor = sigma;
+                        continue;
+                    }
+                }
+                // Let the PSD Hessian (and then the convergence tests) decide.
+                rec.rejected_steps += 1;
+                try_own = false;
+                wait = backoff;
+                backoff = backoff.saturating_mul(2);
+                sigma = 0.0;
+                pd_floor = 0.0;
+                continue;
+            }
             for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x.iter()).zip(&ws.dx) {
                 *xt = xi + alpha * d;
             }
             let t = Instant::now();
-            let f_t = if backtracks == 0 {
-                trial_has_gradient = true;
-                let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
-                rec.timings.assembly += t.elapsed();
-                f_t
-            } else {
-                trial_has_gradient = false;
-                let f_t = objective.value(&ws.x_trial)?;
-                rec.timings.line_search += t.elapsed();
-                rec.timings.line_search_evaluations += 1;
-                f_t
-            };
-            if !settings.line_search {
-                if !f_t.is_finite() {
-                    return Err(SolverError::NonFinite {
-                        what: "value",
-                        iteration: iteration + 1,
-                        dof: None,
+            let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
+            rec.timings.assembly += t.elapsed();
+            rho = (f - f_t) / pred;
+
+            if !(f_t.is_finite() && rho >= TR_ACCEPT && first_non_finite(&ws.g_trial).is_none()) {
+                rec.rejected_steps += 1;
+                tr_rejections += 1;
+                sigma *= TR_GROWTH;
+                if tr_rejections >= MAX_TR_REJECTIONS {
+                    // The shifted model keeps failing here (far from any quadratic
+                    // behaviour): PSD steps, as before issue #26, until the own Hessian is
+                    // tried again.
+                    try_own = false;
+                    wait = backoff;
+                    backoff = backoff.saturating_mul(2);
+                    sigma = 0.0;
+                    pd_floor = 0.0;
+                    tr_rejections = 0;
+                }
+                continue;
+            }
+            tr_rejections = 0;
+            f_t
+        } else {
+            // Backtracking line search. The first trial evaluates the gradient too (it is
+            // usually accepted); later trials only the value.
+            loop {
+                for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x.iter()).zip(&ws.dx) {
+                    *xt = xi + alpha * d;
+                }
+                let t = Instant::now();
+                let f_t = if backtracks == 0 {
+                    trial_has_gradient = true;
+                    let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
+                    rec.timings.assembly += t.elapsed();
+                    f_t
+                } else {
+                    trial_has_gradient = false;
+                    let f_t = objective.value(&ws.x_trial)?;
+                    rec.timings.line_search += t.elapsed();
+                    rec.timings.line_search_evaluations += 1;
+                    f_t
+                };
+                if !settings.line_search {
+                    if !f_t.is_finite() {
+                        return Err(SolverError::NonFinite {
+                            what: "value",
+                            iteration: iteration + 1,
+                            dof: None,
+                        });
+                    }
+                    break f_t;
+                }
+                if f_t.is_finite() && slope < 0.0 {
+                    if f_t <= f + settings.armijo_c1 * alpha * slope {
+                        break f_t;
+                    }
+                    // Once the predicted decrease is below the round-off of f, values cannot
+                    // discriminate: accept a full step that does not raise f beyond round-off
+                    // and reduces the gradient.
+                    let noise = value_noise(f.abs().max(f_t.abs()));
+                    if trial_has_gradient
+                        && -slope <= noise
+                        && f_t <= f + noise
+                        && norm_inf(&ws.g_trial) < norm_inf(&ws.g)
+                    {
+                        break f_t;
+                    }
+                }
+                if backtracks == 0
+                    && settings.watchdog > 0
+                    && watch.is_none()
+                    && watch_allowed
+                    && -slope > WATCHDOG_MIN_DECREASE * value_noise(f)
+                    && f_t.is_finite()
+                    && first_non_finite(&ws.g_trial).is_none()
+                {
+                    // Watchdog: take the full Newton step although f rose. A thin shell bending
+                    // away from flat is the typical case: the full step bends it with the right
+                    // curvature but stretches its membrane (which the linearisation cannot see),
+                    // and the next Newton step relaxes the membrane; a monotone line search would
+                    // instead crawl along the bending mode with tiny steps.
+                    watch = Some(Watch {
+                        x: x.to_vec(),
+                        g: ws.g.clone(),
+                        f,
+                        bound: f + settings.armijo_c1 * slope,
+                        len: rec.values.len(),
+                        left: settings.watchdog,
+                    });
+                    rec.watchdog_steps += 1;
+                    break f_t;
+                }
+                if backtracks == 0 && watch.is_none() && unshifted && -0.5 * slope <= value_noise(f)
+                {
+                    // The unshifted Newton step predicts a decrease below the round-off of f and
+                    // its full step is not distinguishable from x: x is at the round-off floor
+                    // (typically a solve restarted at its own equilibrium), not stuck.
+                    converged!(Convergence::RoundOff);
+                }
+                if adaptive && kind == IterationHessian::Own {
+                    // The own Hessian's quadratic model does not hold here (its full step fails
+                    // the Armijo test): redo the iteration with the PSD Hessian rather than take a
+                    // short step along a direction that may lead towards a saddle or a poor minimum.
+                    break f64::NAN;
+                }
+                if backtracks >= settings.max_backtracks || slope >= 0.0 {
+                    if let Some(w) = watch.take() {
+                        // The failure carries the best point: the one before the watched step.
+                        x.copy_from_slice(&w.x);
+                        rec.residuals.truncate(w.len);
+                    }
+                    return Err(SolverError::LineSearchFailed {
+                        iteration,
+                        backtracks,
+                        residuals: rec.residuals,
+                        last_good: x.to_vec(),
                     });
                 }
-                break f_t;
+                backtracks += 1;
+                alpha *= settings.backtrack_factor;
             }
-            if f_t.is_finite() && slope < 0.0 {
-                if f_t <= f + settings.armijo_c1 * alpha * slope {
-                    break f_t;
-                }
-                // Once the predicted decrease is below the round-off of f, values cannot
-                // discriminate: accept a full step that does not raise f beyond round-off
-                // and reduces the gradient.
-                let noise = value_noise(f.abs().max(f_t.abs()));
-                if trial_has_gradient
-                    && -slope <= noise
-                    && f_t <= f + noise
-                    && norm_inf(&ws.g_trial) < norm_inf(&ws.g)
-                {
-                    break f_t;
-                }
-            }
-            if backtracks == 0
-                && settings.watchdog > 0
-                && watch.is_none()
-                && watch_allowed
-                && -slope > WATCHDOG_MIN_DECREASE * value_noise(f)
-                && f_t.is_finite()
-                && first_non_finite(&ws.g_trial).is_none()
-            {
-                // Watchdog: take the full Newton step although f rose. A thin shell bending
-                // away from flat is the typical case: the full step bends it with the right
-                // curvature but stretches its membrane (which the linearisation cannot see),
-                // and the next Newton step relaxes the membrane; a monotone line search would
-                // instead crawl along the bending mode with tiny steps.
-                watch = Some(Watch {
-                    x: x.to_vec(),
-                    g: ws.g.clone(),
-                    f,
-                    bound: f + settings.armijo_c1 * slope,
-                    len: rec.values.len(),
-                    left: settings.watchdog,
-                });
-                rec.watchdog_steps += 1;
-                break f_t;
-            }
-            if backtracks == 0 && watch.is_none() && unshifted && -0.5 * slope <= value_noise(f) {
-                // The unshifted Newton step predicts a decrease below the round-off of f and
-                // its full step is not distinguishable from x: x is at the round-off floor
-                // (typically a solve restarted at its own equilibrium), not stuck.
-                return Ok(rec.report(iteration, Convergence::RoundOff));
-            }
-            if adaptive && kind == IterationHessian::Own {
-                // The own Hessian's quadratic model does not hold here (its full step fails
-                // the Armijo test): redo the iteration with the PSD Hessian rather than take a
-                // short step along a direction that may lead towards a saddle or a poor minimum.
-                break f64::NAN;
-            }
-            if backtracks >= settings.max_backtracks || slope >= 0.0 {
-                if let Some(w) = watch.take() {
-                    // The failure carries the best point: the one before the watched step.
-                    x.copy_from_slice(&w.x);
-                    rec.residuals.truncate(w.len);
-                }
-                return Err(SolverError::LineSearchFailed {
-                    iteration,
-                    backtracks,
-                    residuals: rec.residuals,
-                    last_good: x.to_vec(),
-                });
-            }
-            backtracks += 1;
-            alpha *= settings.backtrack_factor;
         };
         rec.backtracks += backtracks;
         if f_trial.is_nan() {
@@ -1601,6 +1883,18 @@ pub fn newton_solve<O: Objective + ?Sized>(
         // the quadratic model holds, so the own Hessian is worth another try.
         if adaptive {
             match kind {
+                IterationHessian::Shifted => {
+                    // Levenberg–Marquardt update of the trust-region shift.
+                    if rho > 0.75 {
+                        sigma /= TR_SHRINK;
+                        want_escape = sigma < pd_floor / SHIFT_GROWTH;
+                    } else if rho < 0.25 {
+                        sigma *= TR_GROWTH;
+                    }
+                    if sigma <= SMALL_SHIFT {
+                        sigma = 0.0;
+                    }
+                }
                 IterationHessian::Own if backtracks > 0 => try_own = false,
                 IterationHessian::Psd if backtracks > 0 => {
                     if backtracks >= DAMPING_BACKTRACKS {
@@ -1638,7 +1932,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             if gradient_test
                 && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
             {
-                return Ok(rec.report(iteration, Convergence::Gradient));
+                converged!(Convergence::Gradient);
             }
             let t = Instant::now();
             let solved = estimate_correction(ws, settings, &mut rec)?;
@@ -1650,8 +1944,312 @@ pub fn newton_solve<O: Objective + ?Sized>(
             };
             if est.is_finite() && est <= step_limit {
                 rec.corrections.push(est / length_scale);
-                return Ok(rec.report(iteration, Convergence::Step));
+                converged!(Convergence::Step);
             }
         }
     }
+}
+
+/// A shifted step is taken when its actual decrease is at least this fraction of the decrease
+/// the exact quadratic model predicts (the trust-region acceptance ratio).
+const TR_ACCEPT: f64 = 0.1;
+/// Factor the trust-region shift grows by after a rejected or poor (ρ < 0.25) step.
+const TR_GROWTH: f64 = 4.0;
+/// Factor the trust-region shift shrinks by after a very good (ρ > 0.75) step.
+const TR_SHRINK: f64 = 16.0;
+/// Consecutive rejected shifted steps after which the solve turns to the PSD Hessian for a
+/// while (the shifted model does not describe f here at any shift tried so far).
+const MAX_TR_REJECTIONS: usize = 6;
+/// Negative-curvature escapes per solve.
+const MAX_ESCAPES: usize = 50;
+/// Largest shift σ the saddle escape at a converged point tries (relative to each unknown's
+/// own stiffness): beyond it the Hessian is not that of a nearly stable point.
+const ESCAPE_MAX_SHIFT: f64 = 1e3;
+/// Largest trust-region shift σ (relative to each unknown's own stiffness, see
+/// [`curvature`]): an own Hessian that needs more is strongly indefinite — a compressed
+/// membrane far from equilibrium — where the shifted steps crawl (measured: σ ≈ 10–170 on the
+/// flat start of a cone-growing annulus) and PSD steps do better.
+const TR_MAX_SHIFT: f64 = 1e-2;
+
+/// The objective's step limit for `dx` from `x` (see [`Objective::max_step`]), checked.
+fn step_limit_of<O: Objective + ?Sized>(
+    objective: &mut O,
+    x: &[f64],
+    dx: &[f64],
+) -> Result<f64, SolverError> {
+    let alpha = objective.max_step(x, dx)?;
+    if !(alpha.is_finite() && alpha > 0.0 && alpha <= 1.0) {
+        return Err(SolverError::InvalidSetting {
+            name: "Objective::max_step",
+            value: alpha,
+            requirement: "the objective's step limit must lie in (0, 1]",
+        });
+    }
+    Ok(alpha)
+}
+
+/// The step-convergence limit at `x`: the absolute one, or the relative one of
+/// [`NewtonSettings::relative_step_tolerance`] when that is larger.
+fn current_step_limit(
+    absolute: f64,
+    settings: &NewtonSettings,
+    x: &[f64],
+    x0: Option<&[f64]>,
+) -> f64 {
+    match x0 {
+        Some(x0) => {
+            let moved = x
+                .iter()
+                .zip(x0)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            absolute.max(settings.relative_step_tolerance * moved)
+        }
+        None => absolute,
+    }
+}
+
+/// The direction of a trust-region step on the own Hessian in `ws` (assembled at the iterate):
+/// `ws.dx = −(H + σS)⁻¹∇f` with σ ≤ [`TR_MAX_SHIFT`]. With `sigma0 = None` (the own Hessian
+/// was just found indefinite) the smallest usable σ is estimated: `H + TR_MAX_SHIFT·S` is
+/// factorised, inverse iteration on it estimates the most negative eigenvalue λ of `(H, S)`,
+/// and σ = max(2|λ|, 4·SMALL_SHIFT) is tried; with `Some(σ₀)` (memory of earlier steps) the
+/// search starts at σ₀. Failed attempts multiply σ by 4. `None`: the own Hessian needs more
+/// than `TR_MAX_SHIFT` (strongly indefinite: far from a minimum, where PSD steps do better).
+fn shifted_direction(
+    ws: &mut NewtonWorkspace,
+    sigma0: Option<f64>,
+    rec: &mut Record,
+) -> Result<Option<(FactorOutcome, bool)>, SolverError> {
+    ws.reusable = None;
+    let Some(cholesky) = ws.cholesky.as_mut() else {
+        return Ok(None);
+    };
+    curvature::scaling(&ws.hessian, &ws.diag_offsets, &mut ws.scale);
+    let t = Instant::now();
+    let mut attempts = 0;
+    let start = match sigma0 {
+        Some(s) => s,
+        None => {
+            let probe = curvature::probe_shift(
+                cholesky,
+                &mut ws.hessian,
+                &ws.diag_offsets,
+                &ws.scale,
+                SHIFT_GROWTH * SMALL_SHIFT,
+                TR_MAX_SHIFT,
+            )?;
+            rec.factorizations += probe.attempts;
+            match probe.shift {
+                Some(s) => s,
+                None => {
+                    rec.timings.factorization += t.elapsed();
+                    return Ok(None);
+                }
+            }
+        }
+    };
+    let mut sigma = start.max(SHIFT_GROWTH * SMALL_SHIFT);
+    let found = loop {
+        if sigma > TR_MAX_SHIFT * (1.0 + 1e-12) {
+            break None;
+        }
+        attempts += 1;
+        rec.factorizations += 1;
+        if curvature::factorize_shifted(
+            cholesky,
+            &mut ws.hessian,
+            &ws.diag_offsets,
+            &ws.scale,
+            sigma,
+        )? {
+            break Some(sigma);
+        }
+        sigma *= SHIFT_GROWTH;
+    };
+    rec.timings.factorization += t.elapsed();
+    let Some(sigma) = found else {
+        return Ok(None);
+    };
+    for (d, g) in ws.dx.iter_mut().zip(&ws.g) {
+        *d = -g;
+    }
+    let t = Instant::now();
+    cholesky.solve_in_place(&mut ws.dx)?;
+    rec.timings.solve += t.elapsed();
+    let max_shift = sigma * ws.scale.iter().fold(0.0f64, |m, &s| m.max(s));
+    Ok(Some((
+        FactorOutcome {
+            mu: sigma,
+            max_shift,
+            attempts,
+        },
+        true,
+    )))
+}
+
+/// Leaves a point where the own Hessian is indefinite along its most negative curvature
+/// direction (inverse iteration on the factor of `H + σS` with σ just above the shift that
+/// makes it positive definite), with the step length that most decreases f along it
+/// (doubling from 10⁻³ of the body's size, or quartering until f decreases). Returns the new
+/// value when it moved (x, `ws.g` updated, the step recorded as an iteration); `None` when
+/// the own Hessian is positive definite to [`SMALL_SHIFT`] of each unknown's stiffness, or no
+/// decrease was found.
+#[allow(clippy::too_many_arguments)]
+fn escape_saddle<O: Objective + ?Sized>(
+    objective: &mut O,
+    x: &mut [f64],
+    f: f64,
+    ws: &mut NewtonWorkspace,
+    rec: &mut Record,
+    length_scale: f64,
+    force_scale: f64,
+    sigma: &mut f64,
+    iteration: &mut usize,
+    started: Instant,
+    known_indefinite: bool,
+) -> Result<Option<f64>, SolverError> {
+    if ws.cholesky.is_none() {
+        return Ok(None);
+    }
+    if !known_indefinite {
+        assemble(
+            objective,
+            x,
+            &mut ws.hessian,
+            false,
+            *iteration,
+            &mut rec.timings,
+        )?;
+    }
+    ws.reusable = None;
+    curvature::scaling(&ws.hessian, &ws.diag_offsets, &mut ws.scale);
+    let Some(cholesky) = ws.cholesky.as_mut() else {
+        return Ok(None);
+    };
+    let t = Instant::now();
+    if !known_indefinite {
+        rec.factorizations += 1;
+        if curvature::factorize_shifted(
+            cholesky,
+            &mut ws.hessian,
+            &ws.diag_offsets,
+            &ws.scale,
+            SMALL_SHIFT,
+        )? {
+            rec.timings.factorization += t.elapsed();
+            return Ok(None);
+        }
+    }
+    // A mildly indefinite Hessian met during the solve (capped at the trust-region limit:
+    // beyond it PSD steps do better), or any indefinite one at a converged point.
+    let cap = if known_indefinite {
+        TR_MAX_SHIFT
+    } else {
+        ESCAPE_MAX_SHIFT
+    };
+    let probe = curvature::probe_shift(
+        cholesky,
+        &mut ws.hessian,
+        &ws.diag_offsets,
+        &ws.scale,
+        sigma.max(SHIFT_GROWTH * SMALL_SHIFT),
+        cap,
+    )?;
+    rec.timings.factorization += t.elapsed();
+    rec.factorizations += probe.attempts;
+    let Some(shift) = probe.shift else {
+        return Ok(None);
+    };
+    let t = Instant::now();
+    let pair = curvature::inverse_iteration(cholesky, &ws.hessian, &ws.scale, &[], 30)?;
+    rec.timings.solve += t.elapsed();
+    if !(pair.value < 0.0) {
+        return Ok(None);
+    }
+    let mut v = pair.vector;
+    if v.iter().zip(&ws.g).map(|(a, b)| a * b).sum::<f64>() > 0.0 {
+        v.iter_mut().for_each(|a| *a = -*a);
+    }
+    // Steps t·v with ‖v‖∞ = 1: at most the body's size, and within the objective's limit.
+    let t_max = length_scale
+        * step_limit_of(
+            objective,
+            x,
+            &v.iter().map(|a| a * length_scale).collect::<Vec<_>>(),
+        )?;
+    let mut value_at =
+        |t: f64, ws: &mut NewtonWorkspace, rec: &mut Record| -> Result<f64, SolverError> {
+            for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x.iter()).zip(&v) {
+                *xt = xi + t * d;
+            }
+            let s = Instant::now();
+            let val = objective.value(&ws.x_trial)?;
+            rec.timings.line_search += s.elapsed();
+            rec.timings.line_search_evaluations += 1;
+            Ok(if val.is_finite() { val } else { f64::INFINITY })
+        };
+    let noise = value_noise(f);
+    let mut t = (1e-3 * length_scale).min(t_max);
+    let mut best = (0.0, f);
+    let ft = value_at(t, ws, rec)?;
+    if ft < f - noise {
+        best = (t, ft);
+        while 2.0 * t <= t_max {
+            let f2 = value_at(2.0 * t, ws, rec)?;
+            if f2 < best.1 {
+                t *= 2.0;
+                best = (t, f2);
+            } else {
+                break;
+            }
+        }
+    } else {
+        for _ in 0..30 {
+            t *= 0.25;
+            let f2 = value_at(t, ws, rec)?;
+            if f2 < f - noise {
+                best = (t, f2);
+                break;
+            }
+        }
+    }
+    if best.0 == 0.0 {
+        return Ok(None);
+    }
+    for (xi, d) in x.iter_mut().zip(&v) {
+        *xi += best.0 * d;
+    }
+    let s = Instant::now();
+    let f_new = objective.gradient(x, &mut ws.g)?;
+    rec.timings.assembly += s.elapsed();
+    if !f_new.is_finite() {
+        return Err(SolverError::NonFinite {
+            what: "value",
+            iteration: *iteration + 1,
+            dof: None,
+        });
+    }
+    if let Some(dof) = first_non_finite(&ws.g) {
+        return Err(SolverError::NonFinite {
+            what: "gradient",
+            iteration: *iteration + 1,
+            dof: Some(dof),
+        });
+    }
+    *iteration += 1;
+    *sigma = shift;
+    rec.hessians.push(IterationHessian::NegativeCurvature);
+    rec.residuals.push(norm_inf(&ws.g) / force_scale);
+    rec.values.push(f_new);
+    if let Some(hook) = &ws.progress {
+        hook(&NewtonProgress {
+            iteration: *iteration,
+            residual: norm_inf(&ws.g) / force_scale,
+            step_length: best.0 / length_scale,
+            hessian: IterationHessian::NegativeCurvature,
+            regularized: true,
+            elapsed: started.elapsed(),
+        });
+    }
+    Ok(Some(f_new))
 }

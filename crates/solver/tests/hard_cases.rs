@@ -1093,6 +1093,8 @@ fn solver_error_debug_is_short() {
         residuals: (0..50).map(|i| 58.0 * 0.9f64.powi(i)).collect(),
         iterations: 50,
         tolerance: 1e-8,
+        last_correction: Some(1e-9),
+        step_tolerance: 1e-12,
         last_good: vec![0.25; 30_000],
     };
     let s = format!("{e:?}");

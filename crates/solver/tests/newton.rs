@@ -167,6 +167,7 @@ fn non_convergence_returns_history_and_last_good_state() {
             iterations,
             tolerance,
             last_good,
+            ..
         }) => {
             assert_eq!(iterations, 1);
             assert_eq!(residuals.len(), 2);

@@ -449,9 +449,34 @@ fn stability_of_the_equilibrium_is_reported() {
             .unwrap();
             (sys, x0)
         };
+        // Started straight, the default solve does not stop at the saddle (issue #26): it
+        // leaves along the buckling mode and ends on a stable arch.
         let (mut sys, x0) = build(1.01);
         let (r, state) = solve_default(&mut sys, x0.clone());
-        print_case("compressed strip, straight", sff, &r, "");
+        let rise = state.x.iter().fold(0.0f64, |m, p| m.max(p.z.abs()));
+        print_case(
+            "compressed strip, straight",
+            sff,
+            &r,
+            &format!("rise {rise:.3} m"),
+        );
+        assert_eq!(r.stable, Some(true), "{}: left the saddle", sff.name());
+        assert!(rise > 0.05, "{}: rise {rise}", sff.name());
+        assert!(
+            newton(&r)
+                .hessians
+                .contains(&IterationHessian::NegativeCurvature),
+            "{}: no negative-curvature step",
+            sff.name()
+        );
+        // With saddles kept on purpose, the straight strip stays straight and is reported
+        // unstable.
+        let (mut sys, x0) = build(1.01);
+        let mut state = State::at_rest(x0.clone());
+        let mut keep = Static::default();
+        keep.newton.escape_saddles = false;
+        let r = keep.step(&mut sys, &mut state).unwrap();
+        print_case("compressed strip, kept", sff, &r, "");
         assert!(state.x.iter().all(|p| p.z == 0.0), "left the plane");
         assert_eq!(r.stable, Some(false), "{}: a saddle", sff.name());
 

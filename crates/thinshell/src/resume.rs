@@ -186,6 +186,8 @@ pub(crate) fn progress_hook(
         let hessian = match p.hessian {
             IterationHessian::Own => "own",
             IterationHessian::Psd => "Gauss-Newton",
+            IterationHessian::Shifted => "shifted (trust region)",
+            IterationHessian::NegativeCurvature => "negative curvature",
         };
         if let Some(bar) = &bar {
             bar.set_message(format!(

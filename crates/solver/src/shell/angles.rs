@@ -319,6 +319,8 @@ impl AngleRelaxation {
                 iterations: report.gradient_evaluations,
                 residuals,
                 tolerance: settings.tolerance,
+                last_correction: None,
+                step_tolerance: 0.0,
                 last_good: phi.to_vec(),
             }),
         }

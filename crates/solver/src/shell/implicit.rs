@@ -39,11 +39,17 @@ pub struct ImplicitEuler {
 }
 
 impl ImplicitEuler {
-    /// Fixed step `dt` (s) with default Newton settings.
+    /// Fixed step `dt` (s) with default Newton settings, except that saddles of the
+    /// incremental potential are kept ([`NewtonSettings::escape_saddles`] = `false`): a shell in
+    /// a symmetric state (a planar sheet under in-plane compression) stays in it, as its
+    /// dynamics do without a perturbation; a static solve leaves such a saddle.
     pub fn new(dt: f64) -> ImplicitEuler {
         ImplicitEuler {
             dt,
-            newton: NewtonSettings::default(),
+            newton: NewtonSettings {
+                escape_saddles: false,
+                ..NewtonSettings::default()
+            },
             force_scale: None,
             max_halvings: 0,
             fallback_hessian: None,

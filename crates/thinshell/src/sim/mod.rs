@@ -88,6 +88,15 @@ pub struct StepRecord {
     pub load_factor: f64,
     /// Newton iterations that used the Gauss–Newton (PSD) Hessian instead of the exact one.
     pub gauss_newton_iterations: usize,
+    /// Newton iterations that took a trust-region step on the shifted exact Hessian (it was
+    /// indefinite there).
+    pub shifted_iterations: usize,
+    /// Newton iterations that stepped along a direction of negative curvature (leaving a
+    /// saddle).
+    pub negative_curvature_iterations: usize,
+    /// Newton steps tried and rejected (not in `newton_iterations`; they count against the
+    /// iteration limit).
+    pub rejected_steps: usize,
     /// Static steps: whether the equilibrium is a minimum (exact Hessian positive definite);
     /// `false` is a saddle or maximum. `None` for dynamic steps.
     pub stable: Option<bool>,
@@ -515,11 +524,11 @@ impl Simulation {
             record.iterative = n.linear_solver != thinshell_solver::LinearSolver::Direct;
             record.regularizations = n.regularizations.len();
             record.residual = n.residuals.last().copied().unwrap_or(0.0);
-            record.gauss_newton_iterations = n
-                .hessians
-                .iter()
-                .filter(|h| **h == IterationHessian::Psd)
-                .count();
+            let count = |k: IterationHessian| n.hessians.iter().filter(|h| **h == k).count();
+            record.gauss_newton_iterations = count(IterationHessian::Psd);
+            record.shifted_iterations = count(IterationHessian::Shifted);
+            record.negative_curvature_iterations = count(IterationHessian::NegativeCurvature);
+            record.rejected_steps = n.rejected_steps;
             record.assembly_s = secs(n.timings.assembly);
             record.factorization_s = secs(n.timings.factorization);
             record.solve_s = secs(n.timings.solve);
