@@ -17,14 +17,17 @@ Errors are :class:`ThinshellError` subclasses whose message is what the ``thinsh
 prints: :class:`MeshError`, :class:`SceneError`, :class:`SimulationError`, :class:`EnergyError`.
 """
 
-from __future__ import annotations
 
-from typing import Iterable, Mapping, NamedTuple, Sequence
+from typing import Iterable as _Iterable
+from typing import Mapping as _Mapping
+from typing import NamedTuple as _NamedTuple
+from typing import Sequence as _Sequence
 
-import numpy as np
+import numpy as _np
 
 from . import _thinshell
 from ._thinshell import (
+    Cancelled,
     EnergyError,
     Mesh,
     MeshError,
@@ -34,11 +37,12 @@ from ._thinshell import (
     SimulationError,
     ThinshellError,
 )
-from .sweep import sweep
+from .sweep import SweepMismatch, sweep
 
 __version__: str = _thinshell.__version__
 
 __all__ = [
+    "Cancelled",
     "EnergyError",
     "EnergyResult",
     "Mesh",
@@ -47,6 +51,7 @@ __all__ = [
     "SceneError",
     "Simulation",
     "SimulationError",
+    "SweepMismatch",
     "ThinshellError",
     "energy",
     "load_scene",
@@ -55,8 +60,8 @@ __all__ = [
 
 
 def load_scene(
-    source: "str | bytes | Mapping[str, object] | Scene | object",
-    overrides: Sequence[str] = (),
+    source: "str | bytes | _Mapping[str, object] | Scene | object",
+    overrides: _Sequence[str] = (),
 ) -> Scene:
     """A :class:`Scene` from a file path (str or os.PathLike), a dict, or a Scene (returned
     with ``overrides`` applied). TOML text goes through :meth:`Scene.from_toml`.
@@ -65,12 +70,12 @@ def load_scene(
     """
     if isinstance(source, Scene):
         return source.with_overrides(list(overrides)) if overrides else source
-    if isinstance(source, Mapping):
+    if isinstance(source, _Mapping):
         return Scene.from_dict(dict(source), list(overrides))
     return Scene.from_file(source, list(overrides))
 
 
-class EnergyResult(NamedTuple):
+class EnergyResult(_NamedTuple):
     """What :func:`energy` returns."""
 
     energy: float
@@ -79,7 +84,7 @@ class EnergyResult(NamedTuple):
     """Stretching energy, J."""
     bend: float
     """Bending energy, J."""
-    gradient: np.ndarray
+    gradient: _np.ndarray
     """dE/dx, N: 3 n entries vertex-major (x0, y0, z0, x1, ...), then dE/dphi_e (J/rad) per
     edge with an edge-director form."""
     hessian: "object | None"
@@ -88,13 +93,13 @@ class EnergyResult(NamedTuple):
 
 
 def energy(
-    V: np.ndarray,
-    F: np.ndarray,
-    rest: "np.ndarray | tuple[np.ndarray, np.ndarray]",
-    material: "Mapping[str, float | str] | None" = None,
+    V: _np.ndarray,
+    F: _np.ndarray,
+    rest: "_np.ndarray | tuple[_np.ndarray, _np.ndarray]",
+    material: "_Mapping[str, float | str] | None" = None,
     form: str = "mid_edge_average",
-    terms: Iterable[str] = ("stretching", "bending"),
-    edge_angles: "np.ndarray | None" = None,
+    terms: "str | _Iterable[str]" = ("stretching", "bending"),
+    edge_angles: "_np.ndarray | None" = None,
     hessian: bool = True,
 ) -> EnergyResult:
     """Elastic energy of the shell ``(V, F)`` at positions ``V`` against ``rest``, with its
@@ -118,6 +123,8 @@ def energy(
     """
     import scipy.sparse
 
+    if isinstance(terms, str):
+        terms = [terms]  # "bending" is one term, not the letters b, e, n, ...
     stretch, bend, grad, rows, cols, vals, n = _thinshell.energy_parts(
         V,
         F,
@@ -125,7 +132,7 @@ def energy(
         dict(material) if material is not None else None,
         form,
         list(terms),
-        None if edge_angles is None else np.ascontiguousarray(edge_angles, dtype=np.float64),
+        None if edge_angles is None else _np.ascontiguousarray(edge_angles, dtype=_np.float64),
         hessian,
     )
     H = None
