@@ -103,7 +103,8 @@ impl Snapshot {
     }
 }
 
-/// A simulation built from a scene (`thinshell::sim::Simulation`).
+/// A scene built into a simulation: `step()`, `run()`, the state, checkpoints. Steps release
+/// the GIL; one thread steps a simulation, any thread may read its state meanwhile.
 #[pyclass(name = "Simulation", module = "thinshell", frozen)]
 pub struct PySimulation {
     // A lock rather than `&mut self`, so that Rust can work with the GIL released; two Python

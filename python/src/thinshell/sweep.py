@@ -248,6 +248,8 @@ def run_one(
             _write_atomic(out / "summary.json", json.dumps(sim.summary, indent=2))
     row.update(metrics)
     row["wall_s"] = time.perf_counter() - t0
+    # The threads the run used: its own pool's, else the shared pool's (RAYON_NUM_THREADS).
+    row["threads"] = threads if threads is not None else int(os.environ.get("RAYON_NUM_THREADS") or os.cpu_count() or 1)
     if interrupt is not None:
         _write_atomic(out / "interrupted.json", json.dumps(row, indent=2))
         if reraise_interrupt and isinstance(interrupt, KeyboardInterrupt):
@@ -445,7 +447,8 @@ def sweep(
     One row per run, in grid order: ``run`` (its directory name), the parameters, ``status``
     ("completed", "interrupted" or "error"), ``error`` (the message, None if it ran),
     ``steps``, ``time_s`` (s), ``stretch_J``, ``bend_J``, ``elastic_J`` (J),
-    ``newton_iterations``, ``stable``, ``wall_s`` (s, the run's wall time), and ``reused``
+    ``newton_iterations``, ``stable``, ``wall_s`` (s, the run's wall time), ``threads`` (the
+    threads it used), and ``reused``
     (True when the run was complete in ``out_dir`` already and was not run again). As a
     DataFrame, ``attrs["units"]`` maps columns to units (:data:`UNITS`).
 
