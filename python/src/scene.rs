@@ -21,6 +21,11 @@ pub struct PyScene {
 }
 
 impl PyScene {
+    /// Where the scene came from (file path, `<string>`, `<dict>`).
+    pub fn origin_text(&self) -> String {
+        self.origin.clone()
+    }
+
     fn parse(
         text: String,
         origin: String,

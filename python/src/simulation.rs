@@ -53,6 +53,15 @@ struct Inner {
     totals: Totals,
     status: &'static str,
     error: Option<String>,
+    /// The scene's `[output]`, written by the CLI's writer (`Simulation(..., output=DIR)`).
+    output: Option<thinshell::cli::OutputWriter>,
+}
+
+/// The message of a CLI failure (output writing).
+fn failure_message(f: thinshell::cli::Failure) -> String {
+    match f {
+        thinshell::cli::Failure::BadInput(m) | thinshell::cli::Failure::Simulation(m) => m,
+    }
 }
 
 impl Inner {
@@ -231,6 +240,26 @@ impl PySimulation {
                 None => sim.step(),
             });
         self.cancel.store(false, Ordering::SeqCst);
+        let written = match (&mut inner.output, &result) {
+            (None, _) => Ok(()),
+            (Some(w), Ok(r)) => {
+                w.step(&inner.sim, r);
+                if inner.sim.steps_done() >= inner.sim.steps_total() {
+                    w.finish(&inner.sim, "completed", None)
+                } else {
+                    Ok(())
+                }
+            }
+            (Some(w), Err(e)) if e.is_cancelled() => w.finish(&inner.sim, "interrupted", None),
+            (Some(w), Err(e)) => w.finish(&inner.sim, "failed", Some(e)),
+        };
+        if let Err(f) = written {
+            if let Ok(r) = &result {
+                inner.record(r);
+                self.refresh(&inner.sim);
+            }
+            return Err(errors::simulation(failure_message(f)));
+        }
         match result {
             Ok(r) => {
                 inner.record(&r);
@@ -256,12 +285,11 @@ impl PySimulation {
     }
 
     fn build(
-        py: Python<'_>,
         scene: PyScene,
         threads: Option<usize>,
         sim: Simulation,
+        output: Option<thinshell::cli::OutputWriter>,
     ) -> PyResult<Self> {
-        let _ = py;
         let pool = match threads {
             Some(0) => return Err(PyValueError::new_err("threads must be at least 1")),
             Some(n) => Some(Arc::new(
@@ -283,6 +311,7 @@ impl PySimulation {
                 totals: Totals::default(),
                 status: "ready",
                 error: None,
+                output,
             }),
             snapshot,
             scene,
@@ -336,10 +365,17 @@ impl PySimulation {
 impl PySimulation {
     /// Builds the simulation a scene describes (`Scene`, dict, or path to a TOML file).
     /// `threads`: the number of threads its steps use (its own pool); default: the shared
-    /// pool of all cores (`RAYON_NUM_THREADS`).
+    /// pool of all cores (`RAYON_NUM_THREADS`). `output`: a directory that receives the
+    /// scene's `[output]` as `thinshell run --out` writes it (frames, `steps.csv`, and
+    /// `summary.json` once the run completes, fails or is interrupted); default: no files.
     #[new]
-    #[pyo3(signature = (scene, threads=None))]
-    fn new(py: Python<'_>, scene: &Bound<'_, PyAny>, threads: Option<usize>) -> PyResult<Self> {
+    #[pyo3(signature = (scene, threads=None, output=None))]
+    fn new(
+        py: Python<'_>,
+        scene: &Bound<'_, PyAny>,
+        threads: Option<usize>,
+        output: Option<std::path::PathBuf>,
+    ) -> PyResult<Self> {
         let scene = scene_of(scene)?;
         if threads == Some(0) {
             return Err(PyValueError::new_err("threads must be at least 1"));
@@ -348,7 +384,14 @@ impl PySimulation {
         let sim = py
             .detach(|| Simulation::build(built))
             .map_err(build_error)?;
-        Self::build(py, scene, threads, sim)
+        let writer = match &output {
+            Some(dir) => Some(
+                thinshell::cli::OutputWriter::create(built, &sim, dir, &scene.origin_text())
+                    .map_err(|f| errors::scene(failure_message(f)))?,
+            ),
+            None => None,
+        };
+        Self::build(scene, threads, sim, writer)
     }
 
     /// The simulation of `scene` in the state of the checkpoint `data` (bytes of
@@ -361,7 +404,7 @@ impl PySimulation {
         data: &[u8],
         threads: Option<usize>,
     ) -> PyResult<Self> {
-        let this = Self::new(py, scene, threads)?;
+        let this = Self::new(py, scene, threads, None)?;
         this.restore_from(py, data, std::path::Path::new("<bytes>"))?;
         Ok(this)
     }

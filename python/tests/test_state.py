@@ -187,3 +187,38 @@ def test_the_package_imports_from_the_python_folder():
     assert "_thinshell" not in p.stderr
     names = subprocess.run([sys.executable, "-c", "import thinshell; print(' '.join(n for n in dir(thinshell) if not n.startswith('_')))"], cwd=PYTHON_DIR, capture_output=True, text=True).stdout.split()
     assert "np" not in names and "Mapping" not in names and "annotations" not in names, names
+
+
+def test_output_is_what_the_cli_writes(cli, scenes, tmp_path):
+    overrides = ["integrator.steps=6", "output.every=2", 'output.formats=["obj", "vtk"]']
+    args = [a for ov in overrides for a in ("--set", ov)]
+    p = subprocess.run([str(cli), "run", str(scenes / "square_enlarged.toml"), "--out", str(tmp_path / "cli"), "--quiet", *args], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    sim = thinshell.Simulation(thinshell.Scene.from_file(scenes / "square_enlarged.toml", overrides), output=tmp_path / "py")
+    assert (tmp_path / "py" / "frame_000000.obj").exists() and not (tmp_path / "py" / "summary.json").exists()
+    sim.run()
+    cli_files = sorted(q.name for q in (tmp_path / "cli").iterdir())
+    py_files = sorted(q.name for q in (tmp_path / "py").iterdir())
+    assert py_files == cli_files and "frames.pvd" in py_files and "frame_000006.vtu" in py_files
+    for name in py_files:
+        if name.endswith(".obj") or name == "frames.pvd":
+            assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
+    timing = set(thinshell_timing_columns())
+    import csv
+
+    def rows(d):
+        with open(d / "steps.csv") as f:
+            return [{k: v for k, v in r.items() if k not in timing} for r in csv.DictReader(f)]
+
+    assert rows(tmp_path / "py") == rows(tmp_path / "cli") and len(rows(tmp_path / "py")) == 6
+    import json
+
+    a = json.loads((tmp_path / "py" / "summary.json").read_text())
+    b = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    for k in ("wall_s", "scene"):
+        a.pop(k), b.pop(k)
+    assert a == b and a["status"] == "completed" and a["frames"] == 4
+
+
+def thinshell_timing_columns():
+    return ["wall_s", "assembly_s", "factorization_s", "solve_s", "line_search_s", "growth_s", "output_s", "other_s"]
