@@ -222,3 +222,11 @@ def test_output_is_what_the_cli_writes(cli, scenes, tmp_path):
 
 def thinshell_timing_columns():
     return ["wall_s", "assembly_s", "factorization_s", "solve_s", "line_search_s", "growth_s", "output_s", "other_s"]
+
+
+@pytest.mark.parametrize("where", ["python", "elsewhere"])
+def test_pytest_collects_from_python_and_from_elsewhere(where, tmp_path):
+    cwd, target = (PYTHON_DIR, "tests/test_energy.py") if where == "python" else (tmp_path, str(PYTHON_DIR / "tests" / "test_energy.py"))
+    p = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:cacheprovider", target], cwd=cwd, capture_output=True, text=True)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "error" not in p.stdout.lower(), p.stdout

@@ -7,14 +7,16 @@ in m^2, b_bar in m.
 
 - :class:`Mesh` - a validated triangle mesh from ``V (n x 3)``, ``F (m x 3)`` or an OBJ file.
 - :class:`Scene` - a scene (docs/scenes.md) from a TOML file, a TOML string or a dict.
-- :class:`Simulation` - a built scene: ``step()``, ``run()``, ``positions``, ``energies``, ...;
-  the GIL is released while a step runs, so threads stepping different simulations run in
-  parallel.
+- :class:`Simulation` - a built scene: ``step()``, ``run()``, ``positions``, ``energies``,
+  ``set_positions()``, ``save()``/``restore()``, ``snapshot()``, ...; the GIL is released while
+  a step runs, so threads stepping different simulations run in parallel, and Ctrl-C stops a
+  step within one Newton iteration (KeyboardInterrupt; ``cancel()`` from another thread).
 - :func:`energy` - energy, gradient and Hessian (``scipy.sparse.csc_matrix``) of a mesh.
-- :func:`sweep` - every combination of a parameter grid, in a local process pool or on Dask.
+- :func:`sweep` - every combination of a parameter grid, in a local process pool or on Dask;
+  runs are keyed by scene, file contents and version, interruptible, returned as a DataFrame.
 
 Errors are :class:`ThinshellError` subclasses whose message is what the ``thinshell`` CLI
-prints: :class:`MeshError`, :class:`SceneError`, :class:`SimulationError`, :class:`EnergyError`.
+prints: :class:`MeshError`, :class:`SceneError`, :class:`SimulationError`, :class:`EnergyError`, :class:`Cancelled`.
 """
 
 

@@ -119,9 +119,17 @@ class Simulation:
     any thread may read its state (a snapshot after the last completed step) meanwhile.
     Picklable (through its checkpoint bytes)."""
 
-    def __init__(self, scene: Scene | Mapping[str, Any] | _Path, threads: int | None = None) -> None:
+    def __init__(
+        self,
+        scene: Scene | Mapping[str, Any] | _Path,
+        threads: int | None = None,
+        output: _Path | None = None,
+    ) -> None:
         """``threads``: threads of this simulation's own pool (default: the shared pool of all
-        cores). Raises SceneError / MeshError with the CLI's message."""
+        cores). ``output``: a directory that receives the scene's ``[output]`` as
+        ``thinshell run --out`` writes it (frames, steps.csv; summary.json once the run
+        completes, fails or is interrupted). Raises SceneError / MeshError with the CLI's
+        message."""
     def step(self) -> StepRecord:
         """One step; raises SimulationError (the state stays the last good one), also once the
         scene's ``integrator.steps`` are done. Ctrl-C stops the Newton solve within one

@@ -156,8 +156,11 @@ def _pool_worker_init(threads: int) -> None:
     os.environ["RAYON_NUM_THREADS"] = str(threads)
 
     def on_sigint(signum: int, frame: Any) -> None:
+        # Once: a terminal's Ctrl-C reaches the workers directly and again through the sweep,
+        # and a second KeyboardInterrupt must not cut short the partial run's bookkeeping.
+        first = not _stop.is_set()
         _stop.set()
-        if _running.is_set():
+        if first and _running.is_set():
             raise KeyboardInterrupt
 
     signal.signal(signal.SIGINT, on_sigint)
@@ -632,11 +635,6 @@ def _sweep_dask(client, scene, combos, provs, dirs, todo, rows, threads, bar, fa
             pass
         client.cancel(not_started)
         raise
-    finally:
-        try:
-            stop.clear()
-        except Exception:
-            pass
 
 
 def _write_results(out: Path, result: list[Row]) -> None:
