@@ -230,3 +230,12 @@ def test_pytest_collects_from_python_and_from_elsewhere(where, tmp_path):
     p = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:cacheprovider", target], cwd=cwd, capture_output=True, text=True)
     assert p.returncode == 0, p.stdout + p.stderr
     assert "error" not in p.stdout.lower(), p.stdout
+
+
+def test_obj_quads_load_as_two_triangles(tmp_path):
+    # As Mesh.from_obj documents: polygons are split into triangles from their first vertex.
+    p = tmp_path / "quad.obj"
+    p.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n")
+    m = thinshell.Mesh.from_obj(p)
+    assert m.n_faces == 2 and sorted(map(sorted, m.faces.tolist())) == [[0, 1, 2], [0, 2, 3]]
+    assert "split into triangles" in thinshell.Mesh.from_obj.__doc__
