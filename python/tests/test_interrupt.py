@@ -229,3 +229,18 @@ def test_a_script_without_main_guard_is_named(scenes, tmp_path):
     p = subprocess.run([sys.executable, str(guarded), str(tmp_path / "out2")], capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
     assert "['completed', 'completed']" in p.stdout
+
+
+def test_ctrl_c_in_a_serial_sweep_marks_the_partial_run(scenes, tmp_path):
+    scene = long_scene(scenes)
+    timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            thinshell.sweep(scene, {"mesh.nx": [30, 31]}, tmp_path, max_workers=1)
+    finally:
+        timer.cancel()
+    partial = list(tmp_path.glob("run-*/interrupted.json"))
+    assert len(partial) == 1 and not list(tmp_path.glob("run-*/result.json"))
+    row = json.loads(partial[0].read_text())
+    assert row["status"] == "interrupted" and row["steps"] == 0 and row["mesh.nx"] == 30
