@@ -46,7 +46,9 @@ def main() -> None:
         k.append(curvature(s.positions, x0))
 
     summary = sim.run(callback=record)
-    print(f"{summary['steps']} steps, peak curvature {max(k):.2f} 1/m at t = {t[int(np.argmax(k))]:.1f} s")
+    # The peak is the largest magnitude: the strip curls towards -z, so its curvatures are negative.
+    peak = int(np.argmax(np.abs(k)))
+    print(f"{summary['steps']} steps, peak curvature {k[peak]:.2f} 1/m at t = {t[peak]:.1f} s")
 
     import matplotlib
 

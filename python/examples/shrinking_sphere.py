@@ -45,7 +45,9 @@ def main() -> None:
 
     write(sim)
     summary = sim.run(callback=lambda s, r: write(s), every=args.every)
-    pvd = "\n".join(f'    <DataSet timestep="{t!r}" file="{n}"/>' for t, n in frames)
+    # Times are sums of dt (0.0002000000000000002 after 40 steps of 5e-6 s); 12 significant
+    # digits name the frame's time without the rounding noise.
+    pvd = "\n".join(f'    <DataSet timestep="{t:.12g}" file="{n}"/>' for t, n in frames)
     (out / "frames.pvd").write_text(
         f'<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n{pvd}\n  </Collection>\n</VTKFile>\n'
     )

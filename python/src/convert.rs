@@ -59,8 +59,9 @@ pub fn faces(obj: &Bound<'_, PyAny>) -> PyResult<Vec<[usize; 3]>> {
     for (f, r) in arr.as_array().outer_iter().enumerate() {
         let mut face = [0usize; 3];
         for (k, &i) in r.iter().enumerate() {
+            // A MeshError, like an index past the last vertex (both are bad connectivity).
             face[k] = usize::try_from(i).map_err(|_| {
-                PyValueError::new_err(format!("faces: face {f} has a negative index {i}"))
+                crate::errors::mesh(format!("faces: face {f} has a negative index {i}"))
             })?;
         }
         out.push(face);

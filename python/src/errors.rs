@@ -32,6 +32,12 @@ create_exception!(
 );
 create_exception!(
     thinshell,
+    Cancelled,
+    ThinshellError,
+    "A step stopped by `Simulation.cancel()` (the simulation keeps the state of its last completed step and can go on)."
+);
+create_exception!(
+    thinshell,
     EnergyError,
     ThinshellError,
     "Energy evaluation rejected its input (rest forms, material, lengths) or produced non-finite values."
@@ -45,6 +51,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SceneError", py.get_type::<SceneError>())?;
     m.add("SimulationError", py.get_type::<SimulationError>())?;
     m.add("EnergyError", py.get_type::<EnergyError>())?;
+    m.add("Cancelled", py.get_type::<Cancelled>())?;
     Ok(())
 }
 
@@ -63,4 +70,10 @@ pub fn simulation(e: impl std::fmt::Display) -> PyErr {
 /// An `EnergyError` carrying `e`'s message.
 pub fn energy(e: impl std::fmt::Display) -> PyErr {
     EnergyError::new_err(e.to_string())
+}
+/// A `Cancelled` error: the step was stopped by `Simulation.cancel()`.
+pub fn cancelled() -> PyErr {
+    Cancelled::new_err(
+        "the step was cancelled (Simulation.cancel()); the state is that of the last completed step",
+    )
 }

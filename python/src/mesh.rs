@@ -28,7 +28,8 @@ impl PyMesh {
         Ok(PyMesh { inner })
     }
 
-    /// Reads an OBJ file (triangles; polygons are rejected).
+    /// Reads an OBJ file; polygons (quads, …) are split into triangles fanning out from their
+    /// first vertex.
     #[staticmethod]
     fn from_obj(path: std::path::PathBuf) -> PyResult<Self> {
         // The message `thinshell info` prints: "<path>: <why>".

@@ -21,6 +21,11 @@ pub struct PyScene {
 }
 
 impl PyScene {
+    /// Where the scene came from (file path, `<string>`, `<dict>`).
+    pub fn origin_text(&self) -> String {
+        self.origin.clone()
+    }
+
     fn parse(
         text: String,
         origin: String,
@@ -35,6 +40,14 @@ impl PyScene {
             overrides,
             origin,
         })
+    }
+}
+
+/// `{"vertices": ..., "faces": ...}` (a mesh given as arrays in a scene dict).
+fn is_array_mesh(mesh: &Bound<'_, PyAny>) -> PyResult<bool> {
+    match mesh.cast::<PyDict>() {
+        Ok(d) => Ok(d.contains("vertices")? || d.contains("faces")?),
+        Err(_) => Ok(false),
     }
 }
 
@@ -88,6 +101,21 @@ impl PyScene {
         base_dir: Option<PathBuf>,
         origin: &str,
     ) -> PyResult<Self> {
+        // A mesh given as a `Mesh` or as `{"vertices": V, "faces": F}` becomes an OBJ file
+        // named by its content (`thinshell._scenes.mesh_file`), which the scene then names.
+        let py = scene.py();
+        let scene = match scene.get_item("mesh")? {
+            Some(mesh) if mesh.cast::<crate::mesh::PyMesh>().is_ok() || is_array_mesh(&mesh)? => {
+                let spec = py
+                    .import("thinshell._scenes")?
+                    .getattr("mesh_spec")?
+                    .call1((mesh,))?;
+                let copy = scene.copy()?;
+                copy.set_item("mesh", spec)?;
+                copy
+            }
+            _ => scene.clone(),
+        };
         let value = convert::toml_value(scene.as_any(), "")?;
         let text = toml::to_string(&value).map_err(errors::scene)?;
         Self::from_toml(text, overrides, base_dir, origin)
@@ -117,6 +145,32 @@ impl PyScene {
     #[getter]
     fn base_dir(&self) -> PathBuf {
         self.inner.base_dir.clone()
+    }
+
+    /// The scene after its overrides, validated, as canonical TOML (every value, no comments;
+    /// the text `scene_hash` fingerprints): what a run of it does.
+    #[getter]
+    fn resolved_toml(&self) -> PyResult<String> {
+        toml::to_string(&self.inner.file).map_err(errors::scene)
+    }
+
+    /// The 64-bit fingerprint of the scene after its overrides, as checkpoints store it.
+    #[getter]
+    fn scene_hash(&self) -> u64 {
+        thinshell::sim::scene_hash(&self.inner)
+    }
+
+    /// The files a simulation of this scene reads (absolute or relative to the working
+    /// directory): the mesh's OBJ file, if any.
+    #[getter]
+    fn files(&self) -> Vec<PathBuf> {
+        self.inner
+            .file
+            .mesh
+            .obj
+            .iter()
+            .map(|p| self.inner.base_dir.join(p))
+            .collect()
     }
 
     /// This scene with further `key=value` overrides (applied after the existing ones).

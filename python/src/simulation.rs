@@ -1,15 +1,27 @@
 //! `Simulation`: a built scene, stepped with the GIL released.
+//!
+//! Interruption: a step runs on a helper thread while the calling thread, without the GIL,
+//! waits for it and checks Python's signals every [`SIGNAL_POLL`]; a pending signal (Ctrl-C)
+//! sets the solver's cancel flag, so the running Newton solve stops before its next iteration,
+//! the state stays at the last completed step and the signal's exception (KeyboardInterrupt)
+//! is raised. `Simulation.cancel()` sets the same flag from any thread.
+//!
+//! Reads from other threads: the state getters read a snapshot taken after every change, not
+//! the simulation itself, so they work while another thread runs it.
 
-use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
+use nalgebra::Vector3;
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2, PyArray3};
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBytes, PyDict};
 use thinshell::scene::Scene;
-use thinshell::sim::{BuildError, Energies, Simulation, StepRecord};
-use thinshell_energy::RestState;
+use thinshell::sim::{BuildError, Energies, Simulation, StepError, StepRecord};
+use thinshell_energy::{EnergyTerms, RestState};
 use thinshell_growth::FaceStimulus;
 
 use crate::mesh::PyMesh;
@@ -19,28 +31,48 @@ use crate::{convert, errors};
 /// `(a_bar, b_bar)`, each m × 2 × 2.
 type Forms<'py> = (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>);
 
-/// The simulation and what the wrapper adds up over the steps taken through it.
-struct Inner {
-    sim: Simulation,
-    /// The simulation's own thread pool (`threads=`), else rayon's global pool.
-    pool: Option<rayon::ThreadPool>,
+/// How often a waiting step checks Python's signals.
+const SIGNAL_POLL: Duration = Duration::from_millis(20);
+
+/// What the wrapper adds up over the steps taken through it (kept in checkpoints as their
+/// attachment, so a restored simulation reports the totals of the whole run).
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+struct Totals {
     newton_iterations: usize,
     gauss_newton_iterations: usize,
     stable: Option<bool>,
     unstable_steps: Vec<usize>,
     wall_s: f64,
+}
+
+/// The simulation and what the wrapper adds up over the steps taken through it.
+struct Inner {
+    sim: Simulation,
+    /// The simulation's own thread pool (`threads=`), else rayon's global pool.
+    pool: Option<Arc<rayon::ThreadPool>>,
+    totals: Totals,
     status: &'static str,
     error: Option<String>,
+    /// The scene's `[output]`, written by the CLI's writer (`Simulation(..., output=DIR)`).
+    output: Option<thinshell::cli::OutputWriter>,
+}
+
+/// The message of a CLI failure (output writing).
+fn failure_message(f: thinshell::cli::Failure) -> String {
+    match f {
+        thinshell::cli::Failure::BadInput(m) | thinshell::cli::Failure::Simulation(m) => m,
+    }
 }
 
 impl Inner {
     fn record(&mut self, r: &StepRecord) {
-        self.newton_iterations += r.newton_iterations;
-        self.gauss_newton_iterations += r.gauss_newton_iterations;
-        self.wall_s += r.wall_s;
-        self.stable = r.stable;
+        let t = &mut self.totals;
+        t.newton_iterations += r.newton_iterations;
+        t.gauss_newton_iterations += r.gauss_newton_iterations;
+        t.wall_s += r.wall_s;
+        t.stable = r.stable;
         if r.stable == Some(false) {
-            self.unstable_steps.push(r.step);
+            t.unstable_steps.push(r.step);
         }
         self.status = if self.sim.steps_done() >= self.sim.steps_total() {
             "completed"
@@ -50,18 +82,58 @@ impl Inner {
     }
 }
 
-/// A simulation built from a scene (`thinshell::sim::Simulation`).
+/// A read-only copy of the state, taken after every change of it.
+#[derive(Clone)]
+struct Snapshot {
+    steps_done: usize,
+    steps_total: usize,
+    time: f64,
+    dt: f64,
+    load_factor: f64,
+    x: Vec<Vector3<f64>>,
+    v: Vec<Vector3<f64>>,
+    energy: EnergyTerms,
+    kinetic: f64,
+}
+
+impl Snapshot {
+    fn of(sim: &Simulation) -> Snapshot {
+        Snapshot {
+            steps_done: sim.steps_done(),
+            steps_total: sim.steps_total(),
+            time: sim.time(),
+            dt: sim.dt(),
+            load_factor: sim.load_factor(),
+            x: sim.positions().to_vec(),
+            v: sim.velocities().to_vec(),
+            energy: sim.energy(),
+            kinetic: sim.kinetic_energy(),
+        }
+    }
+}
+
+/// A scene built into a simulation: `step()`, `run()`, the state, checkpoints. Steps release
+/// the GIL; one thread steps a simulation, any thread may read its state meanwhile.
 #[pyclass(name = "Simulation", module = "thinshell", frozen)]
 pub struct PySimulation {
     // A lock rather than `&mut self`, so that Rust can work with the GIL released; two Python
-    // threads using the *same* simulation get an error instead of waiting (no deadlock).
+    // threads stepping the *same* simulation get an error instead of waiting (no deadlock).
     inner: Mutex<Inner>,
+    /// The state after the last change, for reads that must not wait for a running step.
+    snapshot: Mutex<Arc<Snapshot>>,
+    /// The scene it was built from (checkpoints name it by hash; pickling rebuilds from it).
+    scene: PyScene,
+    threads: Option<usize>,
+    /// The solver's cancel flag: set, the running Newton solve stops before its next iteration.
+    cancel: Arc<AtomicBool>,
+    /// `cancel()` was called (also between steps: the next step is then not taken).
+    cancel_requested: AtomicBool,
 }
 
 /// The scene argument of `Simulation(...)`: a `Scene`, a dict, or a path to a scene file.
-fn scene_of(obj: &Bound<'_, PyAny>) -> PyResult<Scene> {
+fn scene_of(obj: &Bound<'_, PyAny>) -> PyResult<PyScene> {
     if let Ok(s) = obj.cast::<PyScene>() {
-        return Ok(s.get().inner.clone());
+        return Ok(s.get().clone());
     }
     let py = obj.py();
     let scene_type = py.get_type::<PyScene>();
@@ -74,7 +146,7 @@ fn scene_of(obj: &Bound<'_, PyAny>) -> PyResult<Scene> {
             "Simulation(scene): expected a thinshell.Scene, a dict or a path to a scene file",
         ));
     };
-    Ok(built.cast::<PyScene>()?.get().inner.clone())
+    Ok(built.cast::<PyScene>()?.get().clone())
 }
 
 fn build_error(e: BuildError) -> PyErr {
@@ -84,35 +156,208 @@ fn build_error(e: BuildError) -> PyErr {
     }
 }
 
+/// Runs `work` on a helper thread while this thread, without the GIL, checks Python's signals;
+/// a signal's exception sets `cancel` (the work then stops within one Newton iteration) and is
+/// returned once the work has stopped, along with the work's result.
+fn watched<T: Send>(
+    py: Python<'_>,
+    cancel: &AtomicBool,
+    work: impl FnOnce() -> T + Send,
+) -> (T, Option<PyErr>) {
+    py.detach(|| {
+        std::thread::scope(|scope| {
+            let (tx, rx) = std::sync::mpsc::channel();
+            scope.spawn(move || {
+                // The receiver outlives this thread (it is joined at the end of the scope).
+                let _ = tx.send(work());
+            });
+            let mut signal = None;
+            loop {
+                match rx.recv_timeout(SIGNAL_POLL) {
+                    Ok(result) => return (result, signal),
+                    Err(std::sync::mpsc::RecvTimeoutError::Timeout) if signal.is_none() => {
+                        if let Err(e) = Python::attach(|py| py.check_signals()) {
+                            cancel.store(true, Ordering::SeqCst);
+                            signal = Some(e);
+                        }
+                    }
+                    Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                        // The helper panicked: the scope re-raises its panic on exit.
+                        std::thread::sleep(SIGNAL_POLL);
+                    }
+                }
+            }
+        })
+    })
+}
+
 impl PySimulation {
     fn lock(&self) -> PyResult<std::sync::MutexGuard<'_, Inner>> {
         match self.inner.try_lock() {
             Ok(g) => Ok(g),
             Err(std::sync::TryLockError::WouldBlock) => Err(PyRuntimeError::new_err(
-                "this Simulation is in use by another thread (one thread per simulation)",
+                "this Simulation is being stepped by another thread (one thread steps a \
+                 simulation; the state getters and snapshot() can be read meanwhile)",
             )),
             Err(std::sync::TryLockError::Poisoned(p)) => Ok(p.into_inner()),
         }
     }
 
-    /// One step with the GIL released; the record, or a `SimulationError`.
+    fn snap(&self) -> Arc<Snapshot> {
+        match self.snapshot.lock() {
+            Ok(s) => Arc::clone(&s),
+            Err(p) => Arc::clone(&p.into_inner()),
+        }
+    }
+
+    fn refresh(&self, sim: &Simulation) {
+        let s = Arc::new(Snapshot::of(sim));
+        match self.snapshot.lock() {
+            Ok(mut g) => *g = s,
+            Err(p) => *p.into_inner() = s,
+        }
+    }
+
+    /// One step with the GIL released and Ctrl-C watched; the record, or a `SimulationError`,
+    /// or KeyboardInterrupt / `Cancelled` (the state stays at the last completed step).
     fn step_inner(&self, py: Python<'_>, inner: &mut Inner) -> PyResult<StepRecord> {
+        if inner.sim.steps_done() >= inner.sim.steps_total() {
+            return Err(errors::simulation(format!(
+                "all {} steps of the scene are done (steps beyond `integrator.steps` are not \
+                 taken silently: build the simulation with a larger `integrator.steps`)",
+                inner.sim.steps_total()
+            )));
+        }
+        self.cancel.store(false, Ordering::SeqCst);
+        if self.cancel_requested.swap(false, Ordering::SeqCst) {
+            return Err(errors::cancelled());
+        }
         let Inner { sim, pool, .. } = inner;
-        let result = py.detach(|| match pool {
-            Some(pool) => pool.install(|| sim.step()),
-            None => sim.step(),
-        });
+        let (result, signal): (Result<StepRecord, StepError>, _) =
+            watched(py, &self.cancel, || match pool {
+                Some(pool) => pool.install(|| sim.step()),
+                None => sim.step(),
+            });
+        self.cancel.store(false, Ordering::SeqCst);
+        let written = match (&mut inner.output, &result) {
+            (None, _) => Ok(()),
+            (Some(w), Ok(r)) => {
+                w.step(&inner.sim, r);
+                if inner.sim.steps_done() >= inner.sim.steps_total() {
+                    w.finish(&inner.sim, "completed", None)
+                } else {
+                    Ok(())
+                }
+            }
+            (Some(w), Err(e)) if e.is_cancelled() => w.finish(&inner.sim, "interrupted", None),
+            (Some(w), Err(e)) => w.finish(&inner.sim, "failed", Some(e)),
+        };
+        if let Err(f) = written {
+            if let Ok(r) = &result {
+                inner.record(r);
+                self.refresh(&inner.sim);
+            }
+            return Err(errors::simulation(failure_message(f)));
+        }
         match result {
             Ok(r) => {
                 inner.record(&r);
-                Ok(r)
+                self.refresh(&inner.sim);
+                // A signal that came after the last Newton iteration (or during an explicit
+                // step, which has none): the step is taken, then the exception raised.
+                match signal {
+                    Some(e) => Err(e),
+                    None => Ok(r),
+                }
+            }
+            Err(e) if e.is_cancelled() => {
+                self.cancel_requested.store(false, Ordering::SeqCst);
+                inner.status = "interrupted";
+                Err(signal.unwrap_or_else(errors::cancelled))
             }
             Err(e) => {
                 inner.status = "failed";
                 inner.error = Some(e.to_string());
-                Err(errors::simulation(e))
+                Err(signal.unwrap_or_else(|| errors::simulation(e)))
             }
         }
+    }
+
+    fn build(
+        scene: PyScene,
+        threads: Option<usize>,
+        sim: Simulation,
+        output: Option<thinshell::cli::OutputWriter>,
+    ) -> PyResult<Self> {
+        let pool = match threads {
+            Some(0) => return Err(PyValueError::new_err("threads must be at least 1")),
+            Some(n) => Some(Arc::new(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .map_err(|e| PyRuntimeError::new_err(format!("thread pool: {e}")))?,
+            )),
+            None => None,
+        };
+        let mut sim = sim;
+        let cancel = Arc::new(AtomicBool::new(false));
+        sim.set_cancel(Some(Arc::clone(&cancel)));
+        let snapshot = Mutex::new(Arc::new(Snapshot::of(&sim)));
+        Ok(PySimulation {
+            inner: Mutex::new(Inner {
+                sim,
+                pool,
+                totals: Totals::default(),
+                status: "ready",
+                error: None,
+                output,
+            }),
+            snapshot,
+            scene,
+            threads,
+            cancel,
+            cancel_requested: AtomicBool::new(false),
+        })
+    }
+
+    fn scene_hash(&self) -> u64 {
+        thinshell::sim::scene_hash(&self.scene.inner)
+    }
+
+    /// Restores checkpoint bytes; `origin` names them in errors.
+    fn restore_from(&self, py: Python<'_>, bytes: &[u8], origin: &std::path::Path) -> PyResult<()> {
+        let hash = self.scene_hash();
+        let mut inner = self.lock()?;
+        let sim = &mut inner.sim;
+        let attachment = py
+            .detach(|| sim.restore_bytes(bytes, hash, origin))
+            .map_err(errors::simulation)?;
+        // A checkpoint of this package carries its totals; one of the CLI carries the CLI's
+        // own record (whose totals have other fields): then the totals start again.
+        inner.totals = serde_json::from_slice(&attachment).unwrap_or_default();
+        inner.status = if inner.sim.steps_done() >= inner.sim.steps_total() {
+            "completed"
+        } else if inner.sim.steps_done() == 0 {
+            "ready"
+        } else {
+            "running"
+        };
+        inner.error = None;
+        self.refresh(&inner.sim);
+        Ok(())
+    }
+
+    fn checkpoint_bytes(&self) -> PyResult<Vec<u8>> {
+        let inner = self.lock()?;
+        if inner.sim.is_path_following() {
+            return Err(errors::simulation(
+                thinshell::sim::CheckpointError::PathFollowing,
+            ));
+        }
+        let attachment = serde_json::to_vec(&inner.totals)
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        Ok(inner.sim.checkpoint_bytes(self.scene_hash(), &attachment))
     }
 }
 
@@ -120,40 +365,97 @@ impl PySimulation {
 impl PySimulation {
     /// Builds the simulation a scene describes (`Scene`, dict, or path to a TOML file).
     /// `threads`: the number of threads its steps use (its own pool); default: the shared
-    /// pool of all cores (`RAYON_NUM_THREADS`).
+    /// pool of all cores (`RAYON_NUM_THREADS`). `output`: a directory that receives the
+    /// scene's `[output]` as `thinshell run --out` writes it (frames, `steps.csv`, and
+    /// `summary.json` once the run completes, fails or is interrupted); default: no files.
     #[new]
-    #[pyo3(signature = (scene, threads=None))]
-    fn new(py: Python<'_>, scene: &Bound<'_, PyAny>, threads: Option<usize>) -> PyResult<Self> {
+    #[pyo3(signature = (scene, threads=None, output=None))]
+    fn new(
+        py: Python<'_>,
+        scene: &Bound<'_, PyAny>,
+        threads: Option<usize>,
+        output: Option<std::path::PathBuf>,
+    ) -> PyResult<Self> {
         let scene = scene_of(scene)?;
-        let pool = match threads {
-            Some(0) => return Err(PyValueError::new_err("threads must be at least 1")),
-            Some(n) => Some(
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(n)
-                    .build()
-                    .map_err(|e| PyRuntimeError::new_err(format!("thread pool: {e}")))?,
+        if threads == Some(0) {
+            return Err(PyValueError::new_err("threads must be at least 1"));
+        }
+        let built: &Scene = &scene.inner;
+        let sim = py
+            .detach(|| Simulation::build(built))
+            .map_err(build_error)?;
+        let writer = match &output {
+            Some(dir) => Some(
+                thinshell::cli::OutputWriter::create(built, &sim, dir, &scene.origin_text())
+                    .map_err(|f| errors::scene(failure_message(f)))?,
             ),
             None => None,
         };
-        let sim = py
-            .detach(|| Simulation::build(&scene))
-            .map_err(build_error)?;
-        Ok(PySimulation {
-            inner: Mutex::new(Inner {
-                sim,
-                pool,
-                newton_iterations: 0,
-                gauss_newton_iterations: 0,
-                stable: None,
-                unstable_steps: Vec::new(),
-                wall_s: 0.0,
-                status: "ready",
-                error: None,
-            }),
-        })
+        Self::build(scene, threads, sim, writer)
+    }
+
+    /// The simulation of `scene` in the state of the checkpoint `data` (bytes of
+    /// `to_bytes()` or of a `checkpoint.bin`); what unpickling calls.
+    #[staticmethod]
+    #[pyo3(signature = (scene, data, threads=None))]
+    fn from_bytes(
+        py: Python<'_>,
+        scene: &Bound<'_, PyAny>,
+        data: &[u8],
+        threads: Option<usize>,
+    ) -> PyResult<Self> {
+        let this = Self::new(py, scene, threads, None)?;
+        this.restore_from(py, data, std::path::Path::new("<bytes>"))?;
+        Ok(this)
+    }
+
+    /// The current state as checkpoint bytes (the format of the CLI's `checkpoint.bin`).
+    fn to_bytes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
+        Ok(PyBytes::new(py, &self.checkpoint_bytes()?))
+    }
+
+    /// Writes a checkpoint of the current state to `path` (atomically), in the format of the
+    /// CLI's `checkpoint.bin`; `restore` continues from it bit for bit.
+    fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
+        let bytes = self.checkpoint_bytes()?;
+        py.detach(|| thinshell::atomic::write_atomic(&path, &bytes))
+            .map_err(|e| errors::simulation(format!("{}: {e}", path.display())))
+    }
+
+    /// Restores the checkpoint at `path` (written by `save` or by the CLI's
+    /// `--checkpoint-every`) into this simulation, which must have been built from the same
+    /// scene (after overrides); on any error the simulation is unchanged.
+    fn restore(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
+        let bytes = std::fs::read(&path)
+            .map_err(|e| errors::simulation(format!("{}: {e}", path.display())))?;
+        self.restore_from(py, &bytes, &path)
+    }
+
+    fn __reduce__(slf: &Bound<'_, Self>) -> PyResult<(Py<PyAny>, Py<PyAny>)> {
+        let py = slf.py();
+        let this = slf.get();
+        let ctor = py
+            .get_type::<PySimulation>()
+            .getattr("from_bytes")?
+            .unbind();
+        let scene = Py::new(py, this.scene.clone())?;
+        let args = (scene, this.to_bytes(py)?, this.threads)
+            .into_pyobject(py)?
+            .into_any()
+            .unbind();
+        Ok((ctor, args))
+    }
+
+    /// Asks a running `step()`/`run()` (in any thread) to stop: its Newton solve stops before
+    /// the next iteration, the state stays at the last completed step, and the call raises
+    /// `thinshell.Cancelled`. Called between steps, the next step is not taken.
+    fn cancel(&self) {
+        self.cancel_requested.store(true, Ordering::SeqCst);
+        self.cancel.store(true, Ordering::SeqCst);
     }
 
     /// Takes one step; returns its record (a dict: step, time, energy, newton_iterations, …).
+    /// Raises `SimulationError` once the scene's `integrator.steps` are done.
     fn step<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let mut inner = self.lock()?;
         let r = self.step_inner(py, &mut inner)?;
@@ -161,8 +463,9 @@ impl PySimulation {
     }
 
     /// Runs the remaining steps of the scene, calling `callback(sim, record)` after every
-    /// `every`-th step and after the last; returns the summary. Ctrl-C stops after the current
-    /// step (KeyboardInterrupt).
+    /// `every`-th step and after the last; returns the summary. Ctrl-C stops the running
+    /// Newton solve within one iteration (KeyboardInterrupt; the state is that of the last
+    /// completed step, and `run()` continues from it).
     #[pyo3(signature = (callback=None, every=1))]
     fn run<'py>(
         slf: &Bound<'py, Self>,
@@ -200,6 +503,7 @@ impl PySimulation {
     fn summary<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let inner = self.lock()?;
         let s = &inner.sim;
+        let t = &inner.totals;
         let value = serde_json::json!({
             "name": s.name(),
             "status": inner.status,
@@ -208,14 +512,55 @@ impl PySimulation {
             "steps_requested": s.steps_total(),
             "time_s": s.time(),
             "energy": Energies::from(s.energy()),
-            "wall_s": inner.wall_s,
-            "newton_iterations": inner.newton_iterations,
-            "gauss_newton_iterations": inner.gauss_newton_iterations,
+            "wall_s": t.wall_s,
+            "newton_iterations": t.newton_iterations,
+            "gauss_newton_iterations": t.gauss_newton_iterations,
             "load_factor": s.load_factor(),
-            "stable": inner.stable,
-            "unstable_steps": inner.unstable_steps,
+            "stable": t.stable,
+            "unstable_steps": t.unstable_steps,
         });
         convert::to_py(py, &value)
+    }
+
+    /// A read-only copy of the state after the last completed step (readable while another
+    /// thread runs this simulation): a dict with `step`, `steps_total`, `time` (s),
+    /// `positions` (n × 3, m), `velocities` (n × 3, m/s), `energies` (J: stretch, bend,
+    /// damping, elastic, kinetic) and `load_factor`.
+    fn snapshot<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.snap();
+        let d = PyDict::new(py);
+        d.set_item("step", s.steps_done)?;
+        d.set_item("steps_total", s.steps_total)?;
+        d.set_item("time", s.time)?;
+        d.set_item("positions", readonly(convert::points_to_py(py, &s.x))?)?;
+        d.set_item("velocities", readonly(convert::points_to_py(py, &s.v))?)?;
+        d.set_item("energies", energies_dict(py, &s)?)?;
+        d.set_item("load_factor", s.load_factor)?;
+        Ok(d)
+    }
+
+    /// Sets the current positions (n × 3, m); the energies are re-evaluated there. The next
+    /// step starts from them (held vertices stay where they are put; prescribed motion is
+    /// applied from the next step).
+    fn set_positions(&self, positions: &Bound<'_, PyAny>) -> PyResult<()> {
+        let x = convert::points(positions, "positions")?;
+        let mut inner = self.lock()?;
+        let sim = &mut inner.sim;
+        positions
+            .py()
+            .detach(|| sim.set_positions(x))
+            .map_err(errors::simulation)?;
+        self.refresh(&inner.sim);
+        Ok(())
+    }
+
+    /// Sets the current velocities (n × 3, m/s); the next dynamic step starts from them.
+    fn set_velocities(&self, velocities: &Bound<'_, PyAny>) -> PyResult<()> {
+        let v = convert::points(velocities, "velocities")?;
+        let mut inner = self.lock()?;
+        inner.sim.set_velocities(v).map_err(errors::simulation)?;
+        self.refresh(&inner.sim);
+        Ok(())
     }
 
     /// What will be simulated (the text `thinshell check` prints).
@@ -225,8 +570,8 @@ impl PySimulation {
 
     /// The scene's name.
     #[getter]
-    fn name(&self) -> PyResult<String> {
-        Ok(self.lock()?.sim.name().to_string())
+    fn name(&self) -> String {
+        self.scene.inner.name()
     }
     /// The mesh (faces and reference positions).
     #[getter]
@@ -243,12 +588,12 @@ impl PySimulation {
     /// Current positions, n × 3, m.
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        Ok(convert::points_to_py(py, self.lock()?.sim.positions()))
+        Ok(convert::points_to_py(py, &self.snap().x))
     }
     /// Current velocities, n × 3, m/s.
     #[getter]
     fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        Ok(convert::points_to_py(py, self.lock()?.sim.velocities()))
+        Ok(convert::points_to_py(py, &self.snap().v))
     }
     /// Reference (input) positions, n × 3, m.
     #[getter]
@@ -273,42 +618,34 @@ impl PySimulation {
     }
     /// Current time, s (static scenes: pseudo-time).
     #[getter]
-    fn time(&self) -> PyResult<f64> {
-        Ok(self.lock()?.sim.time())
+    fn time(&self) -> f64 {
+        self.snap().time
     }
     /// Time step, s.
     #[getter]
-    fn dt(&self) -> PyResult<f64> {
-        Ok(self.lock()?.sim.dt())
+    fn dt(&self) -> f64 {
+        self.snap().dt
     }
     /// Steps taken.
     #[getter]
-    fn steps_done(&self) -> PyResult<usize> {
-        Ok(self.lock()?.sim.steps_done())
+    fn steps_done(&self) -> usize {
+        self.snap().steps_done
     }
     /// Steps the scene asks for.
     #[getter]
-    fn steps_total(&self) -> PyResult<usize> {
-        Ok(self.lock()?.sim.steps_total())
+    fn steps_total(&self) -> usize {
+        self.snap().steps_total
     }
     /// Load factor λ of the current state.
     #[getter]
-    fn load_factor(&self) -> PyResult<f64> {
-        Ok(self.lock()?.sim.load_factor())
+    fn load_factor(&self) -> f64 {
+        self.snap().load_factor
     }
     /// Energies of the current state by term, J: stretch, bend, damping (of the last step),
     /// elastic (stretch + bend), kinetic.
     #[getter]
     fn energies<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let inner = self.lock()?;
-        let e = Energies::from(inner.sim.energy());
-        let d = PyDict::new(py);
-        d.set_item("stretch", e.stretch)?;
-        d.set_item("bend", e.bend)?;
-        d.set_item("damping", e.damping)?;
-        d.set_item("elastic", e.elastic())?;
-        d.set_item("kinetic", inner.sim.kinetic_energy())?;
-        Ok(d)
+        energies_dict(py, &self.snap())
     }
 
     /// Energy of every face at the current state, J: a dict of float64 arrays (length m)
@@ -355,7 +692,9 @@ impl PySimulation {
         a_bar
             .py()
             .detach(|| sim.set_rest_forms(rest))
-            .map_err(errors::simulation)
+            .map_err(errors::simulation)?;
+        self.refresh(&inner.sim);
+        Ok(())
     }
 
     /// The current stimulus per face, m × 2 (top, bottom), in the stimulus' unit; None
@@ -403,14 +742,32 @@ impl PySimulation {
             .map_err(errors::simulation)
     }
 
-    fn __repr__(&self) -> PyResult<String> {
-        let inner = self.lock()?;
-        Ok(format!(
+    fn __repr__(&self) -> String {
+        let s = self.snap();
+        format!(
             "Simulation({:?}, step {}/{}, t = {:e} s)",
-            inner.sim.name(),
-            inner.sim.steps_done(),
-            inner.sim.steps_total(),
-            inner.sim.time()
-        ))
+            self.scene.inner.name(),
+            s.steps_done,
+            s.steps_total,
+            s.time
+        )
     }
+}
+
+/// The energies of a snapshot by term, J.
+fn energies_dict<'py>(py: Python<'py>, s: &Snapshot) -> PyResult<Bound<'py, PyDict>> {
+    let e = Energies::from(s.energy);
+    let d = PyDict::new(py);
+    d.set_item("stretch", e.stretch)?;
+    d.set_item("bend", e.bend)?;
+    d.set_item("damping", e.damping)?;
+    d.set_item("elastic", e.elastic())?;
+    d.set_item("kinetic", s.kinetic)?;
+    Ok(d)
+}
+
+/// `a` with its writeable flag cleared (a snapshot is not a handle on the state).
+fn readonly<'py, T>(a: Bound<'py, T>) -> PyResult<Bound<'py, T>> {
+    a.as_any().getattr("flags")?.setattr("writeable", false)?;
+    Ok(a)
 }

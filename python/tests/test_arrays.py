@@ -56,7 +56,7 @@ def test_bad_arrays_are_clear_errors():
         thinshell.Mesh(V[:, :2], F)
     with pytest.raises(TypeError, match="faces: expected an integer array"):
         thinshell.Mesh(V, F.astype(float))
-    with pytest.raises(ValueError, match="negative index"):
+    with pytest.raises(thinshell.MeshError, match="negative index"):
         thinshell.Mesh(V, -F)
     bad = V.copy()
     bad[3, 1] = np.nan

@@ -16,9 +16,13 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 def test_moisture_curl_plots_curvature(tmp_path):
     pytest.importorskip("matplotlib")
     png = tmp_path / "k.png"
-    subprocess.run([sys.executable, str(EXAMPLES / "moisture_curl.py"), "--steps", "6", "--out", str(png)], check=True, capture_output=True)
+    p = subprocess.run([sys.executable, str(EXAMPLES / "moisture_curl.py"), "--steps", "6", "--out", str(png)], check=True, capture_output=True, text=True)
     assert png.stat().st_size > 1000
     t, k = np.loadtxt(tmp_path / "k.csv", delimiter=",", skiprows=1).T
+    # The printout names the curvature of largest magnitude (negative here) and its time.
+    peak = int(np.argmax(np.abs(k)))
+    assert f"peak curvature {k[peak]:.2f} 1/m at t = {t[peak]:.1f} s" in p.stdout, p.stdout
+    assert k[peak] < 0
     assert len(t) == 7 and t[0] == 0.0 and k[0] == 0.0
     # The wet top swells: the strip curls (towards -z for a top that grows), bounded by the
     # natural curvature c*dm/h = 20 1/m.

@@ -21,7 +21,7 @@ import thinshell
 GRID = {"initial.scale": [1.9, 1.95, 1.98], "material.young": [1e9, 2e9, -1.0]}
 OVERRIDES = ["integrator.steps=6"]
 
-TIMING = {"wall_s", "reused"}
+TIMING = {"wall_s", "reused", "threads"}
 
 
 def base_scene(scenes: Path) -> thinshell.Scene:
@@ -37,7 +37,7 @@ def serial(tmp_path_factory):
     from conftest import SCENES
 
     out = tmp_path_factory.mktemp("serial")
-    return out, thinshell.sweep(base_scene(SCENES), GRID, out, max_workers=1)
+    return out, thinshell.sweep(base_scene(SCENES), GRID, out, max_workers=1, frame=False)
 
 
 def test_rows_errors_and_files(serial):
@@ -70,7 +70,7 @@ def test_local_cluster_gives_the_serial_results(serial, tmp_path):
     out, rows = serial
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         with distributed.Client(cluster) as client:
-            dask_rows = thinshell.sweep(base_scene(thinshell_scenes()), GRID, tmp_path, client=client)
+            dask_rows = thinshell.sweep(base_scene(thinshell_scenes()), GRID, tmp_path, client=client, frame=False)
     assert comparable(dask_rows) == comparable(rows)
     for r in rows:
         if r["status"] == "completed":
@@ -81,13 +81,13 @@ def test_local_cluster_gives_the_serial_results(serial, tmp_path):
 
 def test_process_pool_gives_the_serial_results(serial, tmp_path):
     out, rows = serial
-    assert comparable(thinshell.sweep(base_scene(thinshell_scenes()), GRID, tmp_path, max_workers=2)) == comparable(rows)
+    assert comparable(thinshell.sweep(base_scene(thinshell_scenes()), GRID, tmp_path, max_workers=2, frame=False)) == comparable(rows)
 
 
 KILLABLE = r"""
 import sys, thinshell
 scene = thinshell.Scene.from_file(sys.argv[1], ["integrator.steps=40"])
-thinshell.sweep(scene, {"initial.scale": [1.9, 1.92, 1.94, 1.96, 1.98, 1.99], "material.young": [2e9]}, sys.argv[2], max_workers=1)
+thinshell.sweep(scene, {"initial.scale": [1.9, 1.92, 1.94, 1.96, 1.98, 1.99], "material.young": [2e9]}, sys.argv[2], max_workers=1, frame=False)
 """
 
 
@@ -113,6 +113,7 @@ def test_an_interrupted_sweep_resumes_with_the_missing_runs(serial, tmp_path):
         {"initial.scale": [1.9, 1.92, 1.94, 1.96, 1.98, 1.99], "material.young": [2e9]},
         tmp_path,
         max_workers=1,
+        frame=False,
     )
     assert len(rows) == 6 and all(r["status"] == "completed" for r in rows)
     reused = {r["run"] for r in rows if r["reused"]}
@@ -120,6 +121,6 @@ def test_an_interrupted_sweep_resumes_with_the_missing_runs(serial, tmp_path):
     for name, mtime in done_before.items():
         assert (tmp_path / name / "result.json").stat().st_mtime_ns == mtime, "not run again"
     # A second call runs nothing.
-    again = thinshell.sweep(thinshell.Scene.from_file(scene, ["integrator.steps=40"]), {"initial.scale": [1.9, 1.92, 1.94, 1.96, 1.98, 1.99], "material.young": [2e9]}, tmp_path, max_workers=1)
+    again = thinshell.sweep(thinshell.Scene.from_file(scene, ["integrator.steps=40"]), {"initial.scale": [1.9, 1.92, 1.94, 1.96, 1.98, 1.99], "material.young": [2e9]}, tmp_path, max_workers=1, frame=False)
     assert all(r["reused"] for r in again)
     assert comparable(again) == comparable(rows)

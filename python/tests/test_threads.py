@@ -1,12 +1,9 @@
-"""The GIL is released while Rust works: two Python threads stepping two simulations take
-clearly less wall time than the same steps one after the other.
+"""The GIL is released while Rust works: two Python threads stepping two simulations are
+inside `step()` at the same time for most of it (impossible with the GIL held).
 
-Each simulation gets its own one-thread pool (`threads=1`), so that one step uses one core and
-the two threads can only overlap if the GIL is released (with the GIL held the ratio is ~1.0).
-Run in a child process so that the timing sees nothing of the test session. On a
-2-core machine the ideal ratio is 0.5; the test asserts <= 0.8 for the best of up to five
-measurements (other processes may load the machine). Independently of the load, the two threads
-must be inside `step()` at the same time for most of it (impossible with the GIL held).
+Each simulation gets its own one-thread pool (`threads=1`), so that one step uses one core. Run
+in a child process so that nothing of the test session interferes. The wall-time ratio is
+printed, not asserted: under load it says more about the other jobs than about the GIL.
 """
 
 from __future__ import annotations
@@ -54,21 +51,16 @@ print(json.dumps({"serial": serial, "threaded": threaded, "overlap": both}))
 
 @pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="needs 2 cores")
 def test_two_threads_run_in_parallel(scenes):
-    ratios, overlaps = [], []
-    for _ in range(5):
-        out = subprocess.run(
-            [sys.executable, "-c", CHILD, str(scenes / "sphere_uniform_heat.toml")],
-            check=True, capture_output=True, text=True,
-        ).stdout
-        t = json.loads(out.strip().splitlines()[-1])
-        assert t["serial"] > 0.25, f"too little work per step to measure: {t}"
-        ratios.append(t["threaded"] / t["serial"])
-        overlaps.append(t["overlap"])
-        if ratios[-1] <= 0.8:
-            break
-    print(f"threaded / serial wall time: {ratios}; steps overlapping: {overlaps}")
-    assert min(overlaps) > 0.5, f"the two threads' steps hardly overlap: the GIL is held ({overlaps})"
-    assert min(ratios) <= 0.8, ratios
+    # The overlap, not the wall-time ratio: on a loaded machine (other jobs on the cores) two
+    # threads that do run at once can take as long as one after the other, but they are still
+    # inside step() at the same moments, which a held GIL makes impossible.
+    out = subprocess.run(
+        [sys.executable, "-c", CHILD, str(scenes / "sphere_uniform_heat.toml")],
+        check=True, capture_output=True, text=True,
+    ).stdout
+    t = json.loads(out.strip().splitlines()[-1])
+    print(f"threaded / serial wall time: {t['threaded'] / t['serial']:.2f}; steps overlapping: {t['overlap']:.4f}")
+    assert t["overlap"] > 0.5, f"the two threads' steps hardly overlap: the GIL is held ({t})"
 
 
 def test_one_simulation_in_two_threads_is_an_error_not_a_deadlock(scenes):
@@ -93,4 +85,4 @@ def test_one_simulation_in_two_threads_is_an_error_not_a_deadlock(scenes):
         t.join(timeout=60)
     assert not any(t.is_alive() for t in ts)
     # Either the steps interleaved without overlapping, or the second thread was told.
-    assert all("in use by another thread" in e for e in errors)
+    assert all("being stepped by another thread" in e for e in errors)

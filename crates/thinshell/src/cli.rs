@@ -415,6 +415,150 @@ impl Observer for Writer {
     }
 }
 
+/// The end of a run's outputs: the last good state as an OBJ frame after a failure,
+/// `summary.json` (`status`: completed, interrupted, failed, or running for a run that goes on),
+/// and the first output error, if any.
+fn finish_outputs(
+    writer: &mut Writer,
+    sim: &Simulation,
+    dir: &Path,
+    status: &str,
+    failed: Option<&crate::sim::StepError>,
+) -> Result<(), Failure> {
+    let io = |e: std::io::Error, p: &Path| Failure::BadInput(format!("{}: {e}", p.display()));
+    let failure = failed.map(|e| e.to_string());
+    if failure.is_some() {
+        // The last good state, for inspection.
+        writer.obj = true;
+        writer.frame(sim);
+    }
+    let totals = &writer.totals;
+    let summary = serde_json::json!({
+        "scene": writer.scene_origin,
+        "name": sim.name(),
+        "status": status,
+        "error": failure,
+        "failed_step": failed.map(|e| e.step),
+        "residual_history": failed.and_then(crate::resume::residual_history),
+        "steps": sim.steps_done(),
+        "steps_requested": sim.steps_total(),
+        "time_s": sim.time(),
+        // Of the last good state (the start state when step 1 failed).
+        "energy": Energies::from(sim.energy()),
+        "frames": writer.frames,
+        "wall_s": totals.wall_s,
+        "newton_iterations": totals.newton_iterations,
+        "load_factor": sim.load_factor(),
+        "gauss_newton_iterations": totals.gauss_newton_iterations,
+        "stable": totals.stable,
+        "unstable_steps": totals.unstable_steps,
+    });
+    let summary_path = dir.join("summary.json");
+    let text = serde_json::to_string_pretty(&summary)
+        .map_err(|e| Failure::Simulation(format!("summary.json: {e}")))?;
+    crate::atomic::write_atomic(&summary_path, text.as_bytes())
+        .map_err(|e| io(e, &summary_path))?;
+    if let Some(e) = &writer.error {
+        return Err(Failure::Simulation(format!("writing output: {e}")));
+    }
+    Ok(())
+}
+
+/// The outputs of `thinshell run` (the scene's `[output]`: OBJ/VTK frames with `frames.pvd`,
+/// `steps.csv`, `summary.json`), written by the same code, for callers that step a
+/// [`Simulation`] themselves (the Python package): [`OutputWriter::create`] before the first
+/// step (writes the start frame), [`OutputWriter::step`] after every step,
+/// [`OutputWriter::finish`] for `summary.json`.
+pub struct OutputWriter {
+    writer: Writer,
+}
+
+impl OutputWriter {
+    /// Creates `dir`, `steps.csv` (header) and the start frame of `sim`, built from `scene`;
+    /// `scene_origin` names the scene in `summary.json`. A `checkpoint.bin` of an earlier run in
+    /// `dir` is removed (it would not belong to these outputs).
+    pub fn create(
+        scene: &Scene,
+        sim: &Simulation,
+        dir: &Path,
+        scene_origin: &str,
+    ) -> Result<OutputWriter, Failure> {
+        let io = |e: std::io::Error, p: &Path| Failure::BadInput(format!("{}: {e}", p.display()));
+        std::fs::create_dir_all(dir).map_err(|e| io(e, dir))?;
+        let stale = dir.join(CHECKPOINT_FILE);
+        if stale.exists() {
+            std::fs::remove_file(&stale).map_err(|e| io(e, &stale))?;
+        }
+        let csv_path = dir.join("steps.csv");
+        let mut csv = std::io::BufWriter::new(
+            std::fs::File::create(&csv_path).map_err(|e| io(e, &csv_path))?,
+        );
+        writeln!(
+            csv,
+            "{STEPS_CSV_HEADER}{}",
+            crate::sim::csv_extra_header(sim)
+        )
+        .map_err(|e| io(e, &csv_path))?;
+        let mut writer = Writer {
+            dir: dir.to_path_buf(),
+            every: scene.file.output.every,
+            obj: scene.file.output.formats.contains(&Format::Obj),
+            vtk: scene
+                .file
+                .output
+                .formats
+                .contains(&Format::Vtk)
+                .then(|| crate::vtk::Series::new(dir, "frames")),
+            csv,
+            bar: None,
+            error: None,
+            densities: None,
+            frames: 0,
+            last_frame: None,
+            csv_rows: 0,
+            iterative_noticed: false,
+            totals: Totals::default(),
+            checkpoint_every: None,
+            scene_hash: crate::sim::scene_hash(scene),
+            scene_path: PathBuf::from(scene_origin),
+            overrides: Vec::new(),
+            last_checkpoint: Instant::now(),
+            pending_output: 0.0,
+            resumed: false,
+            steps_done: Arc::new(AtomicUsize::new(sim.steps_done())),
+            scene_origin: scene_origin.to_string(),
+        };
+        writer.start(sim);
+        match writer.error.take() {
+            Some(e) => Err(Failure::BadInput(format!("writing output: {e}"))),
+            None => Ok(OutputWriter { writer }),
+        }
+    }
+
+    /// After a completed step: its row of `steps.csv` and, every `[output] every` steps and
+    /// at the last, a frame. Output errors are kept for [`OutputWriter::finish`].
+    pub fn step(&mut self, sim: &Simulation, record: &StepRecord) {
+        self.writer.step(sim, record);
+    }
+
+    /// Writes `summary.json` with `status` (completed, interrupted, failed, running) and the
+    /// failed step's error (whose last good state is then also written as an OBJ frame); may be
+    /// called again later (a run that goes on). Errors with the first output error.
+    pub fn finish(
+        &mut self,
+        sim: &Simulation,
+        status: &str,
+        failed: Option<&crate::sim::StepError>,
+    ) -> Result<(), Failure> {
+        self.writer
+            .csv
+            .flush()
+            .map_err(|e| Failure::Simulation(format!("writing output: steps.csv: {e}")))?;
+        let dir = self.writer.dir.clone();
+        finish_outputs(&mut self.writer, sim, &dir, status, failed)
+    }
+}
+
 /// `thinshell run SCENE` with default options (see [`run_with`]).
 pub fn run(
     scene: &Path,
@@ -518,7 +662,6 @@ fn drive(
     resumed: bool,
     stop: &Arc<AtomicBool>,
 ) -> Result<(), Failure> {
-    let io = |e: std::io::Error, p: &Path| Failure::BadInput(format!("{}: {e}", p.display()));
     let bar = (!options.quiet).then(|| {
         let bar = ProgressBar::new(sim.steps_total() as u64);
         bar.set_style(
@@ -584,46 +727,12 @@ fn drive(
         // Ctrl-C: `resume` continues from exactly here, with or without --checkpoint-every.
         writer.checkpoint(&sim);
     }
-    let (status, failure) = match &result {
-        Ok(s) if s.interrupted => ("interrupted", None),
-        Ok(_) => ("completed", None),
-        Err(e) => ("failed", Some(e.to_string())),
+    let status = match &result {
+        Ok(s) if s.interrupted => "interrupted",
+        Ok(_) => "completed",
+        Err(_) => "failed",
     };
-    if failure.is_some() {
-        // The last good state, for inspection.
-        writer.obj = true;
-        writer.frame(&sim);
-    }
-    let failed = result.as_ref().err();
-    let totals = &writer.totals;
-    let summary = serde_json::json!({
-        "scene": writer.scene_origin,
-        "name": sim.name(),
-        "status": status,
-        "error": failure,
-        "failed_step": failed.map(|e| e.step),
-        "residual_history": failed.and_then(crate::resume::residual_history),
-        "steps": sim.steps_done(),
-        "steps_requested": sim.steps_total(),
-        "time_s": sim.time(),
-        // Of the last good state (the start state when step 1 failed).
-        "energy": Energies::from(sim.energy()),
-        "frames": writer.frames,
-        "wall_s": totals.wall_s,
-        "newton_iterations": totals.newton_iterations,
-        "load_factor": sim.load_factor(),
-        "gauss_newton_iterations": totals.gauss_newton_iterations,
-        "stable": totals.stable,
-        "unstable_steps": totals.unstable_steps,
-    });
-    let summary_path = dir.join("summary.json");
-    let text = serde_json::to_string_pretty(&summary)
-        .map_err(|e| Failure::Simulation(format!("summary.json: {e}")))?;
-    crate::atomic::write_atomic(&summary_path, text.as_bytes())
-        .map_err(|e| io(e, &summary_path))?;
-    if let Some(e) = writer.error {
-        return Err(Failure::Simulation(format!("writing output: {e}")));
-    }
+    finish_outputs(&mut writer, &sim, &dir, status, result.as_ref().err())?;
     match (result, options.quiet) {
         (Err(e), _) => match crate::resume::memory_refusal(&e, &sim) {
             Some(line) => Err(Failure::BadInput(line)),

@@ -28,6 +28,14 @@ pub enum RestEditError {
     /// A stimulus of the wrong length or non-finite.
     #[error("stimulus: {0}")]
     Growth(#[from] GrowthError),
+    /// Positions or velocities of the wrong length, or a non-finite value.
+    #[error("{what}: {message}")]
+    State {
+        /// `positions` or `velocities`.
+        what: &'static str,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 impl Simulation {
@@ -74,6 +82,34 @@ impl Simulation {
         Ok(())
     }
 
+    /// Replaces the current positions (m, one per vertex, in mesh order); the energies
+    /// ([`Simulation::energy`]) are re-evaluated there against the current rest forms. The next
+    /// step starts from them; boundary conditions act on it as on any state (a pinned vertex
+    /// moved here is held where it now is, a prescribed motion is applied from the next step).
+    /// Errors on a wrong length or a non-finite value, leaving the simulation unchanged.
+    pub fn set_positions(&mut self, x: Vec<Vector3<f64>>) -> Result<(), RestEditError> {
+        check_vectors("positions", &x, self.system.mesh.n_vertices())?;
+        let (energy, _) = elastic_faces(
+            &self.system.mesh,
+            &self.system.model,
+            &self.system.rest,
+            &x,
+            &self.state.phi,
+        )?;
+        self.state.x = x;
+        self.energy = energy;
+        Ok(())
+    }
+
+    /// Replaces the current velocities (m/s, one per vertex); the next dynamic step starts
+    /// from them (static solves ignore velocities). Errors on a wrong length or a non-finite
+    /// value, leaving the simulation unchanged.
+    pub fn set_velocities(&mut self, v: Vec<Vector3<f64>>) -> Result<(), RestEditError> {
+        check_vectors("velocities", &v, self.system.mesh.n_vertices())?;
+        self.state.v = v;
+        Ok(())
+    }
+
     /// The current stimulus per face (growth scenes; `None` otherwise).
     pub fn stimulus(&self) -> Option<&[FaceStimulus]> {
         self.growth.as_ref().map(|g| g.stimulus())
@@ -90,6 +126,24 @@ impl Simulation {
             &self.state.phi,
         )?;
         Ok(faces)
+    }
+}
+
+/// `n` finite vectors, else [`RestEditError::State`] naming the first bad entry.
+fn check_vectors(what: &'static str, v: &[Vector3<f64>], n: usize) -> Result<(), RestEditError> {
+    let bad = |message: String| RestEditError::State { what, message };
+    if v.len() != n {
+        return Err(bad(format!(
+            "{} vectors given, the mesh has {n} vertices",
+            v.len()
+        )));
+    }
+    match v.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        Some(i) => Err(bad(format!(
+            "vertex {i} is not finite ({:?})",
+            v[i].as_slice()
+        ))),
+        None => Ok(()),
     }
 }
 

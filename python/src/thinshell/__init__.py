@@ -7,24 +7,29 @@ in m^2, b_bar in m.
 
 - :class:`Mesh` - a validated triangle mesh from ``V (n x 3)``, ``F (m x 3)`` or an OBJ file.
 - :class:`Scene` - a scene (docs/scenes.md) from a TOML file, a TOML string or a dict.
-- :class:`Simulation` - a built scene: ``step()``, ``run()``, ``positions``, ``energies``, ...;
-  the GIL is released while a step runs, so threads stepping different simulations run in
-  parallel.
+- :class:`Simulation` - a built scene: ``step()``, ``run()``, ``positions``, ``energies``,
+  ``set_positions()``, ``save()``/``restore()``, ``snapshot()``, ...; the GIL is released while
+  a step runs, so threads stepping different simulations run in parallel, and Ctrl-C stops a
+  step within one Newton iteration (KeyboardInterrupt; ``cancel()`` from another thread).
 - :func:`energy` - energy, gradient and Hessian (``scipy.sparse.csc_matrix``) of a mesh.
-- :func:`sweep` - every combination of a parameter grid, in a local process pool or on Dask.
+- :func:`sweep` - every combination of a parameter grid, in a local process pool or on Dask;
+  runs are keyed by scene, file contents and version, interruptible, returned as a DataFrame.
 
 Errors are :class:`ThinshellError` subclasses whose message is what the ``thinshell`` CLI
-prints: :class:`MeshError`, :class:`SceneError`, :class:`SimulationError`, :class:`EnergyError`.
+prints: :class:`MeshError`, :class:`SceneError`, :class:`SimulationError`, :class:`EnergyError`, :class:`Cancelled`.
 """
 
-from __future__ import annotations
 
-from typing import Iterable, Mapping, NamedTuple, Sequence
+from typing import Iterable as _Iterable
+from typing import Mapping as _Mapping
+from typing import NamedTuple as _NamedTuple
+from typing import Sequence as _Sequence
 
-import numpy as np
+import numpy as _np
 
 from . import _thinshell
 from ._thinshell import (
+    Cancelled,
     EnergyError,
     Mesh,
     MeshError,
@@ -34,11 +39,12 @@ from ._thinshell import (
     SimulationError,
     ThinshellError,
 )
-from .sweep import sweep
+from .sweep import SweepMismatch, sweep
 
 __version__: str = _thinshell.__version__
 
 __all__ = [
+    "Cancelled",
     "EnergyError",
     "EnergyResult",
     "Mesh",
@@ -47,6 +53,7 @@ __all__ = [
     "SceneError",
     "Simulation",
     "SimulationError",
+    "SweepMismatch",
     "ThinshellError",
     "energy",
     "load_scene",
@@ -55,8 +62,8 @@ __all__ = [
 
 
 def load_scene(
-    source: "str | bytes | Mapping[str, object] | Scene | object",
-    overrides: Sequence[str] = (),
+    source: "str | bytes | _Mapping[str, object] | Scene | object",
+    overrides: _Sequence[str] = (),
 ) -> Scene:
     """A :class:`Scene` from a file path (str or os.PathLike), a dict, or a Scene (returned
     with ``overrides`` applied). TOML text goes through :meth:`Scene.from_toml`.
@@ -65,12 +72,12 @@ def load_scene(
     """
     if isinstance(source, Scene):
         return source.with_overrides(list(overrides)) if overrides else source
-    if isinstance(source, Mapping):
+    if isinstance(source, _Mapping):
         return Scene.from_dict(dict(source), list(overrides))
     return Scene.from_file(source, list(overrides))
 
 
-class EnergyResult(NamedTuple):
+class EnergyResult(_NamedTuple):
     """What :func:`energy` returns."""
 
     energy: float
@@ -79,7 +86,7 @@ class EnergyResult(NamedTuple):
     """Stretching energy, J."""
     bend: float
     """Bending energy, J."""
-    gradient: np.ndarray
+    gradient: _np.ndarray
     """dE/dx, N: 3 n entries vertex-major (x0, y0, z0, x1, ...), then dE/dphi_e (J/rad) per
     edge with an edge-director form."""
     hessian: "object | None"
@@ -88,13 +95,13 @@ class EnergyResult(NamedTuple):
 
 
 def energy(
-    V: np.ndarray,
-    F: np.ndarray,
-    rest: "np.ndarray | tuple[np.ndarray, np.ndarray]",
-    material: "Mapping[str, float | str] | None" = None,
+    V: _np.ndarray,
+    F: _np.ndarray,
+    rest: "_np.ndarray | tuple[_np.ndarray, _np.ndarray]",
+    material: "_Mapping[str, float | str] | None" = None,
     form: str = "mid_edge_average",
-    terms: Iterable[str] = ("stretching", "bending"),
-    edge_angles: "np.ndarray | None" = None,
+    terms: "str | _Iterable[str]" = ("stretching", "bending"),
+    edge_angles: "_np.ndarray | None" = None,
     hessian: bool = True,
 ) -> EnergyResult:
     """Elastic energy of the shell ``(V, F)`` at positions ``V`` against ``rest``, with its
@@ -118,6 +125,8 @@ def energy(
     """
     import scipy.sparse
 
+    if isinstance(terms, str):
+        terms = [terms]  # "bending" is one term, not the letters b, e, n, ...
     stretch, bend, grad, rows, cols, vals, n = _thinshell.energy_parts(
         V,
         F,
@@ -125,7 +134,7 @@ def energy(
         dict(material) if material is not None else None,
         form,
         list(terms),
-        None if edge_angles is None else np.ascontiguousarray(edge_angles, dtype=np.float64),
+        None if edge_angles is None else _np.ascontiguousarray(edge_angles, dtype=_np.float64),
         hessian,
     )
     H = None

@@ -24,6 +24,9 @@ class SimulationError(ThinshellError):
 class EnergyError(ThinshellError):
     """Energy evaluation rejected its input or produced non-finite values."""
 
+class Cancelled(ThinshellError):
+    """A step stopped by ``Simulation.cancel()``; the state is that of the last completed step."""
+
 _Path = str | PathLike[str]
 
 class Mesh:
@@ -35,7 +38,8 @@ class Mesh:
         ``vertex_map``). Raises MeshError (degenerate, non-manifold, non-orientable, ...)."""
     @staticmethod
     def from_obj(path: _Path) -> Mesh:
-        """Reads an OBJ file (triangles)."""
+        """Reads an OBJ file; polygons (quads, ...) are split into triangles fanning out from
+        their first vertex."""
     @property
     def vertices(self) -> npt.NDArray[np.float64]:
         """n x 3, m (a copy)."""
@@ -78,7 +82,10 @@ class Scene:
         base_dir: _Path | None = None,
         origin: str = "<dict>",
     ) -> Scene:
-        """A dict with the schema of a scene file (None values are left out)."""
+        """A dict with the schema of a scene file (None values are left out). ``mesh`` may also
+        be a ``Mesh`` or ``{"vertices": V, "faces": F}``: it is written as an OBJ file named by
+        its content into the cache directory (``$THINSHELL_CACHE_DIR/meshes``, default
+        ``~/.cache/thinshell/meshes``), which the scene names as ``mesh.obj``."""
     @property
     def name(self) -> str: ...
     @property
@@ -90,6 +97,15 @@ class Scene:
     def overrides(self) -> list[str]: ...
     @property
     def base_dir(self) -> Path: ...
+    @property
+    def resolved_toml(self) -> str:
+        """The scene after its overrides as canonical TOML (every value; what a run does)."""
+    @property
+    def scene_hash(self) -> int:
+        """64-bit fingerprint of the scene after overrides, as checkpoints store it."""
+    @property
+    def files(self) -> list[Path]:
+        """Files a simulation of the scene reads (the mesh's OBJ file, if any)."""
     def with_overrides(self, overrides: Sequence[str]) -> Scene:
         """This scene with further ``key=value`` overrides."""
 
@@ -99,13 +115,44 @@ newton_iterations, backtracks, regularizations, residual, load_factor,
 gauss_newton_iterations, stable, wall_s, assembly_s, factorization_s, solve_s (s)."""
 
 class Simulation:
-    """A scene built into a simulation. Steps release the GIL; one thread per simulation."""
+    """A scene built into a simulation. Steps release the GIL; one thread steps a simulation,
+    any thread may read its state (a snapshot after the last completed step) meanwhile.
+    Picklable (through its checkpoint bytes)."""
 
-    def __init__(self, scene: Scene | Mapping[str, Any] | _Path, threads: int | None = None) -> None:
+    def __init__(
+        self,
+        scene: Scene | Mapping[str, Any] | _Path,
+        threads: int | None = None,
+        output: _Path | None = None,
+    ) -> None:
         """``threads``: threads of this simulation's own pool (default: the shared pool of all
-        cores). Raises SceneError / MeshError with the CLI's message."""
+        cores). ``output``: a directory that receives the scene's ``[output]`` as
+        ``thinshell run --out`` writes it (frames, steps.csv; summary.json once the run
+        completes, fails or is interrupted). Raises SceneError / MeshError with the CLI's
+        message."""
     def step(self) -> StepRecord:
-        """One step; raises SimulationError (the state stays the last good one)."""
+        """One step; raises SimulationError (the state stays the last good one), also once the
+        scene's ``integrator.steps`` are done. Ctrl-C stops the Newton solve within one
+        iteration (KeyboardInterrupt; the state stays that of the last completed step)."""
+    def cancel(self) -> None:
+        """From any thread: the running step stops within one Newton iteration and raises
+        ``Cancelled``; between steps, the next step raises it without stepping."""
+    def snapshot(self) -> dict[str, Any]:
+        """Read-only copy of the state after the last completed step: step, steps_total,
+        time (s), positions (n x 3, m), velocities (m/s), energies (J), load_factor."""
+    def set_positions(self, positions: npt.ArrayLike) -> None:
+        """n x 3, m; energies re-evaluated. Raises SimulationError on a wrong shape or NaN."""
+    def set_velocities(self, velocities: npt.ArrayLike) -> None:
+        """n x 3, m/s. Raises SimulationError on a wrong shape or NaN."""
+    def save(self, path: _Path) -> None:
+        """Checkpoint of the current state (the format of the CLI's ``checkpoint.bin``)."""
+    def restore(self, path: _Path) -> None:
+        """Continues from a checkpoint of the same scene (``save`` or the CLI's); bit for bit."""
+    def to_bytes(self) -> bytes:
+        """The checkpoint as bytes."""
+    @staticmethod
+    def from_bytes(scene: Scene | Mapping[str, Any] | _Path, data: bytes, threads: int | None = None) -> Simulation:
+        """A simulation of ``scene`` in the checkpoint's state (what unpickling calls)."""
     def run(
         self,
         callback: Callable[[Simulation, StepRecord], object] | None = None,
