@@ -204,17 +204,20 @@ impl SparseCholesky {
     /// Symbolic analysis of a square pattern holding the lower triangle with every diagonal
     /// entry present. `coordinates` (per dof, m) feed the geometric nested dissection.
     ///
-    /// With an [`Ordering::Metis`] ordering (chosen or picked by `Auto`) whose predicted flops
-    /// reach [`SPLIT_MIN_FLOPS`], the factorisation is split at the top-level dissection
+    /// `par`: with [`Par::Seq`] faer factorises the whole matrix sequentially (the fewest
+    /// flops on one thread). With [`Par::Rayon`] of any thread count, an [`Ordering::Metis`]
+    /// ordering (chosen or picked by `Auto`) and predicted flops of at least
+    /// [`SPLIT_MIN_FLOPS`], the factorisation is split at the top-level dissection
     /// ([`is_split`](Self::is_split)): each half is factorised by faer on one thread, with the
     /// product of its separator block, and the separator's Schur complement densely on one
-    /// thread. `par` only decides whether the two halves (and the halves of each solve) run
-    /// concurrently (`rayon::join`, with ≥ 2 threads) or one after the other: the same
-    /// floating-point operations run in the same order either way, so factors and solutions
-    /// are bit-identical whatever `par` and the rayon pool's size. (faer's own parallelism is
-    /// not used: it only splits the dense kernels inside each supernode, which are too small on
-    /// shell Hessians, and its parallel reductions depend on the thread count.) Otherwise faer
-    /// factorises the whole matrix sequentially.
+    /// thread; the two halves (and the halves of each solve) run concurrently (`rayon::join`)
+    /// when the pool has ≥ 2 threads, one after the other otherwise. The same floating-point
+    /// operations run in the same order either way, so factors and solutions are bit-identical
+    /// for any `Par::Rayon` thread count (they differ from [`Par::Seq`]'s in the last bits;
+    /// the split does about s³ more flops, s the separator's size: 21 % at 20 480 faces).
+    /// faer's own parallelism is not used: it only splits the dense kernels inside each
+    /// supernode, which are too small on shell Hessians, and its parallel reductions depend on
+    /// the thread count.
     pub fn new(
         pattern: SymbolicSparseColMatRef<'_, usize>,
         ordering: Ordering,
@@ -229,7 +232,11 @@ impl SparseCholesky {
         let factor_len = symbolic.len_val();
         let supernodal = matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_));
         let (engine, estimate) = match split {
-            Some((perm, sizes)) if flops >= SPLIT_MIN_FLOPS && sizes.iter().all(|&k| k > 0) => {
+            Some((perm, sizes))
+                if matches!(par, Par::Rayon(_))
+                    && flops >= SPLIT_MIN_FLOPS
+                    && sizes.iter().all(|&k| k > 0) =>
+            {
                 // The split holds about the whole factor plus four dense separator blocks:
                 // refuse it before allocating.
                 let [_, _, sep] = sizes;
@@ -329,7 +336,7 @@ impl SparseCholesky {
     }
 
     /// Whether the factorisation is split at the top-level dissection (described at
-    /// [`new`](Self::new)); its halves run concurrently when `par` has ≥ 2 threads.
+    /// [`new`](Self::new)); its halves run concurrently when the pool has ≥ 2 threads.
     pub fn is_split(&self) -> bool {
         matches!(self.engine, Engine::Split(_))
     }
@@ -707,7 +714,7 @@ pub fn factor_flops(symbolic: &SymbolicCholesky<usize>) -> f64 {
 
 /// Factorisations below this many predicted flops are not split (whatever the thread count,
 /// so that the result does not depend on it): splitting costs two extra dense products of the
-/// top separator's size and, with two threads, a thread hand-off.
+/// top separator's size, a second factorisation of its block, and a thread hand-off.
 pub const SPLIT_MIN_FLOPS: f64 = 2e8;
 
 /// The factorisation split at the top-level dissection (see [`SparseCholesky::new`]): with the

@@ -1,5 +1,6 @@
 //! The split factorisation gives bit-identical factors and solutions whatever the thread count
-//! (issue #31, item 2): `Par::Seq` and rayon pools of 1, 2 and 3 threads.
+//! (issue #31, item 2): rayon pools of 1, 2 and 3 threads (`NewtonSettings::parallel`, the
+//! default, factorises with `Par::rayon(0)`: the pool's size).
 #![allow(clippy::unwrap_used)]
 
 use faer::Par;
@@ -104,24 +105,31 @@ fn split_factorisation_is_bit_identical_for_1_2_and_3_threads() {
             .collect::<Vec<_>>(),
         (0..n).map(|i| (i as f64 * 0.37).sin()).collect::<Vec<_>>(),
     ];
-    let (split, reference, pivot) = run(&h, &bad, &rhs, Par::Seq);
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let (split, reference, pivot) = one.install(|| run(&h, &bad, &rhs, Par::rayon(0)));
     assert!(split, "the level-4 sphere must take the split path");
-    // The split's solutions against an independent factorisation (AMD, faer on the whole
-    // matrix): the condition number is about 12/1e-3, so agreement to ~1e-10 relative.
-    let mut amd = SparseCholesky::new(h.symbolic(), Ordering::Amd, None, Par::Seq).unwrap();
-    assert!(!amd.is_split());
-    amd.factorize(h.as_ref()).unwrap();
-    for (b, x) in rhs.iter().zip(&reference) {
-        let mut y = b.clone();
-        amd.solve_in_place(&mut y).unwrap();
-        let diff: Vec<f64> = x.iter().zip(&y).map(|(p, q)| p - q).collect();
-        assert!(
-            max_abs(&diff) <= 1e-9 * max_abs(&y),
-            "split vs AMD: {}",
-            max_abs(&diff)
-        );
-        let r: Vec<f64> = sym_mul(&h, x).iter().zip(b).map(|(p, q)| p - q).collect();
-        assert!(max_abs(&r) < 1e-10 * max_abs(b), "residual {}", max_abs(&r));
+    // The split's solutions against independent factorisations (faer on the whole matrix, same
+    // ordering and AMD): the condition number is about 12/1e-3, so agreement to ~1e-10
+    // relative.
+    for ordering in [Ordering::Metis, Ordering::Amd] {
+        let mut whole = SparseCholesky::new(h.symbolic(), ordering, None, Par::Seq).unwrap();
+        assert!(!whole.is_split());
+        whole.factorize(h.as_ref()).unwrap();
+        for (b, x) in rhs.iter().zip(&reference) {
+            let mut y = b.clone();
+            whole.solve_in_place(&mut y).unwrap();
+            let diff: Vec<f64> = x.iter().zip(&y).map(|(p, q)| p - q).collect();
+            assert!(
+                max_abs(&diff) <= 1e-9 * max_abs(&y),
+                "split vs {ordering:?} unsplit: {}",
+                max_abs(&diff)
+            );
+            let r: Vec<f64> = sym_mul(&h, x).iter().zip(b).map(|(p, q)| p - q).collect();
+            assert!(max_abs(&r) < 1e-10 * max_abs(b), "residual {}", max_abs(&r));
+        }
     }
     for threads in [1, 2, 3] {
         let pool = rayon::ThreadPoolBuilder::new()
