@@ -24,8 +24,12 @@ fn weighted_shell_laplacian(shift: f64) -> SparseColMat<usize, f64> {
     let weight = |p: usize| 0.5 + ((p * 7919) % 1000) as f64 / 1000.0;
     let mut degree = vec![0.0; n];
     for j in 0..n {
-        for p in col_ptr[j]..col_ptr[j + 1] {
-            let i = rows[p];
+        for (p, &i) in rows
+            .iter()
+            .enumerate()
+            .take(col_ptr[j + 1])
+            .skip(col_ptr[j])
+        {
             if i != j {
                 degree[i] += weight(p);
                 degree[j] += weight(p);
@@ -35,6 +39,7 @@ fn weighted_shell_laplacian(shift: f64) -> SparseColMat<usize, f64> {
     let val = h.val_mut();
     for j in 0..n {
         for p in col_ptr[j]..col_ptr[j + 1] {
+            // `val` and `rows` share the index.
             val[p] = if rows[p] == j {
                 degree[j] + shift
             } else {
