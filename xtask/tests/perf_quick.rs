@@ -62,7 +62,7 @@ fn quick_perf_rewrites_its_section_and_records_every_measure() -> TestResult {
         assert_eq!(head_and_tail(&text), head_and_tail(&original));
         assert!(!text.contains("stale text"));
         for needle in [
-            "| measure | libshell (issue #17) | thinshell | ratio | target | met / gap |",
+            "| measure | libshell (issue #31) | libshell (issue #17) | thinshell | ratio | target | met / gap |",
             "Machine: ",
             "`cargo xtask perf --quick --big`",
             "growth exponent of a Newton iteration",
@@ -77,6 +77,7 @@ fn quick_perf_rewrites_its_section_and_records_every_measure() -> TestResult {
             "gather/mid_edge_average".to_string(),
             "factorisation/l3/t1".into(),
             "factorisation/l4/t1".into(),
+            "factorisation/l4/t1-split".into(),
             "newton/l3/t1".into(),
             "newton/l4/t1".into(),
         ];

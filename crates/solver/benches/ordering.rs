@@ -6,10 +6,12 @@
 //! vertices (two rings), each coupling a dense 3×3 block. Values make the matrix diagonally
 //! dominant (SPD); the cost of a Cholesky factorisation does not depend on them.
 //!
-//! `factorize_threads/{1,2}_threads`: the numeric factorisation with the default (METIS)
-//! ordering at 20 480 faces with `Par::Seq` and with `Par::rayon(2)` (the split over the two
-//! halves of the top-level dissection, `SparseCholesky::new`); meaningful on an idle machine
-//! with at least two cores only.
+//! `factorize_threads/{1_thread,1_thread_split,2_threads}`: the numeric factorisation with the
+//! default (METIS) ordering at 20 480 faces with `Par::Seq` (faer, unsplit), `Par::rayon(1)`
+//! (the split over the two halves of the top-level dissection, `SparseCholesky::new`, run one
+//! half after the other: the default `NewtonSettings::parallel` on one thread, same bits as on
+//! two) and `Par::rayon(2)` (the split, halves concurrent); the two-thread figure is meaningful
+//! on an idle machine with at least two cores only.
 //!
 //! Run: `cargo bench -p thinshell-solver --bench ordering`
 #![allow(clippy::unwrap_used, missing_docs)]
@@ -98,11 +100,15 @@ fn bench_pattern(
     group.finish();
 }
 
-/// One vs two threads, the default ordering, 20 480 faces.
+/// One thread (unsplit and split) vs two threads, the default ordering, 20 480 faces.
 fn bench_threads(c: &mut Criterion, h: &SparseColMat<usize, f64>) {
     let mut group = c.benchmark_group("factorize_threads");
     group.sample_size(10);
-    for (name, par) in [("1_thread", Par::Seq), ("2_threads", Par::rayon(2))] {
+    for (name, par) in [
+        ("1_thread", Par::Seq),
+        ("1_thread_split", Par::rayon(1)),
+        ("2_threads", Par::rayon(2)),
+    ] {
         let mut chol = SparseCholesky::new(h.symbolic(), Ordering::default(), None, par).unwrap();
         let s = chol.stats();
         eprintln!(

@@ -204,15 +204,20 @@ impl SparseCholesky {
     /// Symbolic analysis of a square pattern holding the lower triangle with every diagonal
     /// entry present. `coordinates` (per dof, m) feed the geometric nested dissection.
     ///
-    /// `par`: with [`Par::Seq`] (or one thread) faer factorises sequentially. With two or more
-    /// threads and an [`Ordering::Metis`] ordering (chosen or picked by `Auto`) whose predicted
-    /// flops reach [`SPLIT_MIN_FLOPS`], the two halves of the top-level dissection are
-    /// factorised concurrently on the rayon pool (`rayon::join`, each half by faer on one
-    /// thread) and their separator's Schur complement densely with faer on `par`: faer's own
-    /// parallelism only splits the dense kernels inside each supernode, which are too small on
-    /// shell Hessians (two threads were 1.6× slower than one at 20 480 faces). Otherwise the
-    /// factorisation stays sequential. Results are deterministic for a given `par` (the split
-    /// reorders round-off: they differ from the sequential factorisation in the last bits).
+    /// `par`: with [`Par::Seq`] faer factorises the whole matrix sequentially (the fewest
+    /// flops on one thread). With [`Par::Rayon`] of any thread count, an [`Ordering::Metis`]
+    /// ordering (chosen or picked by `Auto`) and predicted flops of at least
+    /// [`SPLIT_MIN_FLOPS`], the factorisation is split at the top-level dissection
+    /// ([`is_split`](Self::is_split)): each half is factorised by faer on one thread, with the
+    /// product of its separator block, and the separator's Schur complement densely on one
+    /// thread; the two halves (and the halves of each solve) run concurrently (`rayon::join`)
+    /// when the pool has ≥ 2 threads, one after the other otherwise. The same floating-point
+    /// operations run in the same order either way, so factors and solutions are bit-identical
+    /// for any `Par::Rayon` thread count (they differ from [`Par::Seq`]'s in the last bits;
+    /// the split does about s³ more flops, s the separator's size: 21 % at 20 480 faces).
+    /// faer's own parallelism is not used: it only splits the dense kernels inside each
+    /// supernode, which are too small on shell Hessians, and its parallel reductions depend on
+    /// the thread count.
     pub fn new(
         pattern: SymbolicSparseColMatRef<'_, usize>,
         ordering: Ordering,
@@ -228,14 +233,14 @@ impl SparseCholesky {
         let supernodal = matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_));
         let (engine, estimate) = match split {
             Some((perm, sizes))
-                if par.degree() >= 2
+                if matches!(par, Par::Rayon(_))
                     && flops >= SPLIT_MIN_FLOPS
                     && sizes.iter().all(|&k| k > 0) =>
             {
-                // The split holds about the whole factor plus three dense separator blocks:
+                // The split holds about the whole factor plus four dense separator blocks:
                 // refuse it before allocating.
                 let [_, _, sep] = sizes;
-                let estimate = factor_memory_estimate(factor_len + 3 * sep * sep, 0, 0);
+                let estimate = factor_memory_estimate(factor_len + 4 * sep * sep, 0, 0);
                 check_budget(symbolic.nrows(), estimate)?;
                 drop(symbolic);
                 let f = SplitFactor::new(pattern, perm, sizes, par)?;
@@ -330,26 +335,27 @@ impl SparseCholesky {
         Ok(())
     }
 
-    /// Whether the factorisation runs on two threads (the split described at
-    /// [`new`](Self::new)).
+    /// Whether the factorisation is split at the top-level dissection (described at
+    /// [`new`](Self::new)); its halves run concurrently when the pool has ≥ 2 threads.
     pub fn is_split(&self) -> bool {
         matches!(self.engine, Engine::Split(_))
     }
 
     /// Predicted flops of the split factorisation's parts, `[half A, half B, dense]` (halves as
-    /// [`factor_flops`], each including its copy of the separator block; dense: the two Schur
-    /// products and the separator's Cholesky, s³/3 each), `None` when not split. The two
-    /// halves run concurrently, so the critical path is `max(A, B) + dense` (the dense part
-    /// itself runs on `par`), against [`FactorStats::flops`] on one thread.
+    /// [`factor_flops`], each including its copy of the separator block and its Schur
+    /// product, s³/3; dense: the separator's Cholesky, s³/3), `None` when not split. With two
+    /// threads the halves run concurrently, so the critical path is `max(A, B) + dense`,
+    /// against [`FactorStats::flops`] on one thread.
     pub fn split_flops(&self) -> Option<[f64; 3]> {
         match &self.engine {
             Engine::Whole { .. } => None,
             Engine::Split(f) => {
                 let s = f.sizes[2] as f64;
+                let product = s * s * s / 3.0;
                 Some([
-                    factor_flops(&f.halves[0].symbolic),
-                    factor_flops(&f.halves[1].symbolic),
-                    s * s * s,
+                    factor_flops(&f.halves[0].symbolic) + product,
+                    factor_flops(&f.halves[1].symbolic) + product,
+                    product,
                 ])
             }
         }
@@ -706,16 +712,19 @@ pub fn factor_flops(symbolic: &SymbolicCholesky<usize>) -> f64 {
     }
 }
 
-/// Factorisations below this many predicted flops stay on one thread: splitting costs two
-/// extra dense products of the top separator's size and a thread hand-off.
+/// Factorisations below this many predicted flops are not split (whatever the thread count,
+/// so that the result does not depend on it): splitting costs two extra dense products of the
+/// top separator's size, a second factorisation of its block, and a thread hand-off.
 pub const SPLIT_MIN_FLOPS: f64 = 2e8;
 
-/// The factorisation on two threads (see [`SparseCholesky::new`]): with the top-level nested
-/// dissection split of the permuted matrix into halves `A`, `B` (uncoupled) and separator `S`,
-/// each thread factorises `M_A = [H_AA H_AS; H_SA H_SS]` (resp. `M_B`) with faer, whose
-/// trailing block is `C_A C_Aᵀ = H_SS − L_SA L_SAᵀ`; the Schur complement of the whole matrix
-/// is then `C_A C_Aᵀ + C_B C_Bᵀ − H_SS`, factorised densely. `H` is positive definite exactly
-/// when `M_A`, `M_B` and that complement are.
+/// The factorisation split at the top-level dissection (see [`SparseCholesky::new`]): with the
+/// permuted matrix split into halves `A`, `B` (uncoupled) and separator `S`, each half
+/// factorises `M_A = [H_AA H_AS; H_SA H_SS]` (resp. `M_B`) with faer, whose trailing block is
+/// `C_A C_Aᵀ = H_SS − L_SA L_SAᵀ`, and forms the lower triangle of `C_A C_Aᵀ` in its own
+/// buffer; the Schur complement of the whole matrix, `(C_A C_Aᵀ + C_B C_Bᵀ) − H_SS` (summed
+/// entry by entry in that order), is factorised densely. `H` is positive definite exactly when
+/// `M_A`, `M_B` and that complement are. Every kernel runs on one thread (`Par::Seq`) and
+/// every sum has a fixed order, so the result does not depend on which thread ran what.
 struct SplitFactor {
     /// `perm[new] = old` of the whole ordering.
     perm: Vec<usize>,
@@ -724,8 +733,11 @@ struct SplitFactor {
     halves: [Half; 2],
     /// Positions in `h`'s value array of the S × S lower entries and their (row, col) in S.
     s_entries: Vec<(usize, usize, usize)>,
-    /// Dense s × s: the Schur complement, then its Cholesky factor (lower).
+    /// Dense s × s: half A's product `C_A C_Aᵀ`, then the Schur complement, then its
+    /// Cholesky factor (lower).
     schur: Mat<f64>,
+    /// Dense s × s: half B's product `C_B C_Bᵀ` (lower).
+    product: Mat<f64>,
     schur_mem: MemBuffer,
     /// Permuted right-hand side / solution.
     work: Vec<f64>,
@@ -830,9 +842,9 @@ impl Half {
         }
     }
 
-    /// Factorises `M` (values from `h`) and copies the trailing block into `c`. Errors with
-    /// the failing pivot in `M`'s numbering.
-    fn factorize(&mut self, h: &[f64]) -> Result<(), usize> {
+    /// Factorises `M` (values from `h`), copies the trailing block into `c` and writes the lower
+    /// triangle of `c cᵀ` into `product`. Errors with the failing pivot in `M`'s numbering.
+    fn factorize(&mut self, h: &[f64], product: MatMut<'_, f64>) -> Result<(), usize> {
         let val = self.matrix.val_mut();
         for &(src, dst) in &self.scatter {
             val[dst] = h[src];
@@ -881,6 +893,17 @@ impl Half {
                 }
             }
         }
+        triangular::matmul(
+            product,
+            BlockStructure::TriangularLower,
+            Accum::Replace,
+            self.c.as_ref(),
+            BlockStructure::TriangularLower,
+            self.c.as_ref().transpose(),
+            BlockStructure::TriangularUpper,
+            1.0,
+            Par::Seq,
+        );
         Ok(())
     }
 
@@ -962,7 +985,7 @@ impl SplitFactor {
         let schur_mem = MemBuffer::try_new(
             faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
                 s,
-                par,
+                Par::Seq,
                 Default::default(),
             ),
         )
@@ -973,6 +996,7 @@ impl SplitFactor {
             halves,
             s_entries,
             schur: Mat::zeros(s, s),
+            product: Mat::zeros(s, s),
             schur_mem,
             work: vec![0.0; n],
             par,
@@ -987,41 +1011,43 @@ impl SplitFactor {
             .iter()
             .map(|h| 8 * (h.l_values.len() + h.matrix.val().len() + s * s))
             .sum();
-        (halves + 8 * s * s) as u64
+        (halves + 16 * s * s) as u64
+    }
+
+    /// Whether the halves run concurrently.
+    fn concurrent(&self) -> bool {
+        self.par.degree() >= 2
     }
 
     fn factorize(&mut self, h: &[f64]) -> Result<(), FactorError> {
-        let [a, b, _] = self.sizes;
+        let [a, b, s] = self.sizes;
+        let concurrent = self.concurrent();
         let [h0, h1] = &mut self.halves;
-        let (r0, r1) = rayon::join(|| h0.factorize(h), || h1.factorize(h));
+        let (pa, pb) = (self.schur.as_mut(), self.product.as_mut());
+        let (r0, r1) = if concurrent {
+            rayon::join(|| h0.factorize(h, pa), || h1.factorize(h, pb))
+        } else {
+            (h0.factorize(h, pa), h1.factorize(h, pb))
+        };
         r0.map_err(|p| FactorError::NotPositiveDefinite {
             pivot: if p < a { p } else { p + b },
         })?;
         r1.map_err(|p| FactorError::NotPositiveDefinite { pivot: a + p })?;
-        // S = C_A C_Aᵀ + C_B C_Bᵀ − H_SS (lower triangle).
+        // S = (C_A C_Aᵀ + C_B C_Bᵀ) − H_SS (lower triangle; H_SS's entries are distinct).
         let mut schur = self.schur.as_mut();
-        schur.fill(0.0);
-        for &(p, i, j) in &self.s_entries {
-            schur[(i, j)] = -h[p];
+        for j in 0..s {
+            for i in j..s {
+                schur[(i, j)] += self.product[(i, j)];
+            }
         }
-        for half in &self.halves {
-            triangular::matmul(
-                schur.rb_mut(),
-                BlockStructure::TriangularLower,
-                Accum::Add,
-                half.c.as_ref(),
-                BlockStructure::TriangularLower,
-                half.c.as_ref().transpose(),
-                BlockStructure::TriangularUpper,
-                1.0,
-                self.par,
-            );
+        for &(p, i, j) in &self.s_entries {
+            schur[(i, j)] -= h[p];
         }
         let stack = MemStack::new(&mut self.schur_mem);
         faer::linalg::cholesky::llt::factor::cholesky_in_place(
             schur,
             Default::default(),
-            self.par,
+            Par::Seq,
             stack,
             Default::default(),
         )
@@ -1042,17 +1068,28 @@ impl SplitFactor {
         let [h0, h1] = &mut self.halves;
         h0.rhs[..a].copy_from_slice(&self.work[..a]);
         h1.rhs[..b].copy_from_slice(&self.work[a..sep]);
-        rayon::join(|| h0.forward(), || h1.forward());
+        let concurrent = self.par.degree() >= 2;
+        if concurrent {
+            rayon::join(|| h0.forward(), || h1.forward());
+        } else {
+            h0.forward();
+            h1.forward();
+        }
         // y_S = L_S⁻¹ (b_S − L_SA y_A − L_SB y_B), then x_S = L_S⁻ᵀ y_S.
         let (_, x_s) = self.work.split_at_mut(sep);
         for ((x, p), q) in x_s.iter_mut().zip(&h0.tmp).zip(&h1.tmp) {
             *x += p + q;
         }
         let mut xs = MatMut::from_column_major_slice_mut(x_s, s, 1);
-        solve_lower_triangular_in_place(self.schur.as_ref(), xs.rb_mut(), self.par);
-        solve_upper_triangular_in_place(self.schur.as_ref().transpose(), xs.rb_mut(), self.par);
+        solve_lower_triangular_in_place(self.schur.as_ref(), xs.rb_mut(), Par::Seq);
+        solve_upper_triangular_in_place(self.schur.as_ref().transpose(), xs.rb_mut(), Par::Seq);
         let x_s = &self.work[sep..];
-        rayon::join(|| h0.backward(x_s), || h1.backward(x_s));
+        if concurrent {
+            rayon::join(|| h0.backward(x_s), || h1.backward(x_s));
+        } else {
+            h0.backward(x_s);
+            h1.backward(x_s);
+        }
         self.work[..a].copy_from_slice(&h0.rhs[..a]);
         self.work[a..sep].copy_from_slice(&h1.rhs[..b]);
         for (new, &old) in self.perm.iter().enumerate() {

@@ -156,14 +156,15 @@ pub struct NewtonSettings {
     pub regularization: Option<RegularizationParams>,
     /// Fill-reducing ordering of the factorisation (used when the workspace is built).
     pub ordering: Ordering,
-    /// Factorise on the rayon thread pool (opt-in; default `false`): with ≥ 2 threads, the
-    /// METIS ordering and a factor of ≥ 2e8 flops, the two halves of the top nested-dissection
-    /// split are factorised concurrently and the separator densely in parallel (1.13–1.30×
-    /// faster than one thread at 20 480 faces, 1.51–1.68× at 81 920, on an idle 2-core VM:
-    /// `cargo xtask perf`); otherwise sequentially. Results agree with one thread to round-off.
-    /// Off by default for now: a bit-for-bit resume test failed once with it on, and the cause
-    /// found since (METIS's process-wide random state, now serialised; it also hit a run with
-    /// it off) has not yet been re-checked with two threads as the default.
+    /// Factorise on the rayon thread pool (default `true`): with the METIS ordering and a
+    /// factor of ≥ 2e8 flops, the factorisation is split at the top nested-dissection level
+    /// and its two halves run concurrently when the pool has ≥ 2 threads (1.13–1.30× faster
+    /// than one thread at 20 480 faces, 1.51–1.68× at 81 920, on an idle 2-core VM:
+    /// `cargo xtask perf`), one after the other on one thread. The same floating-point
+    /// operations run in the same order for every pool size
+    /// ([`SparseCholesky::new`](crate::SparseCholesky::new)), so results are bit-identical
+    /// whatever the thread count. `false`: faer on the whole matrix, one thread (fewer flops
+    /// on one core; results differ from `true`'s in the last bits).
     pub parallel: bool,
     /// Factorisation reuse: while the last Cholesky factor is of an unshifted Hessian of the
     /// same kind ([`IterationHessian`]), solve `H dx = −∇f` by CG preconditioned with it
@@ -251,7 +252,7 @@ impl Default for NewtonSettings {
             watchdog: 4,
             regularization: Some(RegularizationParams::default()),
             ordering: Ordering::default(),
-            parallel: false,
+            parallel: true,
             reuse_factor: false,
             reuse_max_iterations: 20,
             reuse_tolerance: 1e-6,

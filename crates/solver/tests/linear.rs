@@ -334,9 +334,10 @@ fn shell_laplacian(shift: f64) -> SparseColMat<usize, f64> {
     h
 }
 
-/// With two threads and the METIS ordering the factorisation is split over the two halves of
-/// the top-level dissection: same solution as the sequential factorisation (to round-off),
-/// deterministic, and an indefinite matrix is still refused.
+/// With the METIS ordering and enough flops the factorisation is split over the two halves of
+/// the top-level dissection (on two threads here; not with `Par::Seq`): same solution as the
+/// unsplit sequential factorisation (to round-off), deterministic, and an indefinite matrix is
+/// still refused. (Independence of the thread count: `tests/thread_independence.rs`.)
 #[test]
 fn two_thread_split_factorisation_matches_the_sequential_one() {
     let h = shell_laplacian(0.5);

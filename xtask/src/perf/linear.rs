@@ -1,16 +1,23 @@
-//! The factorisation: numeric factorisation with 1 and 2 faer threads (forced, whatever the
-//! library's default), and the predicted flops of every [`Ordering`] variant.
+//! The factorisation: numeric factorisation with 1 thread (faer's unsplit factorisation,
+//! `NewtonSettings::parallel = false`, and the split one that `parallel = true`, the default,
+//! runs on a one-thread pool) and with 2 threads (the split), and the predicted flops of every
+//! [`Ordering`] variant.
 
 use anyhow::{Context, Result};
 use thinshell_solver::{Ordering, SparseCholesky};
 
-use super::newton::{Problems, par, problem, record};
+use super::newton::{FactorKey, Problems, par, problem, record};
 use super::report::{Facts, OrderingFacts};
 use super::{Measure, Sizes, pool};
 
-/// Id of the factorisation at `level` with `threads` faer threads.
+/// Id of the factorisation at `level` with `threads` faer threads (`Par::Seq` for 1).
 pub(crate) fn id(level: usize, threads: usize) -> String {
     format!("factorisation/l{level}/t{threads}")
+}
+
+/// Id of the split factorisation at `level` on a one-thread pool (the default settings).
+pub(crate) fn split_one_id(level: usize) -> String {
+    format!("factorisation/l{level}/t1-split")
 }
 
 /// Every ordering the library has. The exhaustive `match` makes a new variant a compile error
@@ -58,22 +65,29 @@ pub(crate) fn measures(
                 symbolic_s: s.symbolic_time.as_secs_f64(),
             });
         }
-        for &threads in &sizes.threads {
+        let mut keys: Vec<(String, FactorKey)> = sizes
+            .threads
+            .iter()
+            .map(|&t| (id(level, t), (t, false)))
+            .collect();
+        keys.push((split_one_id(level), (1, true)));
+        for (measure_id, key) in keys {
+            let threads = key.0;
             let pl = pool(threads)?;
             let p = p.clone();
             {
                 let mut guard = p.borrow_mut();
                 let pm: &mut super::newton::Problem = &mut guard;
-                pl.install(|| pm.cholesky(threads).map(|_| ()))?;
+                pl.install(|| pm.cholesky(key).map(|_| ()))?;
             }
             out.push(Measure {
-                id: id(level, threads),
+                id: measure_id,
                 parts: vec!["total"],
                 per: 1.0,
                 action: Box::new(move || {
                     let mut guard = p.borrow_mut();
                     let pm: &mut super::newton::Problem = &mut guard;
-                    pl.install(|| pm.factorize(threads)).map(|t| vec![t])
+                    pl.install(|| pm.factorize(key)).map(|t| vec![t])
                 }),
             });
         }

@@ -6,7 +6,8 @@
 //! energy, gradient and exact Hessian plus the inertia diagonal Λ/Δt², numeric Cholesky
 //! factorisation, triangular solve. Ordering and regularisation are
 //! [`NewtonSettings::default`]'s, i.e. whatever the library does by default; the factorisation
-//! runs on the row's thread count (2 threads: `NewtonSettings::parallel = true`, opt-in); the
+//! runs on the row's thread count with the default `NewtonSettings::parallel` (`true`: the
+//! split factorisation, on one thread too, so that every thread count gives the same bits); the
 //! symbolic analysis is done once per pattern outside the timing, as in a simulation.
 
 use std::cell::RefCell;
@@ -56,6 +57,20 @@ pub(crate) fn par(threads: usize) -> Par {
     }
 }
 
+/// Which factorisation a measure uses: `(threads, library default)`. `false`: [`par`]`(threads)`
+/// (one thread: `Par::Seq`, faer's unsplit factorisation, i.e. `NewtonSettings::parallel =
+/// false`); `true`: the parallelism `NewtonSettings::default()` asks for on a pool of `threads`.
+pub(crate) type FactorKey = (usize, bool);
+
+/// The `Par` of a [`FactorKey`].
+pub(crate) fn key_par((threads, default): FactorKey) -> Par {
+    if default && NewtonSettings::default().parallel {
+        Par::rayon(threads)
+    } else {
+        par(threads)
+    }
+}
+
 /// The shrinking sphere at one level: pattern, values, and one factorisation per faer thread
 /// count asked for (symbolic analysis with the default ordering).
 pub(crate) struct Problem {
@@ -69,7 +84,7 @@ pub(crate) struct Problem {
     gradient: Vec<f64>,
     rhs: Vec<f64>,
     pub(crate) coords: Vec<[f64; 3]>,
-    choleskys: BTreeMap<usize, SparseCholesky>,
+    choleskys: BTreeMap<FactorKey, SparseCholesky>,
     mu: f64,
 }
 
@@ -138,46 +153,48 @@ impl Problem {
         Ok(())
     }
 
-    /// The factorisation with `faer_threads` threads (built on first use).
-    pub(crate) fn cholesky(&mut self, faer_threads: usize) -> Result<&mut SparseCholesky> {
-        if !self.choleskys.contains_key(&faer_threads) {
+    /// The factorisation of `key` (built on first use).
+    pub(crate) fn cholesky(&mut self, key: FactorKey) -> Result<&mut SparseCholesky> {
+        if !self.choleskys.contains_key(&key) {
             let c = SparseCholesky::new(
                 self.hessian.symbolic(),
                 NewtonSettings::default().ordering,
                 Some(&self.coords),
-                par(faer_threads),
+                key_par(key),
             )?;
-            self.choleskys.insert(faer_threads, c);
+            self.choleskys.insert(key, c);
         }
         self.choleskys
-            .get_mut(&faer_threads)
-            .ok_or_else(|| anyhow!("factorisation for {faer_threads} threads missing"))
+            .get_mut(&key)
+            .ok_or_else(|| anyhow!("factorisation {key:?} missing"))
     }
 
     /// Numeric factorisation alone (s).
-    pub(crate) fn factorize(&mut self, faer_threads: usize) -> Result<f64> {
-        self.cholesky(faer_threads)?;
+    pub(crate) fn factorize(&mut self, key: FactorKey) -> Result<f64> {
+        self.cholesky(key)?;
         let c = self
             .choleskys
-            .get_mut(&faer_threads)
-            .ok_or_else(|| anyhow!("factorisation for {faer_threads} threads missing"))?;
+            .get_mut(&key)
+            .ok_or_else(|| anyhow!("factorisation {key:?} missing"))?;
         let t = Instant::now();
         c.factorize(self.hessian.as_ref())
             .map_err(|e| anyhow!("factorisation failed: {e:?}"))?;
         Ok(t.elapsed().as_secs_f64())
     }
 
-    /// One Newton iteration with the default settings; returns [`PARTS`] (s).
-    pub(crate) fn iteration(&mut self, faer_threads: usize) -> Result<Vec<f64>> {
-        self.cholesky(faer_threads)?;
+    /// One Newton iteration with the default settings on `threads` threads; returns [`PARTS`]
+    /// (s).
+    pub(crate) fn iteration(&mut self, threads: usize) -> Result<Vec<f64>> {
+        let key = (threads, true);
+        self.cholesky(key)?;
         let settings = NewtonSettings::default();
         let t0 = Instant::now();
         self.assemble()?;
         let t1 = Instant::now();
         let c = self
             .choleskys
-            .get_mut(&faer_threads)
-            .ok_or_else(|| anyhow!("factorisation for {faer_threads} threads missing"))?;
+            .get_mut(&key)
+            .ok_or_else(|| anyhow!("factorisation {key:?} missing"))?;
         match &settings.regularization {
             Some(params) => {
                 c.factorize_regularized(&mut self.hessian, params, &mut self.mu)
@@ -221,7 +238,7 @@ pub(crate) fn problem(problems: &mut Problems, level: usize) -> Result<Rc<RefCel
 /// Records the level's sizes and the stats of its factorisations in `facts`.
 pub(crate) fn record(facts: &mut Facts, level: usize, p: &mut Problem) -> Result<()> {
     // The 1-thread factorisation: its stats do not depend on the thread count.
-    let stats = *p.cholesky(1)?.stats();
+    let stats = *p.cholesky((1, false))?.stats();
     facts.levels.insert(
         level,
         LevelFacts {
@@ -248,12 +265,12 @@ pub(crate) fn measures(
         let pl = pool(threads)?;
         for &level in &sizes.newton {
             let p = problem(problems, level)?;
-            // On 2 threads the factorisation is `NewtonSettings::parallel = true` (opt-in).
+            // The factorisation is the library default's (`NewtonSettings::parallel`).
             let faer = threads;
             {
                 let mut guard = p.borrow_mut();
                 let pm: &mut Problem = &mut guard;
-                pl.install(|| pm.cholesky(faer).map(|_| ()))?;
+                pl.install(|| pm.cholesky((faer, true)).map(|_| ()))?;
                 record(facts, level, pm)?;
             }
             let pl = pl.clone();
@@ -333,7 +350,7 @@ pub(crate) fn child_main(level: usize, threads: usize, rounds: usize) -> Result<
     let t = Instant::now();
     let mut p = pl.install(|| -> Result<Problem> {
         let mut p = Problem::new(level)?;
-        p.cholesky(faer)?;
+        p.cholesky((faer, true))?;
         Ok(p)
     })?;
     let setup_s = t.elapsed().as_secs_f64();
@@ -346,7 +363,7 @@ pub(crate) fn child_main(level: usize, threads: usize, rounds: usize) -> Result<
             samples.entry(name).or_default().push(v);
         }
     }
-    let stats = *p.cholesky(faer)?.stats();
+    let stats = *p.cholesky((faer, true))?.stats();
     let line = json!({
         "level": level,
         "threads": threads,
