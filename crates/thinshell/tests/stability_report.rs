@@ -1,7 +1,9 @@
 //! `thinshell run` says whether a static equilibrium is stable: a strip whose rest length is
-//! 1 % longer than the distance between its pinned ends, started straight, stays straight (by
-//! symmetry) — a saddle, since the compression is a hundred times Euler's buckling strain —
-//! while the same strip with a 1 % shorter rest length is a stable, stretched equilibrium.
+//! 1 % longer than the distance between its pinned ends, started straight and with saddles
+//! kept (`integrator.newton.escape_saddles = false`), stays straight (by symmetry) — a saddle,
+//! since the compression is a hundred times Euler's buckling strain — while the same strip with
+//! a 1 % shorter rest length is a stable, stretched equilibrium. With the defaults the
+//! compressed strip leaves the saddle and buckles into a stable arch.
 #![allow(clippy::unwrap_used)]
 
 use std::path::PathBuf;
@@ -11,7 +13,7 @@ use thinshell_testkit::fixtures::temp_dir;
 
 /// A 1 m × 0.1 m strip of paper-like film (h = 1 mm) pinned at both ends, rest metric
 /// `a11` along its length.
-fn scene(a11: f64) -> String {
+fn scene(a11: f64, newton: &str) -> String {
     format!(
         r#"
 name = "pinned strip"
@@ -36,6 +38,7 @@ region = {{ box = {{ min = [-1.0, -1.0, -1.0], max = [0.001, 2.0, 1.0] }} }}
 region = {{ box = {{ min = [0.999, -1.0, -1.0], max = [2.0, 2.0, 1.0] }} }}
 [integrator]
 kind = "static"
+{newton}
 "#
     )
 }
@@ -45,10 +48,10 @@ fn dir() -> PathBuf {
 }
 
 /// Runs the scene; returns (stderr + stdout, summary.json).
-fn run(name: &str, a11: f64) -> (String, serde_json::Value) {
+fn run(name: &str, a11: f64, newton: &str) -> (String, serde_json::Value) {
     let d = dir();
     let path = d.join(format!("{name}.toml"));
-    std::fs::write(&path, scene(a11)).unwrap();
+    std::fs::write(&path, scene(a11, newton)).unwrap();
     let out_dir = d.join(name);
     let out = Command::new(env!("CARGO_BIN_EXE_thinshell"))
         .args(["run", "--out"])
@@ -71,7 +74,8 @@ fn run(name: &str, a11: f64) -> (String, serde_json::Value) {
 #[test]
 fn a_saddle_is_reported_and_a_minimum_is_not() {
     // Rest length 1.01² in metric terms: compressed by 1 %, held straight by symmetry.
-    let (text, summary) = run("compressed", 1.01 * 1.01);
+    let keep = "[integrator.newton]\nescape_saddles = false";
+    let (text, summary) = run("compressed", 1.01 * 1.01, keep);
     println!("{text}");
     assert_eq!(summary["stable"], serde_json::json!(false), "{summary}");
     assert_eq!(
@@ -81,7 +85,19 @@ fn a_saddle_is_reported_and_a_minimum_is_not() {
     );
     assert!(text.contains("warning"), "no warning line: {text}");
     // Stretched by 1 %: a minimum, no warning.
-    let (text, summary) = run("stretched", 0.99 * 0.99);
+    let (text, summary) = run("stretched", 0.99 * 0.99, "");
+    assert_eq!(summary["stable"], serde_json::json!(true), "{summary}");
+    assert_eq!(
+        summary["unstable_steps"],
+        serde_json::json!([]),
+        "{summary}"
+    );
+    assert!(!text.contains("warning"), "unexpected warning: {text}");
+}
+
+#[test]
+fn with_defaults_a_straight_compressed_strip_buckles_into_a_stable_arch() {
+    let (text, summary) = run("compressed-default", 1.01 * 1.01, "");
     assert_eq!(summary["stable"], serde_json::json!(true), "{summary}");
     assert_eq!(
         summary["unstable_steps"],

@@ -710,6 +710,10 @@ pub struct NewtonSpec {
     /// (default 4; 0: monotone line search).
     #[serde(default)]
     pub watchdog: Option<usize>,
+    /// Leave a converged saddle along its negative curvature and go on to a minimum (default
+    /// true for static solves, false for implicit steps); false keeps unstable equilibria.
+    #[serde(default)]
+    pub escape_saddles: Option<bool>,
     /// Add μI after a failed Cholesky (default true).
     #[serde(default)]
     pub regularization: Option<bool>,

@@ -347,6 +347,9 @@ impl Simulation {
             if let Some(v) = nw.watchdog {
                 settings.watchdog = v;
             }
+            if let Some(v) = nw.escape_saddles {
+                settings.escape_saddles = v;
+            }
             if nw.regularization == Some(false) {
                 settings.regularization = None;
             }
