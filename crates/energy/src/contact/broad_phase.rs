@@ -114,6 +114,24 @@ impl SpatialHash {
     }
 }
 
+/// All `[i, j]` with `queries[i]` overlapping `boxes[j]`, sorted (the spatial hash is built
+/// over `boxes`).
+pub fn overlapping_pairs(queries: &[Aabb], boxes: &[Aabb]) -> Vec<[usize; 2]> {
+    let hash = SpatialHash::new(boxes);
+    let mut hits = Vec::new();
+    let mut out = Vec::new();
+    for (i, q) in queries.iter().enumerate() {
+        hash.query(q, &mut hits);
+        out.extend(
+            hits.iter()
+                .map(|&j| j as usize)
+                .filter(|&j| boxes[j].overlaps(q))
+                .map(|j| [i, j]),
+        );
+    }
+    out
+}
+
 /// Candidate point–triangle and edge–edge pairs of a mesh for positions `x` (m) and, when
 /// given, the step `dx` (the boxes then cover the swept volume x → x + dx).
 ///
