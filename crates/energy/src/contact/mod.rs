@@ -1,4 +1,4 @@
-//! Contact maths (model.md §Contact): pure functions on the four points of a contact pair.
+//! Contact maths (model.md §7): pure functions on the four points of a contact pair.
 //!
 //! - [`distance`]: point–triangle and edge–edge squared distances classified by their closest
 //!   features ([`DistanceType`]), with exact gradients and Hessians;

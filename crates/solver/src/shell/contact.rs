@@ -1,4 +1,4 @@
-//! Contact as an energy term of a [`ShellSystem`](super::ShellSystem) (model.md §Contact): IPC
+//! Contact as an energy term of a [`ShellSystem`](super::ShellSystem) (model.md §7): IPC
 //! barriers on the shell's own vertex–face and edge–edge pairs and on its vertices against
 //! rigid obstacles, and the step limit by continuous collision detection so that no Newton
 //! step lets a pair cross.

@@ -60,7 +60,7 @@ pub struct SceneFile {
     pub contact: Option<ContactSpec>,
 }
 
-/// `[contact]` (effect `contact`; `docs/scenes.md`, `docs/model.md` §Contact).
+/// `[contact]` (effect `contact`; `docs/scenes.md`, `docs/model.md` §7).
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ContactSpec {
