@@ -102,4 +102,20 @@ fn contact_section_errors_have_positions() {
     assert!(e.contains("nothing to keep apart"), "{e}");
     let e = scene_error("[contact]\nfriction = 0.3");
     assert!(e.contains("friction"), "{e}");
+    // Explicit Euler takes no Newton step to limit: refused.
+    let text = r#"effects = ["stretching", "inertia", "contact"]
+[mesh]
+generator = "rectangle"
+[integrator]
+kind = "explicit"
+dt = 1e-5
+steps = 1
+"#;
+    let e = Scene::from_toml(text, "c.toml", Path::new("."))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("c.toml:5:") && e.contains("`implicit` or `static`"),
+        "{e}"
+    );
 }

@@ -99,6 +99,19 @@ pub fn validate(s: &SceneFile) -> Result<(), Problem> {
 }
 
 fn contact(s: &SceneFile, on: bool) -> Check {
+    if on && s.integrator.kind == IntegratorKind::Explicit {
+        // Explicit Euler takes no Newton step for the CCD to limit.
+        return Err(problem(
+            "integrator.kind",
+            "effect `contact` needs the `implicit` or `static` integrator",
+        ));
+    }
+    if on && s.path.is_some() {
+        return Err(problem(
+            "path",
+            "effect `contact` is not available with path following yet",
+        ));
+    }
     let Some(c) = &s.contact else {
         return Ok(());
     };
