@@ -76,6 +76,7 @@
 //! ```
 
 pub mod assembly;
+pub mod contact;
 pub mod density;
 pub mod dofs;
 pub mod error;

@@ -25,7 +25,7 @@ pub fn inv2(m: &Matrix2<f64>) -> Matrix2<f64> {
 }
 
 /// Replaces a symmetric matrix by its PSD projection V max(Λ, 0) Vᵀ (symmetric
-/// eigen-decomposition, negative eigenvalues clamped to 0). Implemented for the face Hessian
+/// eigen-decomposition, negative eigenvalues clamped to 0). Implemented for the face and contact pair Hessian
 /// sizes (nalgebra's fixed-size eigen-decomposition needs a concrete size).
 pub trait ProjectPsd {
     /// Projects `self` in place.
@@ -49,7 +49,7 @@ macro_rules! project_psd_impl {
         }
     )*};
 }
-project_psd_impl!(18, 21);
+project_psd_impl!(3, 12, 18, 21);
 
 /// Replaces a symmetric matrix by its PSD projection ([`ProjectPsd`]).
 pub fn project_psd<const N: usize>(h: &mut SMatrix<f64, N, N>)

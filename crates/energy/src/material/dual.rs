@@ -1,22 +1,26 @@
-//! Second-order forward-mode numbers in the six form entries (a11, a12, a22, b11, b12, b22):
-//! value, gradient and Hessian carried through +, −, ×, 1/x and ln, so that a nonlinear law is
-//! written once as plain arithmetic and its exact derivatives follow.
+//! Second-order forward-mode numbers: value, gradient and Hessian in N variables carried through
+//! +, −, ×, 1/x, √x and ln, so that a nonlinear function is written once as plain arithmetic and
+//! its exact derivatives follow. The material laws use N = 6 (the form entries a11, a12, a22,
+//! b11, b12, b22, [`Dual`]); the contact distances use N = 12 (four points).
 
 use nalgebra::{SMatrix, SVector};
 use std::ops::{Add, Mul, Sub};
 
-/// A scalar function of the six form entries with its gradient and Hessian.
+/// A scalar function of N variables with its gradient and Hessian.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Dual {
+pub(crate) struct DualN<const N: usize> {
     pub v: f64,
-    pub g: SVector<f64, 6>,
-    pub h: SMatrix<f64, 6, 6>,
+    pub g: SVector<f64, N>,
+    pub h: SMatrix<f64, N, N>,
 }
 
-impl Dual {
+/// A scalar function of the six form entries with its gradient and Hessian.
+pub(crate) type Dual = DualN<6>;
+
+impl<const N: usize> DualN<N> {
     /// The constant c.
-    pub fn constant(c: f64) -> Dual {
-        Dual {
+    pub fn constant(c: f64) -> Self {
+        DualN {
             v: c,
             g: SVector::zeros(),
             h: SMatrix::zeros(),
@@ -24,15 +28,15 @@ impl Dual {
     }
 
     /// The i-th independent variable at value v.
-    pub fn variable(v: f64, i: usize) -> Dual {
-        let mut d = Dual::constant(v);
+    pub fn variable(v: f64, i: usize) -> Self {
+        let mut d = Self::constant(v);
         d.g[i] = 1.0;
         d
     }
 
     /// f(self) for f with value f0, first derivative f1, second derivative f2 at self.v.
-    fn chain(self, f0: f64, f1: f64, f2: f64) -> Dual {
-        Dual {
+    pub fn chain(self, f0: f64, f1: f64, f2: f64) -> Self {
+        DualN {
             v: f0,
             g: self.g * f1,
             h: self.h * f1 + self.g * self.g.transpose() * f2,
@@ -40,20 +44,26 @@ impl Dual {
     }
 
     /// 1/x.
-    pub fn recip(self) -> Dual {
+    pub fn recip(self) -> Self {
         let r = 1.0 / self.v;
         self.chain(r, -r * r, 2.0 * r * r * r)
     }
 
     /// ln x (NaN for x ≤ 0, never a panic).
-    pub fn ln(self) -> Dual {
+    pub fn ln(self) -> Self {
         let r = 1.0 / self.v;
         self.chain(self.v.ln(), r, -r * r)
     }
 
+    /// √x (NaN for x < 0; infinite derivatives at 0).
+    pub fn sqrt(self) -> Self {
+        let s = self.v.sqrt();
+        self.chain(s, 0.5 / s, -0.25 / (s * self.v))
+    }
+
     /// c·x.
-    pub fn scale(self, c: f64) -> Dual {
-        Dual {
+    pub fn scale(self, c: f64) -> Self {
+        DualN {
             v: self.v * c,
             g: self.g * c,
             h: self.h * c,
@@ -61,10 +71,10 @@ impl Dual {
     }
 }
 
-impl Add for Dual {
-    type Output = Dual;
-    fn add(self, o: Dual) -> Dual {
-        Dual {
+impl<const N: usize> Add for DualN<N> {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        DualN {
             v: self.v + o.v,
             g: self.g + o.g,
             h: self.h + o.h,
@@ -72,10 +82,10 @@ impl Add for Dual {
     }
 }
 
-impl Sub for Dual {
-    type Output = Dual;
-    fn sub(self, o: Dual) -> Dual {
-        Dual {
+impl<const N: usize> Sub for DualN<N> {
+    type Output = Self;
+    fn sub(self, o: Self) -> Self {
+        DualN {
             v: self.v - o.v,
             g: self.g - o.g,
             h: self.h - o.h,
@@ -83,11 +93,11 @@ impl Sub for Dual {
     }
 }
 
-impl Mul for Dual {
-    type Output = Dual;
-    fn mul(self, o: Dual) -> Dual {
+impl<const N: usize> Mul for DualN<N> {
+    type Output = Self;
+    fn mul(self, o: Self) -> Self {
         let cross = self.g * o.g.transpose();
-        Dual {
+        DualN {
             v: self.v * o.v,
             g: o.g * self.v + self.g * o.v,
             h: o.h * self.v + self.h * o.v + cross + cross.transpose(),

@@ -8,7 +8,7 @@
 //! [`MaterialModel`] variant.
 
 mod bilayer;
-mod dual;
+pub(crate) mod dual;
 mod neo_hookean;
 mod stvk;
 

@@ -7,6 +7,7 @@
 
 pub mod angles;
 pub mod bc;
+pub mod contact;
 pub mod explicit;
 pub mod implicit;
 pub mod integrator;
@@ -18,6 +19,7 @@ pub mod system;
 
 pub use angles::{AngleReport, AngleSettings};
 pub use bc::{Boundary, Prescribed};
+pub use contact::{Contact, ContactError, ContactSettings, ContactStats, Obstacle};
 pub use explicit::ExplicitEuler;
 pub use implicit::ImplicitEuler;
 pub use integrator::{Integrator, NewtonCache, StepKind, StepReport};

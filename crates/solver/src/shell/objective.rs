@@ -199,6 +199,9 @@ impl ShellObjective<'_> {
                 v += 0.5 * i.m_over_dt2[d] * dx * dx;
             }
         }
+        if let Some(c) = &self.sys.contact {
+            v += c.energy(&self.x_full);
+        }
         v
     }
 }
@@ -233,6 +236,9 @@ impl Objective for ShellObjective<'_> {
             self.sys.pressure(),
             &mut self.grad_full,
         );
+        if let Some(c) = &self.sys.contact {
+            c.add_gradient(&self.x_full, &mut self.grad_full);
+        }
         let coords = self.sys.dofs.free_coordinates();
         let n_pos = self.sys.dofs.n_free_positions();
         let inv_scale = 1.0 / self.sys.angle_scale;
@@ -284,6 +290,20 @@ impl Objective for ShellObjective<'_> {
         self.sys.length_scale()
     }
 
+    /// With contact on: the CCD step limit ([`super::contact::Contact::max_step`]).
+    fn max_step(&mut self, u: &[f64], du: &[f64]) -> Result<f64, SolverError> {
+        let Some(c) = &self.sys.contact else {
+            return Ok(1.0);
+        };
+        let mut x0 = self.x_full.clone();
+        let mut phi = self.phi_full.clone();
+        self.sys.scatter(u, &mut x0, &mut phi);
+        let end: Vec<f64> = u.iter().zip(du).map(|(a, b)| a + b).collect();
+        let mut x1 = x0.clone();
+        self.sys.scatter(&end, &mut x1, &mut phi);
+        Ok(c.max_step(&x0, &x1)?)
+    }
+
     fn dof_coordinates(&self) -> Option<Vec<[f64; 3]>> {
         let p = self.sys.mesh.positions();
         let n3 = 3 * p.len();
@@ -324,6 +344,9 @@ impl ShellObjective<'_> {
             self.sys.pressure(),
             h,
         )?;
+        if let Some(c) = &self.sys.contact {
+            c.add_hessian(&self.x_full, &self.sys.dofs, h);
+        }
         if self.sys.has_edge_unknowns() {
             // u = ℓ̄ φ for edge dofs: H_uu = D H_φφ D with D = diag(1, 1/ℓ̄).
             let n_pos = self.sys.dofs.n_free_positions();

@@ -10,6 +10,7 @@ use thinshell_mesh::Mesh;
 
 use super::angles::{AngleRelaxation, AngleReport, AngleSettings};
 use super::bc::Boundary;
+use super::contact::{Contact, ContactSettings};
 use super::loads::{Loads, add_pressure_gradient};
 use crate::SolverError;
 
@@ -71,6 +72,8 @@ pub struct ShellSystem {
     pub(crate) angle_scale: f64,
     /// Angle-only sub-problem of [`ShellSystem::relax_edge_angles`], built on first use.
     pub(crate) angle_relaxation: Option<Box<AngleRelaxation>>,
+    /// The contact term, when the scene names the `contact` effect ([`ShellSystem::set_contact`]).
+    pub contact: Option<Contact>,
 }
 
 impl std::fmt::Debug for ShellSystem {
@@ -117,6 +120,7 @@ impl ShellSystem {
             assembler,
             angle_scale,
             angle_relaxation: None,
+            contact: None,
         })
     }
 
@@ -131,6 +135,20 @@ impl ShellSystem {
     /// Whether the unknowns include one edge-director angle per edge.
     pub fn has_edge_unknowns(&self) -> bool {
         self.assembler.has_edge_unknowns()
+    }
+
+    /// Turns contact on (or replaces it) with `settings`, checking that the starting positions
+    /// `x0` (m) are intersection-free; the error names the first intersecting pair.
+    pub fn set_contact(
+        &mut self,
+        settings: &ContactSettings,
+        x0: &[Vector3<f64>],
+    ) -> Result<(), SolverError> {
+        let m = &self.model.material;
+        let contact = Contact::new(&self.mesh, m.thickness, m.young, settings)?;
+        contact.check(x0)?;
+        self.contact = Some(contact);
+        Ok(())
     }
 
     /// Number of edge angles a [`State`] of this system carries (0 without edge unknowns).

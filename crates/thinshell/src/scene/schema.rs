@@ -55,6 +55,66 @@ pub struct SceneFile {
     /// of the load ramp (`docs/scenes.md`).
     #[serde(default)]
     pub path: Option<super::path::PathSpec>,
+    /// Contact: barriers against self-intersection and obstacles (effect `contact`).
+    #[serde(default)]
+    pub contact: Option<ContactSpec>,
+}
+
+/// `[contact]` (effect `contact`; `docs/scenes.md`, `docs/model.md` §7).
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    /// Activation distance d̂ in m (default: 0.1 × the mesh's mean edge length).
+    #[serde(default)]
+    pub distance: Option<f64>,
+    /// Barrier stiffness κ in J/m² (default: E·h).
+    #[serde(default)]
+    pub stiffness: Option<f64>,
+    /// Keep the shell from passing through itself (default true).
+    #[serde(default = "default_true", rename = "self")]
+    pub self_contact: bool,
+    /// Measure gaps between the faces' surfaces (offset by the thickness) rather than between
+    /// mid-surfaces (default true).
+    #[serde(default = "default_true")]
+    pub thickness_offset: bool,
+    /// Rigid obstacles (`[[contact.obstacles]]`).
+    #[serde(default)]
+    pub obstacles: Vec<ObstacleSpec>,
+}
+
+fn default_true() -> bool {
+    true
+}
+
+/// One rigid obstacle: `kind = "plane"` with `point` and `normal` (the shell stays on the
+/// normal's side), or `kind = "sphere"` with `center` and `radius` (m; the shell stays outside).
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleSpec {
+    /// `plane` or `sphere`.
+    pub kind: ObstacleKind,
+    /// A point of the plane (m).
+    #[serde(default)]
+    pub point: Option<[f64; 3]>,
+    /// The plane's normal, towards the shell (any non-zero length).
+    #[serde(default)]
+    pub normal: Option<[f64; 3]>,
+    /// The sphere's centre (m).
+    #[serde(default)]
+    pub center: Option<[f64; 3]>,
+    /// The sphere's radius (m).
+    #[serde(default)]
+    pub radius: Option<f64>,
+}
+
+/// The shape of an obstacle.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ObstacleKind {
+    /// A half-space bounded by a plane.
+    Plane,
+    /// A ball.
+    Sphere,
 }
 
 /// A physical effect a scene can switch on.
@@ -79,6 +139,8 @@ pub enum Effect {
     Growth,
     /// Stimulus from a diffusion solve through the thickness (`[growth.stimulus] kind = "diffusion"`).
     Diffusion,
+    /// Barriers against self-intersection and obstacles, CCD-limited steps (`[contact]`).
+    Contact,
 }
 
 impl Effect {
@@ -94,6 +156,7 @@ impl Effect {
             Effect::PointLoads => "point_loads",
             Effect::Growth => "growth",
             Effect::Diffusion => "diffusion",
+            Effect::Contact => "contact",
         }
     }
 }

@@ -94,7 +94,97 @@ pub fn validate(s: &SceneFile) -> Result<(), Problem> {
     integrator(&s.integrator, &on)?;
     static_only(s, &on)?;
     super::path::validate(s, &on)?;
+    contact(s, on(Effect::Contact))?;
     output(&s.output)
+}
+
+fn contact(s: &SceneFile, on: bool) -> Check {
+    if on && s.integrator.kind == IntegratorKind::Explicit {
+        // Explicit Euler takes no Newton step for the CCD to limit.
+        return Err(problem(
+            "integrator.kind",
+            "effect `contact` needs the `implicit` or `static` integrator",
+        ));
+    }
+    if on && s.path.is_some() {
+        return Err(problem(
+            "path",
+            "effect `contact` is not available with path following yet",
+        ));
+    }
+    let Some(c) = &s.contact else {
+        return Ok(());
+    };
+    if !on {
+        return Err(problem(
+            "contact",
+            "section given but effect `contact` is not in `effects`",
+        ));
+    }
+    if let Some(d) = c.distance {
+        positive("contact.distance", d)?;
+    }
+    if let Some(k) = c.stiffness {
+        positive("contact.stiffness", k)?;
+    }
+    if !c.self_contact && c.obstacles.is_empty() {
+        return Err(problem(
+            "contact",
+            "`self = false` and no obstacles: nothing to keep apart",
+        ));
+    }
+    for (i, o) in c.obstacles.iter().enumerate() {
+        let key = format!("contact.obstacles[{i}]");
+        // (key, given) pairs that this kind needs and that it must not have.
+        type Keys<'a> = [(&'a str, bool); 2];
+        let (needed, forbidden): (Keys, Keys) = match o.kind {
+            ObstacleKind::Plane => (
+                [("point", o.point.is_some()), ("normal", o.normal.is_some())],
+                [
+                    ("center", o.center.is_some()),
+                    ("radius", o.radius.is_some()),
+                ],
+            ),
+            ObstacleKind::Sphere => (
+                [
+                    ("center", o.center.is_some()),
+                    ("radius", o.radius.is_some()),
+                ],
+                [("point", o.point.is_some()), ("normal", o.normal.is_some())],
+            ),
+        };
+        for (name, given) in needed {
+            if !given {
+                return Err(problem(&key, format!("this obstacle needs `{name}`")));
+            }
+        }
+        for (name, given) in forbidden {
+            if given {
+                return Err(problem(
+                    format!("{key}.{name}"),
+                    "not a key of this obstacle kind",
+                ));
+            }
+        }
+        for (name, v) in [
+            ("point", o.point),
+            ("normal", o.normal),
+            ("center", o.center),
+        ] {
+            if let Some(v) = v {
+                finite_all(&format!("{key}.{name}"), &v)?;
+            }
+        }
+        if let Some(n) = o.normal
+            && n.iter().all(|&c| c == 0.0)
+        {
+            return Err(problem(format!("{key}.normal"), "must not be zero"));
+        }
+        if let Some(r) = o.radius {
+            positive(&format!("{key}.radius"), r)?;
+        }
+    }
+    Ok(())
 }
 
 fn effects(s: &SceneFile) -> Result<BTreeSet<Effect>, Problem> {

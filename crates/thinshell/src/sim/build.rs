@@ -8,8 +8,8 @@ use thinshell_energy::{
 use thinshell_mesh::generators::Generator;
 use thinshell_mesh::{Mesh, MeshError, VertexId, io};
 use thinshell_solver::{
-    Boundary, ExplicitEuler, HessianPolicy, ImplicitEuler, Integrator, Loads, NewtonSettings,
-    Prescribed, ShellSystem, SolverError, State, Static,
+    Boundary, ContactSettings, ExplicitEuler, HessianPolicy, ImplicitEuler, Integrator, Loads,
+    NewtonSettings, Obstacle, Prescribed, ShellSystem, SolverError, State, Static,
 };
 
 use thinshell_growth::{
@@ -22,9 +22,9 @@ use super::Simulation;
 use crate::reference::{map_xy, wrap_cylinder};
 use crate::scene::Scene;
 use crate::scene::schema::{
-    BendingForm, Effect, FallbackSpec, GrowthModelKind, GrowthSpec, HessianSpec, IntegratorKind,
-    LayerSpec, LoadRamp, MaterialModelName, MaterialSpec, MeshSpec, RegionSpec, RestSource,
-    StimulusKind, Surface as SceneSurface,
+    BendingForm, ContactSpec, Effect, FallbackSpec, GrowthModelKind, GrowthSpec, HessianSpec,
+    IntegratorKind, LayerSpec, LoadRamp, MaterialModelName, MaterialSpec, MeshSpec, ObstacleKind,
+    RegionSpec, RestSource, StimulusKind, Surface as SceneSurface,
 };
 
 /// Why a scene could not be turned into a simulation.
@@ -395,6 +395,11 @@ impl Simulation {
         let mut system =
             ShellSystem::new(mesh, model, rest, boundary, loads).map_err(solver_err)?;
         system.hessian_mode = hessian_mode;
+        if on(Effect::Contact) {
+            system
+                .set_contact(&contact_settings(s.contact.as_ref()), &x)
+                .map_err(solver_err)?;
+        }
         // Convergence is the solver's scale-free test (Newton correction, round-off); an
         // explicit `tolerance` adds the gradient test against the system's one force scale.
         let force_scale = nw.tolerance.map(|_| system.force_scale());
@@ -448,6 +453,35 @@ impl Simulation {
             load_factor: if static_solve { 0.0 } else { 1.0 },
             path,
         })
+    }
+}
+
+/// The solver's contact settings of a `[contact]` section (all defaults without one);
+/// validation guarantees each obstacle has its keys.
+fn contact_settings(spec: Option<&ContactSpec>) -> ContactSettings {
+    let Some(c) = spec else {
+        return ContactSettings::default();
+    };
+    let obstacles = c
+        .obstacles
+        .iter()
+        .map(|o| match o.kind {
+            ObstacleKind::Plane => Obstacle::Plane {
+                point: v3(&o.point.unwrap_or_default()),
+                normal: v3(&o.normal.unwrap_or([0.0, 0.0, 1.0])),
+            },
+            ObstacleKind::Sphere => Obstacle::Sphere {
+                center: v3(&o.center.unwrap_or_default()),
+                radius: o.radius.unwrap_or(1.0),
+            },
+        })
+        .collect();
+    ContactSettings {
+        obstacles,
+        self_contact: c.self_contact,
+        distance: c.distance,
+        stiffness: c.stiffness,
+        thickness_offset: c.thickness_offset,
     }
 }
 

@@ -1,0 +1,189 @@
+//! Broad phase: the candidate contact pairs of a triangle mesh from a uniform spatial hash of
+//! axis-aligned bounding boxes, O(n) expected inserts and queries plus an O(k log k) sort of each
+//! query's hits.
+
+use nalgebra::Vector3;
+use std::collections::HashMap;
+
+/// An axis-aligned bounding box (m).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    /// The lower corner.
+    pub min: Vector3<f64>,
+    /// The upper corner.
+    pub max: Vector3<f64>,
+}
+
+impl Aabb {
+    /// The box of a set of points, grown by `inflate` (m) on every side.
+    pub fn of_points(points: impl IntoIterator<Item = Vector3<f64>>, inflate: f64) -> Aabb {
+        let mut min = Vector3::repeat(f64::INFINITY);
+        let mut max = Vector3::repeat(f64::NEG_INFINITY);
+        for p in points {
+            min = min.inf(&p);
+            max = max.sup(&p);
+        }
+        Aabb {
+            min: min.add_scalar(-inflate),
+            max: max.add_scalar(inflate),
+        }
+    }
+
+    /// Whether the two closed boxes intersect.
+    pub fn overlaps(&self, other: &Aabb) -> bool {
+        (0..3).all(|k| self.min[k] <= other.max[k] && other.min[k] <= self.max[k])
+    }
+
+    fn extent(&self) -> f64 {
+        (self.max - self.min).max()
+    }
+}
+
+/// Candidate contact pairs: their bounding boxes overlap, and they share no vertex.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct CandidatePairs {
+    /// `[vertex, face]` pairs, sorted.
+    pub point_triangle: Vec<[usize; 2]>,
+    /// `[edge i, edge j]` pairs with i < j, sorted.
+    pub edge_edge: Vec<[usize; 2]>,
+}
+
+/// A uniform grid of cells of side `cell` holding the ids of the boxes that touch each cell.
+struct SpatialHash {
+    cell: f64,
+    cells: HashMap<[i64; 3], Vec<u32>>,
+}
+
+impl SpatialHash {
+    fn new(boxes: &[Aabb]) -> SpatialHash {
+        let n = boxes.len().max(1) as f64;
+        let mean = boxes.iter().map(Aabb::extent).sum::<f64>() / n;
+        let max = boxes.iter().map(Aabb::extent).fold(0.0, f64::max);
+        // The mean size keeps a cell to a few boxes; the max / 8 bound keeps a large (fast
+        // moving) box to at most 9³ cells.
+        let mut cell = mean.max(max / 8.0);
+        if !(cell > 0.0 && cell.is_finite()) {
+            cell = 1.0;
+        }
+        let mut hash = SpatialHash {
+            cell,
+            cells: HashMap::with_capacity(boxes.len()),
+        };
+        for (i, b) in boxes.iter().enumerate() {
+            hash.for_cells(b, |key, cells| cells.entry(key).or_default().push(i as u32));
+        }
+        hash
+    }
+
+    fn range(&self, b: &Aabb) -> ([i64; 3], [i64; 3]) {
+        let lo = std::array::from_fn(|k| (b.min[k] / self.cell).floor() as i64);
+        let hi = std::array::from_fn(|k| (b.max[k] / self.cell).floor() as i64);
+        (lo, hi)
+    }
+
+    fn for_cells(
+        &mut self,
+        b: &Aabb,
+        mut f: impl FnMut([i64; 3], &mut HashMap<[i64; 3], Vec<u32>>),
+    ) {
+        let (lo, hi) = self.range(b);
+        for i in lo[0]..=hi[0] {
+            for j in lo[1]..=hi[1] {
+                for k in lo[2]..=hi[2] {
+                    f([i, j, k], &mut self.cells);
+                }
+            }
+        }
+    }
+
+    /// The ids of boxes sharing a cell with `b` (sorted, no repeats), into `out`.
+    fn query(&self, b: &Aabb, out: &mut Vec<u32>) {
+        out.clear();
+        let (lo, hi) = self.range(b);
+        for i in lo[0]..=hi[0] {
+            for j in lo[1]..=hi[1] {
+                for k in lo[2]..=hi[2] {
+                    if let Some(ids) = self.cells.get(&[i, j, k]) {
+                        out.extend_from_slice(ids);
+                    }
+                }
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
+}
+
+/// All `[i, j]` with `queries[i]` overlapping `boxes[j]`, sorted (the spatial hash is built
+/// over `boxes`).
+pub fn overlapping_pairs(queries: &[Aabb], boxes: &[Aabb]) -> Vec<[usize; 2]> {
+    let hash = SpatialHash::new(boxes);
+    let mut hits = Vec::new();
+    let mut out = Vec::new();
+    for (i, q) in queries.iter().enumerate() {
+        hash.query(q, &mut hits);
+        out.extend(
+            hits.iter()
+                .map(|&j| j as usize)
+                .filter(|&j| boxes[j].overlaps(q))
+                .map(|j| [i, j]),
+        );
+    }
+    out
+}
+
+/// Candidate point–triangle and edge–edge pairs of a mesh for positions `x` (m) and, when
+/// given, the step `dx` (the boxes then cover the swept volume x → x + dx).
+///
+/// A vertex's box is grown by `inflate` (m): pass the activation distance plus offsets for
+/// barrier pairs, the CCD's minimum separation for a step. Edge boxes are grown by
+/// `inflate / 2` on each of the two edges. Pairs that share a vertex are excluded.
+pub fn candidate_pairs(
+    x: &[Vector3<f64>],
+    dx: Option<&[Vector3<f64>]>,
+    faces: &[[usize; 3]],
+    edges: &[[usize; 2]],
+    inflate: f64,
+) -> CandidatePairs {
+    let swept = |ids: &[usize], grow: f64| {
+        Aabb::of_points(
+            ids.iter().flat_map(|&v| {
+                let end = dx.map_or(x[v], |d| x[v] + d[v]);
+                [x[v], end]
+            }),
+            grow,
+        )
+    };
+    let face_boxes: Vec<Aabb> = faces.iter().map(|f| swept(f, 0.0)).collect();
+    let edge_boxes: Vec<Aabb> = edges.iter().map(|e| swept(e, 0.5 * inflate)).collect();
+    let mut out = CandidatePairs::default();
+    let mut hits = Vec::new();
+
+    let hash = SpatialHash::new(&face_boxes);
+    for v in 0..x.len() {
+        let b = swept(&[v], inflate);
+        hash.query(&b, &mut hits);
+        for &f in &hits {
+            let f = f as usize;
+            if !faces[f].contains(&v) && face_boxes[f].overlaps(&b) {
+                out.point_triangle.push([v, f]);
+            }
+        }
+    }
+
+    let hash = SpatialHash::new(&edge_boxes);
+    for (i, e) in edges.iter().enumerate() {
+        hash.query(&edge_boxes[i], &mut hits);
+        for &j in &hits {
+            let j = j as usize;
+            if j > i
+                && !edges[j].contains(&e[0])
+                && !edges[j].contains(&e[1])
+                && edge_boxes[j].overlaps(&edge_boxes[i])
+            {
+                out.edge_edge.push([i, j]);
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,552 @@
+//! Contact as an energy term of a [`ShellSystem`](super::ShellSystem) (model.md §7): IPC
+//! barriers on the shell's own vertex–face and edge–edge pairs and on its vertices against
+//! rigid obstacles, and the step limit by continuous collision detection so that no Newton
+//! step lets a pair cross.
+//!
+//! The maths (distances, barrier, mollifier, CCD, broad phase) is in
+//! [`thinshell_energy::contact`]; this module gathers the pairs of a mesh and adds their energy,
+//! gradient and Hessian to the shell objective.
+
+use faer::sparse::SparseColMat;
+use nalgebra::{Matrix3, Vector3};
+use thinshell_energy::DofMap;
+use thinshell_energy::contact::{
+    Aabb, BarrierGeometry, CandidatePairs, CcdSettings, PairBarrier, PairKind, PairPoints,
+    additive_ccd, barrier, candidate_pairs, edge_edge_distance2, mollifier_threshold,
+    overlapping_pairs, pair_barrier, pair_energy, point_triangle_distance2,
+    segment_crosses_triangle,
+};
+use thinshell_energy::linalg::project_psd;
+use thinshell_mesh::Mesh;
+
+use crate::SolverError;
+
+type V = Vector3<f64>;
+
+/// A rigid, fixed obstacle.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Obstacle {
+    /// The half-space on the side of `normal` of the plane through `point` (m); the shell stays
+    /// on that side.
+    Plane {
+        /// A point of the plane (m).
+        point: V,
+        /// The normal pointing towards the shell's side (any length > 0).
+        normal: V,
+    },
+    /// A ball (m); the shell stays outside it.
+    Sphere {
+        /// Centre (m).
+        center: V,
+        /// Radius (m, > 0).
+        radius: f64,
+    },
+}
+
+/// What the contact term holds apart and how.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ContactSettings {
+    /// Rigid obstacles.
+    pub obstacles: Vec<Obstacle>,
+    /// Whether the shell is kept from passing through itself.
+    pub self_contact: bool,
+    /// d̂ (m): gaps below it are active. Default: 0.1 × the mean edge length of the mesh.
+    pub distance: Option<f64>,
+    /// κ (J/m² = N/m): the barrier stiffness. Default: E·h, the membrane stiffness.
+    pub stiffness: Option<f64>,
+    /// Whether gaps are measured between the shell's faces (distance minus h between two
+    /// sheets, minus h/2 against an obstacle) rather than between mid-surfaces. Default true.
+    pub thickness_offset: bool,
+}
+
+impl Default for ContactSettings {
+    fn default() -> Self {
+        ContactSettings {
+            obstacles: Vec::new(),
+            self_contact: true,
+            distance: None,
+            stiffness: None,
+            thickness_offset: true,
+        }
+    }
+}
+
+/// An invalid contact setting or an intersecting state.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ContactError {
+    /// A setting out of range.
+    #[error("contact: {0}")]
+    Invalid(String),
+    /// The configuration intersects (or is within the minimum separation).
+    #[error("contact: the initial state intersects: {0}")]
+    Intersecting(String),
+}
+
+impl From<ContactError> for SolverError {
+    fn from(e: ContactError) -> Self {
+        SolverError::Objective(Box::new(e))
+    }
+}
+
+/// The resolved contact term of a mesh.
+#[derive(Clone, Debug)]
+pub struct Contact {
+    obstacles: Vec<Obstacle>,
+    self_contact: bool,
+    /// d̂ (m).
+    pub activation: f64,
+    /// κ (J/m²).
+    pub stiffness: f64,
+    /// Offset of self pairs (m): h, or 0.
+    offset_self: f64,
+    /// Offset against obstacles (m): h/2, or 0.
+    offset_obstacle: f64,
+    /// CCD's minimum separation beyond the offsets (m): 10⁻³ d̂.
+    separation: f64,
+    faces: Vec<[usize; 3]>,
+    edges: Vec<[usize; 2]>,
+    /// Reference positions for the edge–edge mollifier thresholds.
+    rest: Vec<V>,
+}
+
+/// Counts and gap of the active set at one configuration.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactStats {
+    /// Active pairs (self pairs plus vertex–obstacle pairs with gap < d̂).
+    pub active_pairs: usize,
+    /// The smallest gap over all candidate pairs and obstacles (m; +∞ if none).
+    pub min_gap: f64,
+}
+
+impl Contact {
+    /// The contact term of `mesh` (its positions are the reference for the mollifier) with
+    /// shell thickness `thickness` (m) and Young's modulus `young` (Pa) for the defaults.
+    pub fn new(
+        mesh: &Mesh,
+        thickness: f64,
+        young: f64,
+        settings: &ContactSettings,
+    ) -> Result<Contact, ContactError> {
+        let p = mesh.positions();
+        let edges: Vec<[usize; 2]> = mesh
+            .topology()
+            .edges()
+            .iter()
+            .map(|e| e.vertices.map(|v| v.idx()))
+            .collect();
+        let mean_edge = edges
+            .iter()
+            .map(|e| (p[e[0]] - p[e[1]]).norm())
+            .sum::<f64>()
+            / edges.len().max(1) as f64;
+        let activation = settings.distance.unwrap_or(0.1 * mean_edge);
+        if !(activation > 0.0 && activation.is_finite()) {
+            return Err(ContactError::Invalid(format!(
+                "distance must be positive and finite, got {activation}"
+            )));
+        }
+        let stiffness = settings.stiffness.unwrap_or(young * thickness);
+        if !(stiffness > 0.0 && stiffness.is_finite()) {
+            return Err(ContactError::Invalid(format!(
+                "stiffness must be positive and finite, got {stiffness}"
+            )));
+        }
+        let mut obstacles = settings.obstacles.clone();
+        for o in &mut obstacles {
+            match o {
+                Obstacle::Plane { point, normal } => {
+                    let n = normal.norm();
+                    if !(n > 0.0 && n.is_finite() && point.iter().all(|v| v.is_finite())) {
+                        return Err(ContactError::Invalid(format!(
+                            "plane needs a finite point and a non-zero normal, got {point:?}, {normal:?}"
+                        )));
+                    }
+                    *normal /= n;
+                }
+                Obstacle::Sphere { center, radius } => {
+                    if !(*radius > 0.0
+                        && radius.is_finite()
+                        && center.iter().all(|v| v.is_finite()))
+                    {
+                        return Err(ContactError::Invalid(format!(
+                            "sphere needs a finite centre and a positive radius, got {center:?}, {radius}"
+                        )));
+                    }
+                }
+            }
+        }
+        let h = if settings.thickness_offset {
+            thickness
+        } else {
+            0.0
+        };
+        Ok(Contact {
+            obstacles,
+            self_contact: settings.self_contact,
+            activation,
+            stiffness,
+            offset_self: h,
+            offset_obstacle: 0.5 * h,
+            separation: 1e-3 * activation,
+            faces: mesh.faces().iter().map(|f| f.map(|v| v.idx())).collect(),
+            edges,
+            rest: p.to_vec(),
+        })
+    }
+
+    fn pt_points(&self, x: &[V], v: usize, f: usize) -> PairPoints {
+        let t = self.faces[f];
+        [x[v], x[t[0]], x[t[1]], x[t[2]]]
+    }
+
+    fn ee_points(&self, x: &[V], i: usize, j: usize) -> PairPoints {
+        let (a, b) = (self.edges[i], self.edges[j]);
+        [x[a[0]], x[a[1]], x[b[0]], x[b[1]]]
+    }
+
+    fn ee_kind(&self, i: usize, j: usize) -> PairKind {
+        PairKind::EdgeEdge {
+            mollifier_threshold: mollifier_threshold(&self.ee_points(&self.rest, i, j)),
+        }
+    }
+
+    fn geometry(&self) -> BarrierGeometry {
+        BarrierGeometry {
+            activation: self.activation,
+            offset: self.offset_self,
+        }
+    }
+
+    fn candidates(&self, x: &[V]) -> CandidatePairs {
+        if !self.self_contact {
+            return CandidatePairs::default();
+        }
+        candidate_pairs(
+            x,
+            None,
+            &self.faces,
+            &self.edges,
+            self.activation + self.offset_self,
+        )
+    }
+
+    /// Gap (m) of vertex position `y` to obstacle `o`, and its unit gradient direction.
+    fn obstacle_gap(&self, o: &Obstacle, y: &V) -> (f64, V) {
+        match o {
+            Obstacle::Plane { point, normal } => {
+                (normal.dot(&(y - point)) - self.offset_obstacle, *normal)
+            }
+            Obstacle::Sphere { center, radius } => {
+                let r = y - center;
+                let n = r.norm();
+                (n - radius - self.offset_obstacle, r / n)
+            }
+        }
+    }
+
+    /// The contact energy (J) at positions `x`; +∞ when a pair touches or crosses.
+    pub fn energy(&self, x: &[V]) -> f64 {
+        let c = self.candidates(x);
+        let g = self.geometry();
+        let mut e = 0.0;
+        for &[v, f] in &c.point_triangle {
+            e += pair_energy(&self.pt_points(x, v, f), PairKind::PointTriangle, g);
+        }
+        for &[i, j] in &c.edge_edge {
+            e += pair_energy(&self.ee_points(x, i, j), self.ee_kind(i, j), g);
+        }
+        for o in &self.obstacles {
+            for y in x {
+                e += barrier(self.obstacle_gap(o, y).0, self.activation).0;
+            }
+        }
+        self.stiffness * e
+    }
+
+    /// Active pairs and the smallest gap at positions `x`.
+    pub fn stats(&self, x: &[V]) -> ContactStats {
+        let c = self.candidates(x);
+        let mut s = ContactStats {
+            active_pairs: 0,
+            min_gap: f64::INFINITY,
+        };
+        let mut see = |gap: f64| {
+            s.min_gap = s.min_gap.min(gap);
+            if gap < self.activation {
+                s.active_pairs += 1;
+            }
+        };
+        for &[v, f] in &c.point_triangle {
+            see(point_triangle_distance2(&self.pt_points(x, v, f)).0.sqrt() - self.offset_self);
+        }
+        for &[i, j] in &c.edge_edge {
+            see(edge_edge_distance2(&self.ee_points(x, i, j)).0.sqrt() - self.offset_self);
+        }
+        for o in &self.obstacles {
+            for y in x {
+                see(self.obstacle_gap(o, y).0);
+            }
+        }
+        s
+    }
+
+    /// Visits every active pair's vertices, gradient and PSD Hessian (unit stiffness).
+    fn for_active(
+        &self,
+        x: &[V],
+        mut f: impl FnMut(&[usize], &[f64], &dyn Fn(usize, usize) -> Matrix3<f64>),
+    ) {
+        let c = self.candidates(x);
+        let g = self.geometry();
+        let mut pair = |ids: [usize; 4], pts: PairPoints, kind: PairKind| {
+            if let PairBarrier::Active(d) = pair_barrier(&pts, kind, g, true) {
+                let block =
+                    |a: usize, b: usize| d.hessian.fixed_view::<3, 3>(3 * a, 3 * b).into_owned();
+                f(&ids, d.gradient.as_slice(), &block);
+            }
+        };
+        for &[v, fc] in &c.point_triangle {
+            let t = self.faces[fc];
+            pair(
+                [v, t[0], t[1], t[2]],
+                self.pt_points(x, v, fc),
+                PairKind::PointTriangle,
+            );
+        }
+        for &[i, j] in &c.edge_edge {
+            let (a, b) = (self.edges[i], self.edges[j]);
+            pair(
+                [a[0], a[1], b[0], b[1]],
+                self.ee_points(x, i, j),
+                self.ee_kind(i, j),
+            );
+        }
+        for o in &self.obstacles {
+            for (v, y) in x.iter().enumerate() {
+                let (gap, n) = self.obstacle_gap(o, y);
+                let (_, db, ddb) = barrier(gap, self.activation);
+                if db == 0.0 {
+                    continue;
+                }
+                let grad = n * db;
+                let mut h = n * n.transpose() * ddb;
+                if let Obstacle::Sphere { center, .. } = o {
+                    // ∇n = (I − n nᵀ)/|y − c|, times b′ < 0: the indefinite part, projected.
+                    h += (Matrix3::identity() - n * n.transpose()) * (db / (y - center).norm());
+                    project_psd(&mut h);
+                }
+                f(&[v], grad.as_slice(), &|_, _| h);
+            }
+        }
+    }
+
+    /// Adds the contact gradient (N) at positions `x` to `grad` (full coordinates, vertex-major
+    /// positions first).
+    pub fn add_gradient(&self, x: &[V], grad: &mut [f64]) {
+        let k = self.stiffness;
+        self.for_active(x, |ids, g, _| {
+            for (a, &v) in ids.iter().enumerate() {
+                for i in 0..3 {
+                    grad[3 * v + i] += k * g[3 * a + i];
+                }
+            }
+        });
+    }
+
+    /// Adds the per-vertex 3×3 diagonal blocks of the (PSD-projected) contact Hessian to `h`
+    /// (the lower triangle over `dofs`' free dofs). Vertex–obstacle pairs are exact; for self
+    /// pairs the blocks coupling two vertices are left out, since the Hessian pattern is the
+    /// shell's (fixed) one. A principal block of a PSD matrix is PSD, so the sum stays PSD and
+    /// Newton steps stay descent directions.
+    pub fn add_hessian(&self, x: &[V], dofs: &DofMap, h: &mut SparseColMat<usize, f64>) {
+        let k = self.stiffness;
+        let (symbolic, val) = h.parts_mut();
+        self.for_active(x, |ids, _, block| {
+            for (a, &v) in ids.iter().enumerate() {
+                let b = block(a, a);
+                for c in 0..3 {
+                    let Some(col) = dofs.coordinate_dof(3 * v + c) else {
+                        continue;
+                    };
+                    for r in 0..3 {
+                        let Some(row) = dofs.coordinate_dof(3 * v + r) else {
+                            continue;
+                        };
+                        if row < col {
+                            continue;
+                        }
+                        let range = symbolic.col_range(col);
+                        let rows = &symbolic.row_idx()[range.clone()];
+                        if let Ok(p) = rows.binary_search(&row) {
+                            val[range.start + p] += k * b[(r, c)];
+                        }
+                    }
+                }
+            }
+        });
+    }
+
+    /// The largest fraction α ∈ (0, 1] of the step from `x0` to `x1` that keeps every pair apart
+    /// (additive CCD with gap fraction 0.1 and minimum separation offset + 10⁻³ d̂); an error
+    /// when a pair already starts within the minimum separation.
+    pub fn max_step(&self, x0: &[V], x1: &[V]) -> Result<f64, ContactError> {
+        let dx: Vec<V> = x0.iter().zip(x1).map(|(a, b)| b - a).collect();
+        let mut alpha = 1.0f64;
+        if self.self_contact {
+            let xi = self.offset_self + self.separation;
+            let settings = CcdSettings {
+                min_separation: xi,
+                ..CcdSettings::default()
+            };
+            let c = candidate_pairs(x0, Some(&dx), &self.faces, &self.edges, xi);
+            for &[v, f] in &c.point_triangle {
+                let t = self.faces[f];
+                let d = [dx[v], dx[t[0]], dx[t[1]], dx[t[2]]];
+                alpha = additive_ccd(
+                    &self.pt_points(x0, v, f),
+                    &d,
+                    PairKind::PointTriangle,
+                    alpha,
+                    &settings,
+                );
+                if alpha == 0.0 {
+                    return Err(ContactError::Intersecting(format!(
+                        "vertex {v} is within the minimum separation of face {f}"
+                    )));
+                }
+            }
+            for &[i, j] in &c.edge_edge {
+                let (a, b) = (self.edges[i], self.edges[j]);
+                let d = [dx[a[0]], dx[a[1]], dx[b[0]], dx[b[1]]];
+                alpha = additive_ccd(
+                    &self.ee_points(x0, i, j),
+                    &d,
+                    self.ee_kind(i, j),
+                    alpha,
+                    &settings,
+                );
+                if alpha == 0.0 {
+                    return Err(ContactError::Intersecting(format!(
+                        "edge {i} ({}–{}) is within the minimum separation of edge {j} ({}–{})",
+                        a[0], a[1], b[0], b[1]
+                    )));
+                }
+            }
+        }
+        for o in &self.obstacles {
+            for (v, (y, d)) in x0.iter().zip(&dx).enumerate() {
+                let t = self.obstacle_toi(o, y, d, alpha);
+                if t == 0.0 {
+                    return Err(ContactError::Intersecting(format!(
+                        "vertex {v} is within the minimum separation of obstacle {o:?}"
+                    )));
+                }
+                alpha = alpha.min(t);
+            }
+        }
+        Ok(alpha)
+    }
+
+    /// Additive CCD of one vertex against an obstacle: the gap is 1-Lipschitz in the vertex
+    /// position, so advancing by 0.9 (gap − ξ)/|d| never crosses ξ.
+    fn obstacle_toi(&self, o: &Obstacle, y: &V, d: &V, t_max: f64) -> f64 {
+        let xi = self.separation;
+        let gap0 = self.obstacle_gap(o, y).0 - xi;
+        let speed = d.norm();
+        if gap0.is_nan() || gap0 <= 0.0 {
+            return 0.0;
+        }
+        if speed == 0.0 {
+            return t_max;
+        }
+        let target = 0.1 * gap0;
+        let (mut t, mut step) = (0.0, 0.9 * gap0 / speed);
+        for _ in 0..100_000 {
+            let tn = t + step;
+            let gap = self.obstacle_gap(o, &(y + d * tn)).0 - xi;
+            if gap.is_nan() || gap <= 0.0 || (t > 0.0 && gap < target) {
+                return t;
+            }
+            t = tn;
+            if t > t_max {
+                return t_max;
+            }
+            step = 0.9 * gap / speed;
+        }
+        t.min(t_max)
+    }
+
+    /// Checks that positions `x` are intersection-free: every self pair and every vertex–obstacle
+    /// gap above the minimum separation, and no edge crossing a face; the error names the first
+    /// offending pair.
+    pub fn check(&self, x: &[V]) -> Result<(), ContactError> {
+        let xi = self.separation;
+        if self.self_contact {
+            let c = candidate_pairs(x, None, &self.faces, &self.edges, self.offset_self + xi);
+            for &[v, f] in &c.point_triangle {
+                let d = point_triangle_distance2(&self.pt_points(x, v, f)).0.sqrt();
+                if d.is_nan() || d <= self.offset_self + xi {
+                    return Err(ContactError::Intersecting(format!(
+                        "vertex {v} and face {f} ({:?}) are {d:e} m apart (need more than {:e} m)",
+                        self.faces[f],
+                        self.offset_self + xi
+                    )));
+                }
+            }
+            for &[i, j] in &c.edge_edge {
+                let d = edge_edge_distance2(&self.ee_points(x, i, j)).0.sqrt();
+                if d.is_nan() || d <= self.offset_self + xi {
+                    return Err(ContactError::Intersecting(format!(
+                        "edges {i} {:?} and {j} {:?} are {d:e} m apart (need more than {:e} m)",
+                        self.edges[i],
+                        self.edges[j],
+                        self.offset_self + xi
+                    )));
+                }
+            }
+            if let Some((e, f)) = first_edge_crossing_face(x, &self.faces, &self.edges) {
+                return Err(ContactError::Intersecting(format!(
+                    "edge {e} {:?} crosses face {f} {:?}",
+                    self.edges[e], self.faces[f]
+                )));
+            }
+        }
+        for o in &self.obstacles {
+            for (v, y) in x.iter().enumerate() {
+                let gap = self.obstacle_gap(o, y).0;
+                if gap.is_nan() || gap <= xi {
+                    return Err(ContactError::Intersecting(format!(
+                        "vertex {v} has gap {gap:e} m to obstacle {o:?}"
+                    )));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The first edge (sharing no vertex with the face) that crosses a face at positions `x`, as
+/// `(edge, face)`: two triangles sharing no vertex intersect exactly when an edge of one crosses
+/// the other (or they touch, which the distance checks see).
+pub fn first_edge_crossing_face(
+    x: &[V],
+    faces: &[[usize; 3]],
+    edges: &[[usize; 2]],
+) -> Option<(usize, usize)> {
+    let edge_boxes: Vec<Aabb> = edges
+        .iter()
+        .map(|e| Aabb::of_points(e.map(|v| x[v]), 0.0))
+        .collect();
+    let face_boxes: Vec<Aabb> = faces
+        .iter()
+        .map(|f| Aabb::of_points(f.map(|v| x[v]), 0.0))
+        .collect();
+    overlapping_pairs(&edge_boxes, &face_boxes)
+        .into_iter()
+        .find_map(|[e, f]| {
+            let (ed, fc) = (edges[e], faces[f]);
+            let shares = fc.contains(&ed[0]) || fc.contains(&ed[1]);
+            (!shares && segment_crosses_triangle(&x[ed[0]], &x[ed[1]], &fc.map(|v| x[v])))
+                .then_some((e, f))
+        })
+}
