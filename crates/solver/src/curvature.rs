@@ -7,8 +7,7 @@
 //! a thin shell) are treated alike, and the eigenvalues reported are those of the pencil
 //! `H v = λ S v` — dimensionless, relative to each unknown's own stiffness. The Newton solve
 //! uses the shift as its trust-region (Levenberg–Marquardt) parameter and the eigenvector as the
-//! direction that leaves a saddle ([`crate::newton`] module docs); the stability report uses
-//! the smallest eigenvalue and its mode.
+//! direction that leaves a saddle ([`crate::newton`] module docs).
 
 use faer::sparse::SparseColMat;
 
@@ -112,7 +111,7 @@ pub(crate) const SHIFT_GROWTH: f64 = 4.0;
 
 /// An eigenpair estimate of the pencil `H v = λ S v`.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Eigenpair {
+pub(crate) struct Eigenpair {
     /// Rayleigh quotient `vᵀHv / vᵀSv` (dimensionless: relative to each unknown's own
     /// stiffness, see the [module docs](self)).
     pub value: f64,

@@ -107,7 +107,7 @@
 pub use faer;
 pub use nalgebra;
 
-pub mod curvature;
+pub(crate) mod curvature;
 pub mod error;
 pub mod iterative;
 pub mod ldlt;

@@ -35,7 +35,7 @@
 //! with a direct solver): PSD steps converge only linearly towards a point where the own
 //! Hessian is indefinite, and towards a saddle as readily as towards a minimum. So when the own
 //! Hessian does not factorise with the small shift, the solve first checks how indefinite it
-//! is ([`crate::curvature`]): if `H + σS` with σ ≤ 1e-2 of each unknown's own stiffness is
+//! is (`solver/src/curvature.rs`): if `H + σS` with σ ≤ 1e-2 of each unknown's own stiffness is
 //! positive definite (mildly indefinite: a saddle or a buckling region is near), it
 //! - steps along the most negative curvature direction as far as f keeps decreasing
 //!   ([`IterationHessian::NegativeCurvature`]), then
@@ -116,7 +116,7 @@ pub enum IterationHessian {
     /// The own Hessian where it is indefinite, plus the scaled diagonal shift `σ·S` of a
     /// trust-region (Levenberg–Marquardt) step: σ at least what makes it positive definite,
     /// raised after steps whose actual decrease falls short of the exact quadratic model's and
-    /// lowered after good ones ([`crate::curvature`]).
+    /// lowered after good ones (`solver/src/curvature.rs`).
     Shifted,
     /// A step along the most negative curvature direction of the own Hessian, leaving a saddle
     /// (or a point where the shifted steps no longer decrease f).
@@ -501,7 +501,7 @@ pub struct NewtonWorkspace {
     x_trial: Vec<f64>,
     /// H·dx of a trust-region step (its predicted decrease).
     hd: Vec<f64>,
-    /// The scaling diagonal S of the trust-region shift ([`curvature::scaling`]).
+    /// The scaling diagonal S of the trust-region shift (`curvature::scaling`).
     scale: Vec<f64>,
     mu: f64,
     /// The settings the symbolic analysis was made with.
@@ -1287,6 +1287,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
         // A shift remembered from an earlier solve must not leak into an unregularised one.
         ws.mu = 0.0;
     }
+    let mu_at_start = ws.mu;
     let mut rec = Record {
         residuals: Vec::new(),
         values: Vec::new(),
@@ -1405,6 +1406,10 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 x.copy_from_slice(&w.x);
                 rec.residuals.truncate(w.len);
             }
+            // A cancelled solve leaves the workspace's carried state as it found it, so that a
+            // run resumed from the last completed step repeats this one exactly.
+            ws.mu = mu_at_start;
+            ws.reusable = None;
             return Err(SolverError::Cancelled {
                 iterations: iteration + rec.watchdog_undone,
                 residuals: rec.residuals,
@@ -1967,7 +1972,7 @@ const MAX_ESCAPES: usize = 50;
 /// own stiffness): beyond it the Hessian is not that of a nearly stable point.
 const ESCAPE_MAX_SHIFT: f64 = 1e3;
 /// Largest trust-region shift σ (relative to each unknown's own stiffness, see
-/// [`curvature`]): an own Hessian that needs more is strongly indefinite — a compressed
+/// `curvature.rs`): an own Hessian that needs more is strongly indefinite — a compressed
 /// membrane far from equilibrium — where the shifted steps crawl (measured: σ ≈ 10–170 on the
 /// flat start of a cone-growing annulus) and PSD steps do better.
 const TR_MAX_SHIFT: f64 = 1e-2;
