@@ -132,11 +132,16 @@ fn quick_perf_rewrites_its_section_and_records_every_measure() -> TestResult {
             let t = b["samples"]["total"][0].as_f64().unwrap_or(f64::NAN);
             assert!(t.is_finite() && t > 0.0, "big iteration {t}");
         }
+        // The reasons listed under missed targets ("- *…*: …") follow the timing verdicts,
+        // which a loaded machine can flip between the two runs: compare everything else.
         masked.push(
             doc["section_masked"]
                 .as_str()
                 .ok_or("no masked section")?
-                .to_string(),
+                .lines()
+                .filter(|l| !l.starts_with("- *"))
+                .collect::<Vec<_>>()
+                .join("\n"),
         );
     }
     assert_eq!(

@@ -1648,7 +1648,8 @@ pub fn newton_solve<O: Objective + ?Sized>(
             sym_lower_matvec(ws.hessian.as_ref(), 0.0, &ws.dx, &mut ws.hd);
             let dhd: f64 = ws.dx.iter().zip(&ws.hd).map(|(a, b)| a * b).sum();
             let pred = -(alpha * slope + 0.5 * alpha * alpha * dhd);
-            if !(pred > WATCHDOG_MIN_DECREASE * value_noise(f)) {
+            // (NaN included: no usable prediction.)
+            if pred.is_nan() || pred <= WATCHDOG_MIN_DECREASE * value_noise(f) {
                 // The shifted model promises nothing f can resolve: x is near a critical
                 // point of an indefinite Hessian. Leave it along negative curvature.
                 if escape && escapes < MAX_ESCAPES {
@@ -2169,7 +2170,7 @@ fn escape_saddle<O: Objective + ?Sized>(
     let t = Instant::now();
     let pair = curvature::inverse_iteration(cholesky, &ws.hessian, &ws.scale, &[], 30)?;
     rec.timings.solve += t.elapsed();
-    if !(pair.value < 0.0) {
+    if pair.value.is_nan() || pair.value >= 0.0 {
         return Ok(None);
     }
     let mut v = pair.vector;
