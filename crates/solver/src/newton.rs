@@ -1355,9 +1355,12 @@ pub fn newton_solve<O: Objective + ?Sized>(
     let mut try_own = true;
     // A converged point: where an indefinite own Hessian was met on the way, first make sure
     // it is not a saddle (leave it along negative curvature and go on if it is).
-    macro_rules! converged {
-        ($c:expr) => {{
-            if escape && met_indefinite && escapes < MAX_ESCAPES {
+    // A step along the most negative curvature of the own Hessian, while escapes are allowed
+    // (`escape_saddle`; `$known`: the Hessian in `ws` is the own one at x, known indefinite);
+    // when it moves, the loop goes on from the new point with the shift found there.
+    macro_rules! leave_saddle {
+        ($known:expr) => {
+            if escape && escapes < MAX_ESCAPES {
                 escapes += 1;
                 if let Some(fe) = escape_saddle(
                     objective,
@@ -1370,13 +1373,20 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     &mut sigma,
                     &mut iteration,
                     started,
-                    false,
+                    $known,
                 )? {
                     f = fe;
                     pd_floor = sigma;
                     try_own = true;
                     continue;
                 }
+            }
+        };
+    }
+    macro_rules! converged {
+        ($c:expr) => {{
+            if met_indefinite {
+                leave_saddle!(false);
             }
             return Ok(rec.report(iteration, $c));
         }};
@@ -1458,29 +1468,12 @@ pub fn newton_solve<O: Objective + ?Sized>(
         let shift_start = sigma.max(pd_floor / SHIFT_GROWTH);
         let in_trust = trust && shift_start > SMALL_SHIFT;
         if direction.is_none() && in_trust && kind == IterationHessian::Own && try_own {
-            if want_escape && escape && escapes < MAX_ESCAPES {
+            if want_escape {
                 // The last shifted step was as good as the model (ρ > ¾) yet its length was
                 // set by the shift that keeps H + σS positive definite, not by the model:
                 // move along the negative curvature as far as f keeps decreasing.
                 want_escape = false;
-                escapes += 1;
-                if let Some(fe) = escape_saddle(
-                    objective,
-                    x,
-                    f,
-                    ws,
-                    &mut rec,
-                    length_scale,
-                    force_scale,
-                    &mut sigma,
-                    &mut iteration,
-                    started,
-                    true,
-                )? {
-                    f = fe;
-                    pd_floor = sigma;
-                    continue;
-                }
+                leave_saddle!(true);
             }
             direction = shifted_direction(ws, Some(shift_start), &mut rec)?;
             if let Some((o, _)) = direction {
@@ -1508,26 +1501,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     met_indefinite = true;
                     // First leave along negative curvature (a saddle or an indefinite
                     // region is near: shifted steps would only creep along that direction).
-                    if escape && escapes < MAX_ESCAPES {
-                        escapes += 1;
-                        if let Some(fe) = escape_saddle(
-                            objective,
-                            x,
-                            f,
-                            ws,
-                            &mut rec,
-                            length_scale,
-                            force_scale,
-                            &mut sigma,
-                            &mut iteration,
-                            started,
-                            true,
-                        )? {
-                            f = fe;
-                            pd_floor = sigma;
-                            continue;
-                        }
-                    }
+                    leave_saddle!(true);
                     direction = shifted_direction(ws, None, &mut rec)?;
                     if let Some((o, _)) = direction {
                         kind = IterationHessian::Shifted;
@@ -1652,26 +1626,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             if pred.is_nan() || pred <= WATCHDOG_MIN_DECREASE * value_noise(f) {
                 // The shifted model promises nothing f can resolve: x is near a critical
                 // point of an indefinite Hessian. Leave it along negative curvature.
-                if escape && escapes < MAX_ESCAPES {
-                    escapes += 1;
-                    if let Some(fe) = escape_saddle(
-                        objective,
-                        x,
-                        f,
-                        ws,
-                        &mut rec,
-                        length_scale,
-                        force_scale,
-                        &mut sigma,
-                        &mut iteration,
-                        started,
-                        false,
-                    )? {
-                        f = fe;
-                        pd_floor = sigma;
-                        continue;
-                    }
-                }
+                leave_saddle!(false);
                 // Let the PSD Hessian (and then the convergence tests) decide.
                 rec.rejected_steps += 1;
                 try_own = false;
