@@ -126,6 +126,7 @@ impl Integrator for ExplicitEuler {
             hessian: system.hessian_mode,
             energies,
             stable: None,
+            stability: None,
         })
     }
 }

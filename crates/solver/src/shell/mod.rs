@@ -14,6 +14,7 @@ pub mod integrator;
 pub mod loads;
 mod objective;
 pub mod path;
+mod rigid;
 pub mod statics;
 pub mod system;
 
