@@ -81,6 +81,7 @@ use faer::sparse::SparseColMat;
 use crate::SolverError;
 use crate::curvature::{self, SHIFT_GROWTH};
 use crate::iterative::{Ic0, PcgScratch, pcg, sym_lower_matvec};
+use crate::ldlt::SparseLdlt;
 use crate::linear::{
     FactorError, FactorOutcome, FactorStats, RegularizationKind, RegularizationParams,
     SparseCholesky,
@@ -206,9 +207,9 @@ pub struct NewtonSettings {
     pub escape_saddles: bool,
     /// Converged also when the Newton correction is below this fraction of the distance the
     /// solve has moved from its start, `‖dx‖∞ ≤ relative_step_tolerance · ‖x − x₀‖∞` (≥ 0; 0
-    /// disables it, the default for static solves). Implicit steps set it (1e-6 by default):
-    /// the change over a step is the size its time discretisation error is relative to, so a
-    /// correction a million times smaller is far below that error.
+    /// disables it, the default for static solves). `ImplicitEuler::new` sets 1e-3: the move
+    /// of a step from its inertial prediction is of the order of its time discretisation
+    /// error, so a correction a thousand times smaller is far below that error.
     pub relative_step_tolerance: f64,
 }
 
@@ -522,6 +523,9 @@ pub struct NewtonWorkspace {
     progress: Option<ProgressHook>,
     /// Checked before every iteration of [`newton_solve`].
     cancel: Option<CancelFlag>,
+    /// Indefinite factorisation for Newton steps to a critical point whose Hessian is
+    /// indefinite (`saddle_newton`); analysed on first use.
+    ldlt: Option<SparseLdlt>,
 }
 
 impl std::fmt::Debug for NewtonWorkspace {
@@ -674,6 +678,7 @@ impl NewtonWorkspace {
             parallel: settings.parallel,
             progress: None,
             cancel: None,
+            ldlt: None,
         })
     }
 
@@ -1549,8 +1554,10 @@ pub fn newton_solve<O: Objective + ?Sized>(
     // whether the PSD iterations have stalled: only then does an indefinite own Hessian get
     // trust-region steps (far from a solution Gauss–Newton is the faster: its model ignores
     // the compressive stresses whose negative curvature makes the shifted steps short).
+    // Without line search PSD steps are taken in full, unguarded: the trust region (which has
+    // its own acceptance test) is used from the start.
     let mut psd_slow = 0usize;
-    let mut psd_stalled = false;
+    let mut psd_stalled = !settings.line_search;
     let x_start = (settings.relative_step_tolerance > 0.0).then(|| x.to_vec());
     let mut try_own = true;
     // A converged point: where an indefinite own Hessian was met on the way, first make sure
@@ -1860,35 +1867,57 @@ pub fn newton_solve<O: Objective + ?Sized>(
             let dhd: f64 = ws.dx.iter().zip(&ws.hd).map(|(a, b)| a * b).sum();
             let pred = -(alpha * slope + 0.5 * alpha * alpha * dhd);
             // (NaN included: no usable prediction.)
+            let mut saddle_step = None;
             if pred.is_nan() || pred <= WATCHDOG_MIN_DECREASE * rec.noise(f) {
                 // The shifted model promises nothing f can resolve: x is near a critical
                 // point of an indefinite Hessian. Leave it along negative curvature.
                 leave_saddle!(false);
-                // Let the PSD Hessian (and then the convergence tests) decide.
-                rec.rejected_steps += 1;
-                try_own = false;
-                wait = backoff;
-                backoff = backoff.saturating_mul(2);
-                sigma = 0.0;
-                pd_floor = 0.0;
-                continue;
+                // No lower point that way (or saddles are answers here): the unshifted Newton
+                // step, which converges to the critical point quadratically, and whose length
+                // is the convergence test.
+                match saddle_newton(objective, x, f, ws, &mut rec, step_limit)? {
+                    SaddleStep::Converged => converged!(Convergence::Step),
+                    SaddleStep::Taken(f_t) => {
+                        kind = IterationHessian::Own;
+                        alpha = 1.0;
+                        saddle_step = Some(f_t);
+                    }
+                    SaddleStep::Unavailable => {
+                        // Let the PSD Hessian (and then the convergence tests) decide.
+                        rec.rejected_steps += 1;
+                        try_own = false;
+                        wait = backoff;
+                        backoff = backoff.saturating_mul(2);
+                        sigma = 0.0;
+                        pd_floor = 0.0;
+                        continue;
+                    }
+                }
             }
-            for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x.iter()).zip(&ws.dx) {
-                *xt = xi + alpha * d;
-            }
-            let t = Instant::now();
-            let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
-            rec.timings.assembly += t.elapsed();
-            rho = (f - f_t) / pred;
+            let f_t = match saddle_step {
+                Some(f_t) => f_t,
+                None => {
+                    for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x.iter()).zip(&ws.dx) {
+                        *xt = xi + alpha * d;
+                    }
+                    let t = Instant::now();
+                    let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
+                    rec.timings.assembly += t.elapsed();
+                    rho = (f - f_t) / pred;
+                    f_t
+                }
+            };
 
-            if !(f_t.is_finite() && rho >= TR_ACCEPT && first_non_finite(&ws.g_trial).is_none()) {
+            if saddle_step.is_none()
+                && !(f_t.is_finite() && rho >= TR_ACCEPT && first_non_finite(&ws.g_trial).is_none())
+            {
                 rec.rejected_steps += 1;
                 tr_rejections += 1;
                 sigma *= TR_GROWTH;
                 if tr_rejections >= MAX_TR_REJECTIONS {
                     // The shifted model keeps failing here (far from any quadratic
                     // behaviour): PSD steps, as before issue #26, until they stall again.
-                    psd_stalled = false;
+                    psd_stalled = !settings.line_search;
                     psd_slow = 0;
                     try_own = false;
                     wait = backoff;
@@ -2322,6 +2351,81 @@ fn shifted_direction(
         },
         true,
     )))
+}
+
+/// What [`saddle_newton`] did.
+enum SaddleStep {
+    /// The unshifted Newton correction is below the step tolerance: x is converged.
+    Converged,
+    /// The step was taken to `ws.x_trial` (value returned, gradient in `ws.g_trial`).
+    Taken(f64),
+    /// No usable step (singular Hessian, or the step did not reduce the gradient).
+    Unavailable,
+}
+
+/// The unshifted Newton step `dx = −H⁻¹∇f` of the own Hessian in `ws` (assembled at x,
+/// indefinite) by a sparse LDLᵀ factorisation: near a critical point whose Hessian is
+/// indefinite (a saddle that could not be left, or that the caller keeps) Newton converges to it
+/// quadratically, where trust-region steps only creep. The step is taken when it reduces the
+/// gradient and raises f by no more than its round-off resolves.
+fn saddle_newton<O: Objective + ?Sized>(
+    objective: &mut O,
+    x: &[f64],
+    f: f64,
+    ws: &mut NewtonWorkspace,
+    rec: &mut Record,
+    step_limit: f64,
+) -> Result<SaddleStep, SolverError> {
+    if ws.cholesky.is_none() {
+        return Ok(SaddleStep::Unavailable);
+    }
+    if ws.ldlt.is_none() {
+        let par = if ws.parallel { Par::rayon(0) } else { Par::Seq };
+        match SparseLdlt::new(ws.hessian.symbolic(), ws.ordering, par) {
+            Ok(l) => ws.ldlt = Some(l),
+            Err(_) => return Ok(SaddleStep::Unavailable),
+        }
+    }
+    let Some(ldlt) = ws.ldlt.as_mut() else {
+        return Ok(SaddleStep::Unavailable);
+    };
+    let t = Instant::now();
+    let factored = ldlt.factorize(ws.hessian.as_ref());
+    rec.timings.factorization += t.elapsed();
+    rec.factorizations += 1;
+    if factored.is_err() {
+        return Ok(SaddleStep::Unavailable);
+    }
+    for (d, g) in ws.dx.iter_mut().zip(&ws.g) {
+        *d = -g;
+    }
+    let t = Instant::now();
+    ldlt.solve_in_place(&mut ws.dx)?;
+    rec.timings.solve += t.elapsed();
+    if first_non_finite(&ws.dx).is_some() {
+        return Ok(SaddleStep::Unavailable);
+    }
+    let dx_max = norm_inf(&ws.dx);
+    if dx_max <= step_limit {
+        rec.corrections.push(dx_max / objective.length_scale());
+        return Ok(SaddleStep::Converged);
+    }
+    for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x).zip(&ws.dx) {
+        *xt = xi + d;
+    }
+    let t = Instant::now();
+    let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
+    rec.timings.assembly += t.elapsed();
+    let resolvable = WATCHDOG_MIN_DECREASE * rec.noise(f);
+    if f_t.is_finite()
+        && f_t <= f + resolvable
+        && first_non_finite(&ws.g_trial).is_none()
+        && norm_inf(&ws.g_trial) < norm_inf(&ws.g)
+    {
+        Ok(SaddleStep::Taken(f_t))
+    } else {
+        Ok(SaddleStep::Unavailable)
+    }
 }
 
 /// Leaves a point where the own Hessian is indefinite along its most negative curvature

@@ -39,10 +39,14 @@ pub struct ImplicitEuler {
 }
 
 /// Default [`NewtonSettings::relative_step_tolerance`] of implicit steps: a step's Newton
-/// solve has converged once its correction is a millionth of how far the step moved from
-/// its start (the inertial prediction), far below the step's own time discretisation error,
-/// which is of the order of that move.
-const IMPLICIT_RELATIVE_STEP_TOLERANCE: f64 = 1e-6;
+/// solve has converged once its correction is 10⁻³ of how far the step moved from its start
+/// (the inertial prediction x̃ = x + Δt v; the move Δt²·a is of the order of the step's own
+/// time discretisation error). Measured on a falling flag (`tests/implicit_tolerance.rs`): the
+/// answer differs from a solve converged to round-off by 0.3 % of the time discretisation
+/// error, with 30 % fewer iterations; the seed scenes need as many iterations as before the
+/// scale-free convergence test (sphere_directed_heat, Δt = 10⁻³ s: 197, was 198; 10⁻⁴
+/// would take 251).
+const IMPLICIT_RELATIVE_STEP_TOLERANCE: f64 = 1e-3;
 
 impl ImplicitEuler {
     /// Fixed step `dt` (s) with default Newton settings, except that saddles of the
