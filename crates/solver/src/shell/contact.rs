@@ -19,6 +19,7 @@ use thinshell_energy::contact::{
 use thinshell_energy::linalg::project_psd;
 use thinshell_mesh::Mesh;
 
+use super::contact_pattern::entry;
 use crate::SolverError;
 
 type V = Vector3<f64>;
@@ -290,19 +291,14 @@ impl Contact {
         s
     }
 
-    /// Visits every active pair's vertices, gradient and PSD Hessian (unit stiffness).
-    fn for_active(
-        &self,
-        x: &[V],
-        mut f: impl FnMut(&[usize], &[f64], &dyn Fn(usize, usize) -> Matrix3<f64>),
-    ) {
+    /// Visits every active pair's vertices, gradient and Hessian (unit stiffness; column-major
+    /// 3n×3n for n vertices), the Hessian projected to PSD per pair when `project` is set.
+    fn for_active(&self, x: &[V], project: bool, mut f: impl FnMut(&[usize], &[f64], &[f64])) {
         let c = self.candidates(x);
         let g = self.geometry();
         let mut pair = |ids: [usize; 4], pts: PairPoints, kind: PairKind| {
-            if let PairBarrier::Active(d) = pair_barrier(&pts, kind, g, true) {
-                let block =
-                    |a: usize, b: usize| d.hessian.fixed_view::<3, 3>(3 * a, 3 * b).into_owned();
-                f(&ids, d.gradient.as_slice(), &block);
+            if let PairBarrier::Active(d) = pair_barrier(&pts, kind, g, project) {
+                f(&ids, d.gradient.as_slice(), d.hessian.as_slice());
             }
         };
         for &[v, fc] in &c.point_triangle {
@@ -331,11 +327,13 @@ impl Contact {
                 let grad = n * db;
                 let mut h = n * n.transpose() * ddb;
                 if let Obstacle::Sphere { center, .. } = o {
-                    // ∇n = (I − n nᵀ)/|y − c|, times b′ < 0: the indefinite part, projected.
+                    // ∇n = (I − n nᵀ)/|y − c|, times b′ < 0: the indefinite part.
                     h += (Matrix3::identity() - n * n.transpose()) * (db / (y - center).norm());
-                    project_psd(&mut h);
+                    if project {
+                        project_psd(&mut h);
+                    }
                 }
-                f(&[v], grad.as_slice(), &|_, _| h);
+                f(&[v], grad.as_slice(), h.as_slice());
             }
         }
     }
@@ -344,7 +342,7 @@ impl Contact {
     /// positions first).
     pub fn add_gradient(&self, x: &[V], grad: &mut [f64]) {
         let k = self.stiffness;
-        self.for_active(x, |ids, g, _| {
+        self.for_active(x, false, |ids, g, _| {
             for (a, &v) in ids.iter().enumerate() {
                 for i in 0..3 {
                     grad[3 * v + i] += k * g[3 * a + i];
@@ -353,37 +351,90 @@ impl Contact {
         });
     }
 
-    /// Adds the per-vertex 3×3 diagonal blocks of the (PSD-projected) contact Hessian to `h`
-    /// (the lower triangle over `dofs`' free dofs). Vertex–obstacle pairs are exact; for self
-    /// pairs the blocks coupling two vertices are left out, since the Hessian pattern is the
-    /// shell's (fixed) one. A principal block of a PSD matrix is PSD, so the sum stays PSD and
-    /// Newton steps stay descent directions.
-    pub fn add_hessian(&self, x: &[V], dofs: &DofMap, h: &mut SparseColMat<usize, f64>) {
+    /// Adds the contact Hessian at positions `x` to `h` (lower triangle over `dofs`' free
+    /// dofs), each pair's Hessian projected to PSD when `project` is set. A pair whose vertex
+    /// couplings are all in `h`'s pattern is added exactly; one that is not (the pattern was
+    /// built before the pair came near, see `contact_pattern.rs`) adds only its per-vertex 3×3
+    /// diagonal blocks — principal blocks of a PSD matrix are PSD, so a projected Hessian stays
+    /// PSD. Returns the number of pairs so approximated.
+    pub fn add_hessian(
+        &self,
+        x: &[V],
+        dofs: &DofMap,
+        h: &mut SparseColMat<usize, f64>,
+        project: bool,
+    ) -> usize {
         let k = self.stiffness;
+        let mut approximated = 0;
         let (symbolic, val) = h.parts_mut();
-        self.for_active(x, |ids, _, block| {
+        self.for_active(x, project, |ids, _, hess| {
+            let m = 3 * ids.len();
+            let mut dof = [None; 12];
             for (a, &v) in ids.iter().enumerate() {
-                let b = block(a, a);
                 for c in 0..3 {
-                    let Some(col) = dofs.coordinate_dof(3 * v + c) else {
-                        continue;
-                    };
-                    for r in 0..3 {
-                        let Some(row) = dofs.coordinate_dof(3 * v + r) else {
-                            continue;
-                        };
-                        if row < col {
-                            continue;
-                        }
-                        let range = symbolic.col_range(col);
-                        let rows = &symbolic.row_idx()[range.clone()];
-                        if let Ok(p) = rows.binary_search(&row) {
-                            val[range.start + p] += k * b[(r, c)];
-                        }
+                    dof[3 * a + c] = dofs.coordinate_dof(3 * v + c);
+                }
+            }
+            // Value index of every (i, j) with dof(i) ≥ dof(j): each stored entry once.
+            let mut at = [[None; 12]; 12];
+            let mut exact = true;
+            for i in 0..m {
+                for j in 0..m {
+                    if let (Some(p), Some(q)) = (dof[i], dof[j])
+                        && p >= q
+                    {
+                        at[i][j] = entry(symbolic, p, q);
+                        exact &= at[i][j].is_some();
+                    }
+                }
+            }
+            approximated += usize::from(!exact);
+            for i in 0..m {
+                for j in 0..m {
+                    if let Some(o) = at[i][j]
+                        && (exact || i / 3 == j / 3)
+                    {
+                        val[o] += k * hess[j * m + i];
                     }
                 }
             }
         });
+        approximated
+    }
+
+    /// Whether the shell is kept from passing through itself.
+    pub fn self_contact(&self) -> bool {
+        self.self_contact
+    }
+
+    /// Vertex pairs `[a, b]` (a < b) of every self pair that may come within `reach` (m) of
+    /// the offset over the straight motion `x` → `x_end` (bounding boxes of the swept
+    /// primitives; `x_end` `None`: at `x`). Empty without self-contact.
+    pub(crate) fn couplings(&self, x: &[V], x_end: Option<&[V]>, reach: f64) -> Vec<[usize; 2]> {
+        if !self.self_contact {
+            return Vec::new();
+        }
+        let dx: Option<Vec<V>> = x_end.map(|e| e.iter().zip(x).map(|(b, a)| b - a).collect());
+        let c = candidate_pairs(
+            x,
+            dx.as_deref(),
+            &self.faces,
+            &self.edges,
+            self.offset_self + reach,
+        );
+        let mut out = Vec::with_capacity(3 * c.point_triangle.len() + 4 * c.edge_edge.len());
+        let mut couple = |a: usize, b: usize| out.push([a.min(b), a.max(b)]);
+        for &[v, f] in &c.point_triangle {
+            self.faces[f].iter().for_each(|&t| couple(v, t));
+        }
+        for &[i, j] in &c.edge_edge {
+            for a in self.edges[i] {
+                self.edges[j].iter().for_each(|&b| couple(a, b));
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
     }
 
     /// The largest fraction α ∈ (0, 1] of the step from `x0` to `x1` that keeps every pair apart

@@ -198,7 +198,7 @@ impl NewtonCache {
     ) -> Result<&mut NewtonWorkspace, SolverError> {
         if self.ws.as_ref().is_some_and(|ws| {
             ws.n_dofs() != objective.n_dofs()
-                || !objective.sys.assembler.has_pattern(ws.hessian())
+                || !objective.sys.has_hessian_pattern(ws.hessian())
                 || !ws.matches(settings)
         }) {
             self.ws = None;

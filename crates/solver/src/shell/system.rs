@@ -11,6 +11,7 @@ use thinshell_mesh::Mesh;
 use super::angles::{AngleRelaxation, AngleReport, AngleSettings};
 use super::bc::Boundary;
 use super::contact::{Contact, ContactSettings};
+use super::contact_pattern::ContactPattern;
 use super::loads::{Loads, add_pressure_gradient};
 use crate::SolverError;
 
@@ -74,6 +75,9 @@ pub struct ShellSystem {
     pub(crate) angle_relaxation: Option<Box<AngleRelaxation>>,
     /// The contact term, when the scene names the `contact` effect ([`ShellSystem::set_contact`]).
     pub contact: Option<Contact>,
+    /// The Hessian pattern widened by self-contact couplings, when self-contact is on (built
+    /// and rebuilt by the objectives, see `contact_pattern.rs`).
+    pub(crate) contact_pattern: Option<ContactPattern>,
 }
 
 impl std::fmt::Debug for ShellSystem {
@@ -121,6 +125,7 @@ impl ShellSystem {
             angle_scale,
             angle_relaxation: None,
             contact: None,
+            contact_pattern: None,
         })
     }
 
@@ -148,6 +153,7 @@ impl ShellSystem {
         let contact = Contact::new(&self.mesh, m.thickness, m.young, settings)?;
         contact.check(x0)?;
         self.contact = Some(contact);
+        self.contact_pattern = None;
         Ok(())
     }
 
@@ -355,9 +361,51 @@ impl ShellSystem {
     }
 
     /// The Hessian's sparsity pattern (lower triangle, all values 0), e.g. to size its
-    /// factorisation before a solve.
+    /// factorisation before a solve: the assembler's, widened by the couplings of nearby
+    /// self-contact pairs once a solve with self-contact has built them.
     pub fn hessian_template(&self) -> faer::sparse::SparseColMat<usize, f64> {
-        self.assembler.hessian_template()
+        match &self.contact_pattern {
+            Some(p) => p.template(),
+            None => self.assembler.hessian_template(),
+        }
+    }
+
+    /// Whether `h` has the pattern of [`ShellSystem::hessian_template`].
+    pub(crate) fn has_hessian_pattern(&self, h: &faer::sparse::SparseColMat<usize, f64>) -> bool {
+        match &self.contact_pattern {
+            Some(p) => p.has_pattern(h),
+            None => self.assembler.has_pattern(h),
+        }
+    }
+
+    /// Makes the Hessian pattern cover every self-contact pair that can become active on the
+    /// motion `x` → `x_end` (m; `None`: at `x`): kept when it already does, else rebuilt with
+    /// the reach [`PATTERN_REACH`](super::contact_pattern::PATTERN_REACH)·d̂ (model.md §7).
+    /// Returns whether it was rebuilt. Nothing to do without self-contact.
+    pub(crate) fn refresh_contact_pattern(
+        &mut self,
+        x: &[Vector3<f64>],
+        x_end: Option<&[Vector3<f64>]>,
+    ) -> bool {
+        let Some(c) = self.contact.as_ref().filter(|c| c.self_contact()) else {
+            return false;
+        };
+        let needed = c.couplings(x, x_end, c.activation);
+        if self
+            .contact_pattern
+            .as_ref()
+            .is_some_and(|p| p.covers(&self.dofs, &needed))
+        {
+            return false;
+        }
+        let reach = (1.0 + super::contact_pattern::PATTERN_REACH) * c.activation;
+        let couplings = c.couplings(x, x_end, reach);
+        self.contact_pattern = Some(ContactPattern::new(
+            &self.assembler.hessian_template(),
+            &self.dofs,
+            &couplings,
+        ));
+        true
     }
 
     /// Free dofs (Newton's unknowns) of positions `x` (m) and edge angles `phi` (rad, one per
