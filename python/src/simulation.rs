@@ -43,6 +43,8 @@ struct Totals {
     stable: Option<bool>,
     unstable_steps: Vec<usize>,
     wall_s: f64,
+    #[serde(default)]
+    contact: Option<thinshell::sim::ContactTotals>,
 }
 
 /// The simulation and what the wrapper adds up over the steps taken through it.
@@ -73,6 +75,9 @@ impl Inner {
         t.stable = r.stable;
         if r.stable == Some(false) {
             t.unstable_steps.push(r.step);
+        }
+        if let Some(c) = &r.contact {
+            t.contact.get_or_insert_default().add(c);
         }
         self.status = if self.sim.steps_done() >= self.sim.steps_total() {
             "completed"
@@ -518,6 +523,7 @@ impl PySimulation {
             "load_factor": s.load_factor(),
             "stable": t.stable,
             "unstable_steps": t.unstable_steps,
+            "contact": t.contact,
         });
         convert::to_py(py, &value)
     }

@@ -452,6 +452,7 @@ fn finish_outputs(
         "gauss_newton_iterations": totals.gauss_newton_iterations,
         "stable": totals.stable,
         "unstable_steps": totals.unstable_steps,
+        "contact": totals.contact,
     });
     let summary_path = dir.join("summary.json");
     let text = serde_json::to_string_pretty(&summary)

@@ -119,3 +119,55 @@ steps = 1
         "{e}"
     );
 }
+
+/// `thinshell run` of the shipped scene (20 steps): `steps.csv` carries the contact columns,
+/// every step's smallest gap is positive, and `summary.json`'s `contact` agrees with the rows.
+#[test]
+fn run_writes_contact_columns_and_summary() {
+    let out_dir = thinshell_testkit::fixtures::fresh_temp_dir("contact-run");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_thinshell"))
+        .args(["run", "--quiet", "--set", "integrator.steps=20", "--out"])
+        .arg(&out_dir)
+        .arg(data_path("scenes/sheet_on_sphere.toml"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(out_dir.join("steps.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .unwrap_or_else(|| panic!("no column {name} in {header:?}"))
+    };
+    let (pairs, gap, energy) = (
+        col("contact_pairs"),
+        col("contact_min_gap_m"),
+        col("contact_energy_J"),
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 20);
+    let min_gap = rows.iter().map(|r| r[gap]).fold(f64::INFINITY, f64::min);
+    let max_pairs = rows.iter().map(|r| r[pairs]).fold(0.0, f64::max);
+    assert!(min_gap > 0.0, "smallest gap {min_gap}");
+    // Landed by step 20: pairs active, barrier energy positive.
+    let last = &rows[19];
+    assert!(last[pairs] > 0.0 && last[energy] > 0.0, "{last:?}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    let c = &summary["contact"];
+    assert_eq!(c["min_gap_m"].as_f64(), Some(min_gap), "{c}");
+    assert_eq!(c["max_active_pairs"].as_f64(), Some(max_pairs), "{c}");
+}

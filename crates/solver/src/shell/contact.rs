@@ -110,13 +110,24 @@ pub struct Contact {
     rest: Vec<V>,
 }
 
-/// Counts and gap of the active set at one configuration.
+/// Counts, gap and energy of the contact term at one configuration, and how its Hessian was
+/// assembled.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactStats {
     /// Active pairs (self pairs plus vertex–obstacle pairs with gap < d̂).
     pub active_pairs: usize,
     /// The smallest gap over all candidate pairs and obstacles (m; +∞ if none).
     pub min_gap: f64,
+    /// The barrier energy κ Σ m_k b(g_k, d̂) (J).
+    pub energy: f64,
+    /// Self pairs of the last Newton Hessian whose vertex couplings were outside its pattern
+    /// and so entered as per-vertex diagonal blocks only (0: that Hessian was exact; see
+    /// [`Contact::add_hessian`]). Filled in by [`ShellSystem::contact_stats`](super::ShellSystem::contact_stats);
+    /// 0 from [`Contact::stats`].
+    pub approximated_pairs: usize,
+    /// Rebuilds of the self-contact Hessian pattern (new symbolic factorisations) since contact
+    /// was set. Filled in like `approximated_pairs`.
+    pub pattern_rebuilds: usize,
 }
 
 impl Contact {
@@ -264,30 +275,44 @@ impl Contact {
         self.stiffness * e
     }
 
-    /// Active pairs and the smallest gap at positions `x`.
+    /// Active pairs, the smallest gap and the energy at positions `x` (the Hessian counters
+    /// are left 0).
     pub fn stats(&self, x: &[V]) -> ContactStats {
         let c = self.candidates(x);
+        let g = self.geometry();
         let mut s = ContactStats {
-            active_pairs: 0,
             min_gap: f64::INFINITY,
+            ..ContactStats::default()
         };
-        let mut see = |gap: f64| {
+        let mut b_sum = 0.0;
+        let mut see = |gap: f64, b: f64| {
             s.min_gap = s.min_gap.min(gap);
             if gap < self.activation {
                 s.active_pairs += 1;
             }
+            b_sum += b;
         };
         for &[v, f] in &c.point_triangle {
-            see(point_triangle_distance2(&self.pt_points(x, v, f)).0.sqrt() - self.offset_self);
+            let pts = self.pt_points(x, v, f);
+            see(
+                point_triangle_distance2(&pts).0.sqrt() - self.offset_self,
+                pair_energy(&pts, PairKind::PointTriangle, g),
+            );
         }
         for &[i, j] in &c.edge_edge {
-            see(edge_edge_distance2(&self.ee_points(x, i, j)).0.sqrt() - self.offset_self);
+            let pts = self.ee_points(x, i, j);
+            see(
+                edge_edge_distance2(&pts).0.sqrt() - self.offset_self,
+                pair_energy(&pts, self.ee_kind(i, j), g),
+            );
         }
         for o in &self.obstacles {
             for y in x {
-                see(self.obstacle_gap(o, y).0);
+                let gap = self.obstacle_gap(o, y).0;
+                see(gap, barrier(gap, self.activation).0);
             }
         }
+        s.energy = self.stiffness * b_sum;
         s
     }
 

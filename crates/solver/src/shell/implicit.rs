@@ -162,6 +162,7 @@ impl Integrator for ImplicitEuler {
                         hessian,
                         energies,
                         stable: None,
+                        contact: system.contact_stats(&state.x),
                     });
                 }
                 Err(e) if halvings < self.max_halvings && retryable(&e) => {

@@ -35,6 +35,9 @@ pub struct StepReport {
     /// shift; `Some(false)` is a saddle or maximum (unstable: a perturbation leaves it).
     /// `None` for dynamic steps.
     pub stable: Option<bool>,
+    /// With contact: the contact term at the end of the step (active pairs, smallest gap,
+    /// barrier energy, Hessian counters; [`ShellSystem::contact_stats`]). `None` without.
+    pub contact: Option<super::contact::ContactStats>,
 }
 
 /// What kind of step an [`Integrator`] takes: callers that treat equilibrium and dynamic steps

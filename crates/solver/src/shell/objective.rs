@@ -369,6 +369,7 @@ impl ShellObjective<'_> {
             // project it per pair, as they do per face.
             let project = mode != HessianMode::Exact;
             self.approximated_pairs = c.add_hessian(&self.x_full, &self.sys.dofs, h, project);
+            self.sys.contact_approximated = self.approximated_pairs;
         }
         Ok(())
     }

@@ -206,6 +206,7 @@ impl Integrator for Static {
             hessian,
             energies,
             stable,
+            contact: system.contact_stats(&state.x),
         })
     }
 }

@@ -10,7 +10,7 @@ use thinshell_mesh::Mesh;
 
 use super::angles::{AngleRelaxation, AngleReport, AngleSettings};
 use super::bc::Boundary;
-use super::contact::{Contact, ContactSettings};
+use super::contact::{Contact, ContactSettings, ContactStats};
 use super::contact_pattern::ContactPattern;
 use super::loads::{Loads, add_pressure_gradient};
 use crate::SolverError;
@@ -78,6 +78,10 @@ pub struct ShellSystem {
     /// The Hessian pattern widened by self-contact couplings, when self-contact is on (built
     /// and rebuilt by the objectives, see `contact_pattern.rs`).
     pub(crate) contact_pattern: Option<ContactPattern>,
+    /// Self-contact pairs approximated in the last Hessian ([`ContactStats::approximated_pairs`]).
+    pub(crate) contact_approximated: usize,
+    /// Rebuilds of `contact_pattern` since contact was set.
+    pub(crate) contact_pattern_rebuilds: usize,
 }
 
 impl std::fmt::Debug for ShellSystem {
@@ -126,6 +130,8 @@ impl ShellSystem {
             angle_relaxation: None,
             contact: None,
             contact_pattern: None,
+            contact_approximated: 0,
+            contact_pattern_rebuilds: 0,
         })
     }
 
@@ -154,7 +160,19 @@ impl ShellSystem {
         contact.check(x0)?;
         self.contact = Some(contact);
         self.contact_pattern = None;
+        self.contact_approximated = 0;
+        self.contact_pattern_rebuilds = 0;
         Ok(())
+    }
+
+    /// The contact term's statistics at positions `x` (m) with the Hessian counters of this
+    /// system; `None` without contact.
+    pub fn contact_stats(&self, x: &[Vector3<f64>]) -> Option<ContactStats> {
+        self.contact.as_ref().map(|c| ContactStats {
+            approximated_pairs: self.contact_approximated,
+            pattern_rebuilds: self.contact_pattern_rebuilds,
+            ..c.stats(x)
+        })
     }
 
     /// Number of edge angles a [`State`] of this system carries (0 without edge unknowns).
@@ -405,6 +423,7 @@ impl ShellSystem {
             &self.dofs,
             &couplings,
         ));
+        self.contact_pattern_rebuilds += 1;
         true
     }
 
