@@ -166,6 +166,8 @@ fn drop_onto(obstacle: Obstacle, lift: f64, steps: usize) -> [f64; 6] {
     let gap = |y: &V| match &obstacle {
         Obstacle::Plane { point, normal } => normal.normalize().dot(&(y - point)) - 0.5 * h,
         Obstacle::Sphere { center, radius } => (y - center).norm() - radius - 0.5 * h,
+        // Outside a box: the distance to its nearest point (the coordinates clamped to it).
+        Obstacle::Box { min, max } => (y - y.sup(min).inf(max)).norm() - 0.5 * h,
     };
     let mut state = State::at_rest(x0);
     let mut ie = ImplicitEuler::new(1e-3);
@@ -218,6 +220,20 @@ fn sheet_dropped_onto_a_sphere_stays_outside_and_intersection_free() {
     );
     assert!(min_gap > 0.0);
     // Resting on the ball's top, draping beyond it.
+    assert!(final_min < d_hat && max_gap > 2.0 * d_hat);
+}
+
+#[test]
+fn sheet_dropped_onto_a_box_drapes_over_its_edges_without_crossing() {
+    // A 6 cm square table top at z = 0; the 10 cm sheet hangs 2 cm over each side.
+    let table = Obstacle::Box {
+        min: V::new(-0.03, -0.03, -0.05),
+        max: V::new(0.03, 0.03, 0.0),
+    };
+    let [min_gap, final_min, max_gap, _, _, d_hat] = drop_onto(table, 0.003, 80);
+    eprintln!("box: min gap {min_gap:e} m, final gaps {final_min:e}..{max_gap:e} m, d̂ {d_hat:e} m");
+    assert!(min_gap > 0.0);
+    // Resting on the top, the overhang bent down beyond the edges.
     assert!(final_min < d_hat && max_gap > 2.0 * d_hat);
 }
 
@@ -373,4 +389,46 @@ fn stacked_sheets_static_contact_converges_quadratically_and_carries_the_weight(
         (lift - weight).abs() < 1e-6 * weight,
         "contact force {lift} vs weight {weight}"
     );
+}
+
+/// The adaptive stiffness (model.md §7) on a sheet resting on a plane, solved statically from
+/// gaps of 0.9 d̂: κ₀ = W / (P·|b′(d̂/2)|) for the weight W over P vertex pairs, so at the
+/// equilibrium the mean of |b′(g_v)| over the vertices equals |b′(d̂/2)| (the contact forces
+/// κ b′(g_v) sum to the weight).
+#[test]
+fn adaptive_stiffness_carries_the_weight_at_half_the_activation_distance() {
+    let (mut sys, _) = sheet(10, 0.0);
+    let h = sys.model.material.thickness;
+    let d_hat = 1e-3;
+    let mut x: Vec<V> = sys
+        .mesh
+        .positions()
+        .iter()
+        .map(|p| p + V::new(0.0, 0.0, 0.5 * h + 0.9 * d_hat))
+        .collect();
+    let settings = ContactSettings {
+        obstacles: vec![Obstacle::Plane {
+            point: V::zeros(),
+            normal: V::z(),
+        }],
+        self_contact: false,
+        distance: Some(d_hat),
+        ..ContactSettings::default()
+    };
+    sys.set_contact(&settings, &x).unwrap();
+    let mut solver = Static::default();
+    solver.solve(&mut sys, &mut x).unwrap();
+    let c = sys.contact.as_ref().unwrap();
+    let p = x.len() as f64;
+    let weight: f64 = sys.mass().iter().map(|m| m * 9.81).sum();
+    let slope = |g: f64| thinshell_energy::contact::barrier(g, d_hat).1.abs();
+    let expected = weight / (p * slope(0.5 * d_hat));
+    let mean_slope = x.iter().map(|y| slope(y.z - 0.5 * h)).sum::<f64>() / p;
+    eprintln!(
+        "κ {:e} (expected {expected:e}), mean |b′| {mean_slope:e} vs |b′(d̂/2)| {:e}",
+        c.stiffness,
+        slope(0.5 * d_hat)
+    );
+    assert!((c.stiffness - expected).abs() < 1e-12 * expected);
+    assert!((mean_slope - slope(0.5 * d_hat)).abs() < 1e-6 * slope(0.5 * d_hat));
 }

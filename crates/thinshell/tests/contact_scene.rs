@@ -98,6 +98,22 @@ fn contact_section_errors_have_positions() {
         e.contains("contact.obstacles[0].normal") && e.contains("zero"),
         "{e}"
     );
+    let e = scene_error(
+        "[contact]\n[[contact.obstacles]]\nkind = \"box\"\nmin = [0, 0, 0]\nmax = [1, 0, 1]",
+    );
+    assert!(
+        e.contains("contact.obstacles[0].max") && e.contains("must exceed `min`"),
+        "{e}"
+    );
+    let e = scene_error("[contact]\n[[contact.obstacles]]\nkind = \"box\"\nmin = [0, 0, 0]");
+    assert!(e.contains("needs `max`"), "{e}");
+    let e = scene_error(
+        "[contact]\n[[contact.obstacles]]\nkind = \"box\"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\nradius = 1",
+    );
+    assert!(
+        e.contains("contact.obstacles[0].radius") && e.contains("not a key"),
+        "{e}"
+    );
     let e = scene_error("[contact]\nself = false");
     assert!(e.contains("nothing to keep apart"), "{e}");
     let e = scene_error("[contact]\nfriction = 0.3");
@@ -168,6 +184,11 @@ fn run_writes_contact_columns_and_summary() {
         serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
             .unwrap();
     let c = &summary["contact"];
-    assert_eq!(c["min_gap_m"].as_f64(), Some(min_gap), "{c}");
+    // serde_json's default float parsing may be one ulp off.
+    let summary_gap = c["min_gap_m"].as_f64().unwrap();
+    assert!(
+        (summary_gap - min_gap).abs() <= 1e-15 * min_gap,
+        "{c} vs {min_gap}"
+    );
     assert_eq!(c["max_active_pairs"].as_f64(), Some(max_pairs), "{c}");
 }

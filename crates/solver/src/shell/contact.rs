@@ -12,37 +12,19 @@ use nalgebra::{Matrix3, Vector3};
 use thinshell_energy::DofMap;
 use thinshell_energy::contact::{
     Aabb, BarrierGeometry, CandidatePairs, CcdSettings, PairBarrier, PairKind, PairPoints,
-    additive_ccd, barrier, candidate_pairs, edge_edge_distance2, mollifier_threshold,
-    overlapping_pairs, pair_barrier, pair_energy, point_triangle_distance2,
+    additive_ccd, barrier, candidate_pairs, distance2_derivatives, edge_edge_distance2,
+    mollifier_threshold, overlapping_pairs, pair_barrier, pair_energy, point_triangle_distance2,
     segment_crosses_triangle,
 };
 use thinshell_energy::linalg::project_psd;
 use thinshell_mesh::Mesh;
 
 use super::contact_pattern::entry;
+use super::contact_stiffness::AdaptiveStiffness;
+pub use super::obstacle::Obstacle;
 use crate::SolverError;
 
 type V = Vector3<f64>;
-
-/// A rigid, fixed obstacle.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Obstacle {
-    /// The half-space on the side of `normal` of the plane through `point` (m); the shell stays
-    /// on that side.
-    Plane {
-        /// A point of the plane (m).
-        point: V,
-        /// The normal pointing towards the shell's side (any length > 0).
-        normal: V,
-    },
-    /// A ball (m); the shell stays outside it.
-    Sphere {
-        /// Centre (m).
-        center: V,
-        /// Radius (m, > 0).
-        radius: f64,
-    },
-}
 
 /// What the contact term holds apart and how.
 #[derive(Clone, Debug, PartialEq)]
@@ -53,7 +35,9 @@ pub struct ContactSettings {
     pub self_contact: bool,
     /// d̂ (m): gaps below it are active. Default: 0.1 × the mean edge length of the mesh.
     pub distance: Option<f64>,
-    /// κ (J/m² = N/m): the barrier stiffness. Default: E·h, the membrane stiffness.
+    /// κ (J/m² = N/m): a fixed barrier stiffness. Default (`None`): adaptive, starting at E·h
+    /// (the membrane stiffness) and set at the first solve that starts with pairs pressed
+    /// together, then doubled while gaps collapse (`contact_stiffness.rs`, model.md §7).
     pub stiffness: Option<f64>,
     /// Whether gaps are measured between the shell's faces (distance minus h between two
     /// sheets, minus h/2 against an obstacle) rather than between mid-surfaces. Default true.
@@ -96,8 +80,10 @@ pub struct Contact {
     self_contact: bool,
     /// d̂ (m).
     pub activation: f64,
-    /// κ (J/m²).
+    /// κ (J/m²): fixed, or the current value of the adaptive stiffness.
     pub stiffness: f64,
+    /// The adaptive stiffness's state (`None`: κ fixed by the settings).
+    pub(crate) adaptive: Option<AdaptiveStiffness>,
     /// Offset of self pairs (m): h, or 0.
     offset_self: f64,
     /// Offset against obstacles (m): h/2, or 0.
@@ -163,30 +149,12 @@ impl Contact {
                 "stiffness must be positive and finite, got {stiffness}"
             )));
         }
-        let mut obstacles = settings.obstacles.clone();
-        for o in &mut obstacles {
-            match o {
-                Obstacle::Plane { point, normal } => {
-                    let n = normal.norm();
-                    if !(n > 0.0 && n.is_finite() && point.iter().all(|v| v.is_finite())) {
-                        return Err(ContactError::Invalid(format!(
-                            "plane needs a finite point and a non-zero normal, got {point:?}, {normal:?}"
-                        )));
-                    }
-                    *normal /= n;
-                }
-                Obstacle::Sphere { center, radius } => {
-                    if !(*radius > 0.0
-                        && radius.is_finite()
-                        && center.iter().all(|v| v.is_finite()))
-                    {
-                        return Err(ContactError::Invalid(format!(
-                            "sphere needs a finite centre and a positive radius, got {center:?}, {radius}"
-                        )));
-                    }
-                }
-            }
-        }
+        let obstacles = settings
+            .obstacles
+            .iter()
+            .map(Obstacle::validated)
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(ContactError::Invalid)?;
         let h = if settings.thickness_offset {
             thickness
         } else {
@@ -197,6 +165,10 @@ impl Contact {
             self_contact: settings.self_contact,
             activation,
             stiffness,
+            adaptive: settings
+                .stiffness
+                .is_none()
+                .then(|| AdaptiveStiffness::new(young * thickness)),
             offset_self: h,
             offset_obstacle: 0.5 * h,
             separation: 1e-3 * activation,
@@ -244,16 +216,8 @@ impl Contact {
 
     /// Gap (m) of vertex position `y` to obstacle `o`, and its unit gradient direction.
     fn obstacle_gap(&self, o: &Obstacle, y: &V) -> (f64, V) {
-        match o {
-            Obstacle::Plane { point, normal } => {
-                (normal.dot(&(y - point)) - self.offset_obstacle, *normal)
-            }
-            Obstacle::Sphere { center, radius } => {
-                let r = y - center;
-                let n = r.norm();
-                (n - radius - self.offset_obstacle, r / n)
-            }
-        }
+        let d = o.distance(y);
+        (d.distance - self.offset_obstacle, d.normal)
     }
 
     /// The contact energy (J) at positions `x`; +∞ when a pair touches or crosses.
@@ -317,7 +281,8 @@ impl Contact {
     }
 
     /// Visits every active pair's vertices, gradient and Hessian (unit stiffness; column-major
-    /// 3n×3n for n vertices), the Hessian projected to PSD per pair when `project` is set.
+    /// 3n×3n for n vertices), a self pair's Hessian projected to PSD when `project` is set, a
+    /// vertex–obstacle pair's always.
     fn for_active(&self, x: &[V], project: bool, mut f: impl FnMut(&[usize], &[f64], &[f64])) {
         let c = self.candidates(x);
         let g = self.geometry();
@@ -344,19 +309,19 @@ impl Contact {
         }
         for o in &self.obstacles {
             for (v, y) in x.iter().enumerate() {
-                let (gap, n) = self.obstacle_gap(o, y);
-                let (_, db, ddb) = barrier(gap, self.activation);
+                let d = o.distance(y);
+                let (_, db, ddb) = barrier(d.distance - self.offset_obstacle, self.activation);
                 if db == 0.0 {
                     continue;
                 }
+                let n = d.normal;
                 let grad = n * db;
-                let mut h = n * n.transpose() * ddb;
-                if let Obstacle::Sphere { center, .. } = o {
-                    // ∇n = (I − n nᵀ)/|y − c|, times b′ < 0: the indefinite part.
-                    h += (Matrix3::identity() - n * n.transpose()) * (db / (y - center).norm());
-                    if project {
-                        project_psd(&mut h);
-                    }
+                // b″ n nᵀ + b′ ∇²d: the curvature term is negative semi-definite (b′ < 0), and
+                // is projected in every mode: kept exact, a sheet resting on a sphere stalled
+                // Newton at round-off along its near-free tangential (rolling) directions.
+                let mut h = n * n.transpose() * ddb + d.hessian * db;
+                if d.hessian != Matrix3::zeros() {
+                    project_psd(&mut h);
                 }
                 f(&[v], grad.as_slice(), h.as_slice());
             }
@@ -425,6 +390,49 @@ impl Contact {
             }
         });
         approximated
+    }
+
+    /// Σ_k ∇g_k over the active pairs at `x` (full coordinates, vertex-major; unit normals of
+    /// obstacle pairs, ∇d of self pairs) and the number of active pairs: the directions along
+    /// which the barrier pushes, for the adaptive stiffness.
+    pub(crate) fn gap_gradient_sum(&self, x: &[V]) -> (Vec<f64>, usize) {
+        let mut n = vec![0.0; 3 * x.len()];
+        let mut active = 0;
+        let c = self.candidates(x);
+        let mut add = |ids: [usize; 4], pts: PairPoints, (d2, ty)| {
+            let d: f64 = f64::sqrt(d2);
+            if d - self.offset_self < self.activation && d > 0.0 {
+                active += 1;
+                let g = distance2_derivatives(&pts, ty).gradient / (2.0 * d);
+                for (a, &v) in ids.iter().enumerate() {
+                    for k in 0..3 {
+                        n[3 * v + k] += g[3 * a + k];
+                    }
+                }
+            }
+        };
+        for &[v, f] in &c.point_triangle {
+            let t = self.faces[f];
+            let pts = self.pt_points(x, v, f);
+            add([v, t[0], t[1], t[2]], pts, point_triangle_distance2(&pts));
+        }
+        for &[i, j] in &c.edge_edge {
+            let (a, b) = (self.edges[i], self.edges[j]);
+            let pts = self.ee_points(x, i, j);
+            add([a[0], a[1], b[0], b[1]], pts, edge_edge_distance2(&pts));
+        }
+        for o in &self.obstacles {
+            for (v, y) in x.iter().enumerate() {
+                let (gap, u) = self.obstacle_gap(o, y);
+                if gap < self.activation {
+                    active += 1;
+                    for k in 0..3 {
+                        n[3 * v + k] += u[k];
+                    }
+                }
+            }
+        }
+        (n, active)
     }
 
     /// Whether the shell is kept from passing through itself.

@@ -1,20 +1,21 @@
 //! The shell layer: boundary conditions, loads, the shell objectives and the time integrators,
 //! on top of the energy crate's [`Assembler`](thinshell_energy::Assembler).
 //!
-//! Module dependencies point one way (no circles): `bc`, `loads`, `angles`, `contact_pattern`
-//! → `contact` → `system` →
-//! `objective` → `integrator` → `statics`, `implicit`, `explicit`; `objective` → `path` (with
+//! Module dependencies point one way (no circles): `bc`, `loads`, `angles`, `contact_pattern`,
+//! `contact_stiffness`, `obstacle` → `contact` → `system` → `objective` → `integrator` → `statics`, `implicit`, `explicit`; `objective` → `path` (with
 //! the crate's [`path`](crate::path) tracer).
 
 pub mod angles;
 pub mod bc;
 pub mod contact;
 mod contact_pattern;
+pub mod contact_stiffness;
 pub mod explicit;
 pub mod implicit;
 pub mod integrator;
 pub mod loads;
 mod objective;
+pub mod obstacle;
 pub mod path;
 pub mod statics;
 pub mod system;

@@ -66,7 +66,7 @@ impl<'a> ShellObjective<'a> {
             sys.refresh_contact_pattern(x, x_end.as_deref());
         }
         let n_coords = sys.dofs.n_coordinates();
-        ShellObjective {
+        let mut objective = ShellObjective {
             force_scale: force_scale.unwrap_or_else(|| sys.force_scale()),
             gradient_test: force_scale.is_some(),
             sys,
@@ -78,6 +78,56 @@ impl<'a> ShellObjective<'a> {
             hessian_shift,
             last_terms: EnergyTerms::default(),
             approximated_pairs: 0,
+        };
+        objective.adapt_contact_stiffness();
+        objective
+    }
+
+    /// The adaptive barrier stiffness at the start of a solve (`contact_stiffness.rs`): κ₀ from
+    /// the gradient of the objective without contact at the first start with active pairs
+    /// pressed together, then doubling while the smallest gap collapses.
+    fn adapt_contact_stiffness(&mut self) {
+        let Some((mut a, mut kappa, d_hat)) = self
+            .sys
+            .contact
+            .as_ref()
+            .and_then(|c| c.adaptive.map(|a| (a, c.stiffness, c.activation)))
+        else {
+            return;
+        };
+        let x = self.x_full.clone();
+        if !a.initialised {
+            let Some((n, active)) = self.sys.contact.as_ref().map(|c| c.gap_gradient_sum(&x))
+            else {
+                return;
+            };
+            if active > 0 {
+                let u = self.sys.gather(&x, &self.phi_full);
+                let mut g = vec![0.0; self.n_dofs()];
+                let contact = self.sys.contact.take();
+                let value = self.gradient(&u, &mut g);
+                self.sys.contact = contact;
+                if value.is_ok_and(f64::is_finite) {
+                    let coords = self.sys.dofs.free_coordinates();
+                    let n_pos = self.sys.dofs.n_free_positions();
+                    let (mut pressing, mut n2) = (0.0, 0.0);
+                    for (d, &c) in coords.iter().enumerate().take(n_pos) {
+                        pressing += g[d] * n[c];
+                        n2 += n[c] * n[c];
+                    }
+                    if let Some(k) = a.initial(pressing, n2, d_hat) {
+                        kappa = k;
+                        a.initialised = true;
+                    }
+                }
+            }
+        }
+        if let Some(c) = &mut self.sys.contact {
+            if a.initialised {
+                kappa = a.update(kappa, c.stats(&x).min_gap, d_hat);
+            }
+            c.stiffness = kappa;
+            c.adaptive = Some(a);
         }
     }
 
