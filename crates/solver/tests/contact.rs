@@ -151,8 +151,9 @@ fn intersecting_start_is_an_error_naming_the_pair() {
 }
 
 /// Drops the sheet from `lift` onto `obstacle`; returns the smallest gap to it over all steps,
-/// the final minimum and maximum gaps, the final and peak sums of v², and d̂.
-fn drop_onto(obstacle: Obstacle, lift: f64, steps: usize) -> [f64; 6] {
+/// the final minimum and maximum gaps, the final and peak sums of v², d̂, and the final upward
+/// contact force over the sheet's weight.
+fn drop_onto(obstacle: Obstacle, lift: f64, steps: usize) -> [f64; 7] {
     let (mut sys, x0) = sheet(10, lift);
     let x0: Vec<V> = x0.iter().map(|p| p - V::new(0.05, 0.05, 0.0)).collect();
     let h = sys.model.material.thickness;
@@ -188,8 +189,20 @@ fn drop_onto(obstacle: Obstacle, lift: f64, steps: usize) -> [f64; 6] {
     }
     let max_gap = state.x.iter().map(gap).fold(0.0, f64::max);
     let final_min = state.x.iter().map(gap).fold(f64::INFINITY, f64::min);
-    let d_hat = sys.contact.as_ref().unwrap().activation;
-    [min_gap, final_min, max_gap, sum_v2(&state), peak, d_hat]
+    let c = sys.contact.as_ref().unwrap();
+    let mut g = vec![0.0; 3 * state.x.len()];
+    c.add_gradient(&state.x, &mut g);
+    let lift_force: f64 = -g.iter().skip(2).step_by(3).sum::<f64>();
+    let weight: f64 = sys.mass().iter().map(|m| m * 9.81).sum();
+    [
+        min_gap,
+        final_min,
+        max_gap,
+        sum_v2(&state),
+        peak,
+        c.activation,
+        lift_force / weight,
+    ]
 }
 
 #[test]
@@ -198,14 +211,21 @@ fn sheet_dropped_onto_a_plane_comes_to_rest_on_it() {
         point: V::zeros(),
         normal: V::z(),
     };
-    let [min_gap, _, max_gap, v2_end, v2_peak, d_hat] = drop_onto(plane, 0.004, 120);
+    let [min_gap, _, max_gap, v2_end, v2_peak, d_hat, carried] = drop_onto(plane, 0.004, 300);
     eprintln!(
-        "plane: min gap {min_gap:e} m, final max gap {max_gap:e} m, Σv² {v2_end:e} (peak {v2_peak:e})"
+        "plane: min gap {min_gap:e} m, final max gap {max_gap:e} m, Σv² {v2_end:e} (peak \
+         {v2_peak:e}), contact force / weight {carried}"
     );
     assert!(min_gap > 0.0);
     // At rest on the plane: every vertex within the activation distance, motion died out.
     assert!(max_gap < d_hat, "final max gap {max_gap} vs d̂ {d_hat}");
     assert!(v2_end < 1e-3 * v2_peak, "Σv² {v2_end} vs peak {v2_peak}");
+    // At rest (0.3 s), the plane carries the weight: the barrier's upward force equals m g
+    // (1.3e-6 off on the 2-core VM; the remaining motion is Σv² ~ 1e-13 m²/s²).
+    assert!(
+        (carried - 1.0).abs() < 1e-4,
+        "contact force / weight {carried}"
+    );
 }
 
 #[test]
@@ -214,7 +234,7 @@ fn sheet_dropped_onto_a_sphere_stays_outside_and_intersection_free() {
         center: V::new(0.0, 0.0, -0.03),
         radius: 0.03,
     };
-    let [min_gap, final_min, max_gap, _, _, d_hat] = drop_onto(ball, 0.003, 80);
+    let [min_gap, final_min, max_gap, _, _, d_hat, _] = drop_onto(ball, 0.003, 80);
     eprintln!(
         "sphere: min gap {min_gap:e} m, final gaps {final_min:e}..{max_gap:e} m, d̂ {d_hat:e} m"
     );
@@ -230,7 +250,7 @@ fn sheet_dropped_onto_a_box_drapes_over_its_edges_without_crossing() {
         min: V::new(-0.03, -0.03, -0.05),
         max: V::new(0.03, 0.03, 0.0),
     };
-    let [min_gap, final_min, max_gap, _, _, d_hat] = drop_onto(table, 0.003, 80);
+    let [min_gap, final_min, max_gap, _, _, d_hat, _] = drop_onto(table, 0.003, 80);
     eprintln!("box: min gap {min_gap:e} m, final gaps {final_min:e}..{max_gap:e} m, d̂ {d_hat:e} m");
     assert!(min_gap > 0.0);
     // Resting on the top, the overhang bent down beyond the edges.
@@ -431,4 +451,117 @@ fn adaptive_stiffness_carries_the_weight_at_half_the_activation_distance() {
     );
     assert!((c.stiffness - expected).abs() < 1e-12 * expected);
     assert!((mean_slope - slope(0.5 * d_hat)).abs() < 1e-6 * slope(0.5 * d_hat));
+}
+
+/// Contact never yields a silent NaN: non-finite or out-of-range settings and non-finite
+/// positions are errors that name the problem; degenerate pairs (a zero-length edge, a
+/// zero-area face) give finite energies, forces and Hessians.
+#[test]
+fn contact_rejects_non_finite_input_and_stays_finite_on_degenerate_faces() {
+    let (mut sys, x0) = sheet(4, 0.002);
+    let plane = Obstacle::Plane {
+        point: V::zeros(),
+        normal: V::z(),
+    };
+    let with = |o: Obstacle| ContactSettings {
+        obstacles: vec![o],
+        ..ContactSettings::default()
+    };
+    let cases: Vec<(ContactSettings, &str)> = vec![
+        (
+            ContactSettings {
+                distance: Some(f64::NAN),
+                ..ContactSettings::default()
+            },
+            "distance must be positive and finite",
+        ),
+        (
+            ContactSettings {
+                stiffness: Some(f64::INFINITY),
+                ..ContactSettings::default()
+            },
+            "stiffness must be positive and finite",
+        ),
+        (
+            with(Obstacle::Sphere {
+                center: V::new(0.0, f64::NAN, 0.0),
+                radius: 1.0,
+            }),
+            "sphere needs a finite centre",
+        ),
+        (
+            with(Obstacle::Plane {
+                point: V::zeros(),
+                normal: V::new(0.0, 0.0, f64::NAN),
+            }),
+            "plane needs a finite point and a non-zero normal",
+        ),
+        (
+            with(Obstacle::Box {
+                min: V::new(0.0, 0.0, f64::NAN),
+                max: V::repeat(1.0),
+            }),
+            "box needs finite corners",
+        ),
+    ];
+    for (settings, expected) in cases {
+        let e = sys.set_contact(&settings, &x0).unwrap_err().to_string();
+        assert!(e.contains(expected), "{e}");
+    }
+    let mut bad = x0.clone();
+    bad[7].y = f64::NAN;
+    let e = sys
+        .set_contact(&with(plane.clone()), &bad)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("vertex 7") && e.contains("non-finite"), "{e}");
+    sys.set_contact(&with(plane), &x0).unwrap();
+    let c = sys.contact.as_ref().unwrap();
+    let e = c.max_step(&x0, &bad).unwrap_err().to_string();
+    assert!(e.contains("vertex 7 of the end of the step"), "{e}");
+
+    // Degenerate faces near the plane: vertices 0 and 1 (an edge) collapsed onto one point
+    // 0.2 mm above the surface, so the faces of that edge have zero area. Against the plane
+    // alone everything stays finite; with self-contact the collapsed vertex touches the faces
+    // around its twin: an explicit +∞ energy and an error naming the pair, not a NaN.
+    let mut x = x0.clone();
+    let h = sys.model.material.thickness;
+    for y in &mut x {
+        y.z = 0.5 * h + 2e-4;
+    }
+    x[1] = x[0];
+    let plane_only = ContactSettings {
+        self_contact: false,
+        ..with(Obstacle::Plane {
+            point: V::zeros(),
+            normal: V::z(),
+        })
+    };
+    for self_contact in [false, true] {
+        let settings = ContactSettings {
+            self_contact,
+            ..plane_only.clone()
+        };
+        let c = Contact::new(&sys.mesh, h, 1e6, &settings).unwrap();
+        let stats = c.stats(&x);
+        let mut g = vec![0.0; 3 * x.len()];
+        c.add_gradient(&x, &mut g);
+        let mut hess = sys.hessian_template();
+        c.add_hessian(&x, sys.dofs(), &mut hess, false);
+        assert!(
+            stats.active_pairs > 0 && !stats.energy.is_nan(),
+            "{stats:?}"
+        );
+        assert!(g.iter().chain(hess.val()).all(|v| v.is_finite()));
+        if self_contact {
+            assert_eq!(c.energy(&x), f64::INFINITY);
+            let e = c.check(&x).unwrap_err().to_string();
+            assert!(
+                e.contains("and face") && e.contains("are 0e0 m apart"),
+                "{e}"
+            );
+        } else {
+            assert!(c.energy(&x).is_finite() && c.energy(&x) > 0.0);
+        }
+    }
 }

@@ -474,6 +474,8 @@ impl Contact {
     /// (additive CCD with gap fraction 0.1 and minimum separation offset + 10⁻³ d̂); an error
     /// when a pair already starts within the minimum separation.
     pub fn max_step(&self, x0: &[V], x1: &[V]) -> Result<f64, ContactError> {
+        first_non_finite(x0, "start of the step")?;
+        first_non_finite(x1, "end of the step")?;
         let dx: Vec<V> = x0.iter().zip(x1).map(|(a, b)| b - a).collect();
         let mut alpha = 1.0f64;
         if self.self_contact {
@@ -564,6 +566,7 @@ impl Contact {
     /// gap above the minimum separation, and no edge crossing a face; the error names the first
     /// offending pair.
     pub fn check(&self, x: &[V]) -> Result<(), ContactError> {
+        first_non_finite(x, "state")?;
         let xi = self.separation;
         if self.self_contact {
             let c = candidate_pairs(x, None, &self.faces, &self.edges, self.offset_self + xi);
@@ -606,6 +609,18 @@ impl Contact {
             }
         }
         Ok(())
+    }
+}
+
+/// An error naming the first vertex of `x` with a non-finite coordinate (NaN bounding boxes
+/// would hide it from the broad phase).
+fn first_non_finite(x: &[V], what: &str) -> Result<(), ContactError> {
+    match x.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        Some(v) => Err(ContactError::Invalid(format!(
+            "vertex {v} of the {what} has a non-finite position {:?}",
+            x[v]
+        ))),
+        None => Ok(()),
     }
 }
 
