@@ -2,8 +2,8 @@
 //! `solver/tests/contact.rs` at three sizes.
 //!
 //! The strip (20 cm × 2 cm, h = 0.2 mm, E = 1 MPa, rest shape rolled 1.5 turns) starts wound
-//! as an Archimedean spiral whose layers are h + 1.5 d̂ apart (candidates of the broad phase,
-//! not yet active); the implicit steps from there let it roll tighter. Measured, as medians over
+//! as an Archimedean spiral whose layers are two mean edge lengths apart (near contact, not in
+//! it); the implicit steps from there let it roll tighter. Measured, as medians over
 //! interleaved rounds: the broad phase (candidate pairs, boxes grown by h + d̂), the CCD step
 //! limit of the first step's displacement, the barrier energy, gradient and Hessian at the
 //! spiral, and implicit steps (Δt = 1 ms) with and without contact. Prints a markdown table and
@@ -137,12 +137,21 @@ fn steps(mesh: &Mesh, rolled: &[V], spiral: &[V], contact: bool) -> Result<(f64,
     Ok((wall, iterations, state))
 }
 
+/// The spiral's layer spacing: `SPACING_EDGES` mean edge lengths (10 d̂ per edge length).
+fn spacing(d_hat: f64) -> f64 {
+    SPACING_EDGES * 10.0 * d_hat
+}
+
+/// Layer spacing of the start spiral, in mean edge lengths: near contact (a few edge lengths
+/// apart) without being in it.
+const SPACING_EDGES: f64 = 2.0;
+
 fn measure(ny: usize, rounds: usize) -> Result<Row> {
     // d̂ of the default (0.1 × mean edge length), for the layer spacing.
     let (mesh0, _, _) = scroll(ny, 1.0)?;
     let probe = Contact::new(&mesh0, THICKNESS, YOUNG, &ContactSettings::default())?;
     let d_hat = probe.activation;
-    let (mesh, rolled, spiral) = scroll(ny, THICKNESS + 1.5 * d_hat)?;
+    let (mesh, rolled, spiral) = scroll(ny, spacing(d_hat))?;
     let contact = Contact::new(&mesh, THICKNESS, YOUNG, &ContactSettings::default())?;
     contact.check(&spiral)?;
     let faces = mesh.faces_usize();

@@ -7,6 +7,8 @@
 //! [`thinshell_energy::contact`]; this module gathers the pairs of a mesh and adds their energy,
 //! gradient and Hessian to the shell objective.
 
+use std::sync::{Arc, Mutex};
+
 use faer::sparse::SparseColMat;
 use nalgebra::{Matrix3, Vector3};
 use thinshell_energy::DofMap;
@@ -94,6 +96,24 @@ pub struct Contact {
     edges: Vec<[usize; 2]>,
     /// Reference positions for the edge–edge mollifier thresholds.
     rest: Vec<V>,
+    /// The last broad phase of [`Contact::candidates`].
+    cache: CandidateCache,
+}
+
+/// The positions and candidate pairs of the last barrier broad phase (a clone starts empty).
+#[derive(Default)]
+struct CandidateCache(Mutex<Option<(Vec<V>, Arc<CandidatePairs>)>>);
+
+impl Clone for CandidateCache {
+    fn clone(&self) -> Self {
+        CandidateCache::default()
+    }
+}
+
+impl std::fmt::Debug for CandidateCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("CandidateCache")
+    }
 }
 
 /// Counts, gap and energy of the contact term at one configuration, and how its Hessian was
@@ -102,7 +122,8 @@ pub struct Contact {
 pub struct ContactStats {
     /// Active pairs (self pairs plus vertex–obstacle pairs with gap < d̂).
     pub active_pairs: usize,
-    /// The smallest gap over all candidate pairs and obstacles (m; +∞ if none).
+    /// The smallest gap (m) over the active self pairs and every vertex–obstacle pair (+∞ if
+    /// none).
     pub min_gap: f64,
     /// The barrier energy κ Σ m_k b(g_k, d̂) (J).
     pub energy: f64,
@@ -175,6 +196,7 @@ impl Contact {
             faces: mesh.faces().iter().map(|f| f.map(|v| v.idx())).collect(),
             edges,
             rest: p.to_vec(),
+            cache: CandidateCache::default(),
         })
     }
 
@@ -201,17 +223,54 @@ impl Contact {
         }
     }
 
-    fn candidates(&self, x: &[V]) -> CandidatePairs {
+    /// The self pairs that may be active at `x`: a superset of those whose boxes, grown by
+    /// offset + d̂, overlap (inactive extras add exactly 0 to every sum, so the results do not
+    /// depend on it). Reused from the last broad phase while no vertex has moved more than
+    /// d̂/2 since it: a pair's distance changes by at most twice the largest vertex
+    /// displacement, and the cached pairs were found with boxes grown by offset + 2 d̂.
+    fn candidates(&self, x: &[V]) -> Arc<CandidatePairs> {
         if !self.self_contact {
-            return CandidatePairs::default();
+            return Arc::default();
         }
-        candidate_pairs(
+        let slack = 0.5 * self.activation;
+        let mut cache = self.cache.0.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((x_ref, pairs)) = cache.as_ref()
+            && x_ref.len() == x.len()
+            && x_ref
+                .iter()
+                .zip(x)
+                .all(|(a, b)| (a - b).norm_squared() <= slack * slack)
+        {
+            return Arc::clone(pairs);
+        }
+        let pairs = Arc::new(candidate_pairs(
             x,
             None,
             &self.faces,
             &self.edges,
-            self.activation + self.offset_self,
-        )
+            self.offset_self + self.activation + 2.0 * slack,
+        ));
+        *cache = Some((x.to_vec(), Arc::clone(&pairs)));
+        pairs
+    }
+
+    /// The cached candidates (see [`Contact::candidates`]) when they hold every self pair whose
+    /// gap at `x` is at most `reach` (m): the cache has every pair within offset + 2 d̂ at its
+    /// positions, and a pair's distance changes by at most twice the largest vertex
+    /// displacement since. For a short CCD step (`reach` = ξ + 2 |Δx|max) this saves its broad
+    /// phase; the extra pairs only cost their CCD, which returns at once for a far pair.
+    fn cached_candidates_within(&self, x: &[V], reach: f64) -> Option<Arc<CandidatePairs>> {
+        let cache = self.cache.0.lock().unwrap_or_else(|e| e.into_inner());
+        let (x_ref, pairs) = cache.as_ref()?;
+        if x_ref.len() != x.len() {
+            return None;
+        }
+        let moved = x_ref
+            .iter()
+            .zip(x)
+            .map(|(a, b)| (a - b).norm())
+            .fold(0.0, f64::max);
+        (reach + 2.0 * moved <= 2.0 * self.activation).then(|| Arc::clone(pairs))
     }
 
     /// Gap (m) of vertex position `y` to obstacle `o`, and its unit gradient direction.
@@ -249,8 +308,12 @@ impl Contact {
             ..ContactStats::default()
         };
         let mut b_sum = 0.0;
-        let mut see = |gap: f64, b: f64| {
-            s.min_gap = s.min_gap.min(gap);
+        let mut see = |gap: f64, b: f64, obstacle: bool| {
+            // Self pairs enter the smallest gap only when active: the candidate set is a
+            // superset whose extent depends on the cache (model.md §7).
+            if obstacle || gap < self.activation {
+                s.min_gap = s.min_gap.min(gap);
+            }
             if gap < self.activation {
                 s.active_pairs += 1;
             }
@@ -261,6 +324,7 @@ impl Contact {
             see(
                 point_triangle_distance2(&pts).0.sqrt() - self.offset_self,
                 pair_energy(&pts, PairKind::PointTriangle, g),
+                false,
             );
         }
         for &[i, j] in &c.edge_edge {
@@ -268,12 +332,13 @@ impl Contact {
             see(
                 edge_edge_distance2(&pts).0.sqrt() - self.offset_self,
                 pair_energy(&pts, self.ee_kind(i, j), g),
+                false,
             );
         }
         for o in &self.obstacles {
             for y in x {
                 let gap = self.obstacle_gap(o, y).0;
-                see(gap, barrier(gap, self.activation).0);
+                see(gap, barrier(gap, self.activation).0, true);
             }
         }
         s.energy = self.stiffness * b_sum;
@@ -484,7 +549,11 @@ impl Contact {
                 min_separation: xi,
                 ..CcdSettings::default()
             };
-            let c = candidate_pairs(x0, Some(&dx), &self.faces, &self.edges, xi);
+            let step = dx.iter().map(V::norm).fold(0.0, f64::max);
+            let c = match self.cached_candidates_within(x0, self.separation + 2.0 * step) {
+                Some(c) => c,
+                None => Arc::new(candidate_pairs(x0, Some(&dx), &self.faces, &self.edges, xi)),
+            };
             for &[v, f] in &c.point_triangle {
                 let t = self.faces[f];
                 let d = [dx[v], dx[t[0]], dx[t[1]], dx[t[2]]];
