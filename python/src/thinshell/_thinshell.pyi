@@ -113,8 +113,8 @@ StepRecord = dict[str, Any]
 """One step: step, time (s), energy {stretch, bend, damping} (J), kinetic (J),
 newton_iterations, backtracks, regularizations, residual, load_factor,
 gauss_newton_iterations, stable, wall_s, assembly_s, factorization_s, solve_s (s); contact
-(None without the ``contact`` effect, else {active_pairs, min_gap (m, None when no pair is
-near), energy (J), approximated_pairs, pattern_rebuilds})."""
+(None without the ``contact`` effect, else {active_pairs, min_gap (m, over active self pairs
+and obstacles; None without either), energy (J), approximated_pairs, pattern_rebuilds})."""
 
 class Simulation:
     """A scene built into a simulation. Steps release the GIL; one thread steps a simulation,

@@ -83,7 +83,7 @@ impl Obstacle {
     }
 
     /// The signed distance of `y` (m) with its gradient and Hessian. Planes need a unit normal
-    /// (as [`Obstacle::validated`] leaves them). At a sphere's centre or inside a box the
+    /// (as the contact term stores them). At a sphere's centre or inside a box the
     /// gradient is a valid unit vector but the point is far inside (the gap is negative).
     pub fn distance(&self, y: &V) -> ObstacleDistance {
         match self {

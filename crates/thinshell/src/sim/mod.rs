@@ -138,8 +138,8 @@ pub struct StepRecord {
 pub struct ContactRecord {
     /// Pairs with a gap below d̂ (self pairs and vertex–obstacle pairs).
     pub active_pairs: usize,
-    /// The smallest gap between surfaces (m; thickness offsets subtracted; `None` when no pair
-    /// is near enough to be a candidate).
+    /// The smallest gap between surfaces (m; thickness offsets subtracted) over the active
+    /// self pairs and every vertex–obstacle pair; `None` when there is neither.
     pub min_gap: Option<f64>,
     /// Barrier energy κ Σ b (J), not in `energy` (which holds the shell's terms).
     pub energy: f64,
@@ -190,7 +190,7 @@ impl ContactTotals {
 
 /// The `steps.csv` columns after the common ones: a path-following run's (see
 /// `path.rs`), then, with the `contact` effect, `contact_pairs`, `contact_min_gap_m` (empty
-/// when no pair is a candidate), `contact_energy_J`, `contact_approximated_pairs` and
+/// without active self pairs and obstacles), `contact_energy_J`, `contact_approximated_pairs` and
 /// `contact_pattern_rebuilds`. Empty or starting with a comma.
 pub fn csv_extra_header(sim: &Simulation) -> String {
     let mut h = path::path_csv_header(sim);
