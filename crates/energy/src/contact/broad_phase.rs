@@ -151,6 +151,38 @@ pub fn overlapping_pairs(queries: &[Aabb], boxes: &[Aabb]) -> Vec<[usize; 2]> {
     out
 }
 
+/// The boxes [`candidate_pairs`] tests: every primitive's box over the motion x → x + dx,
+/// a vertex's grown by `inflate`, an edge's by `inflate / 2`, a face's not at all.
+struct SweptBoxes<'a> {
+    x: &'a [Vector3<f64>],
+    dx: Option<&'a [Vector3<f64>]>,
+    inflate: f64,
+}
+
+impl SweptBoxes<'_> {
+    fn of(&self, ids: &[usize], grow: f64) -> Aabb {
+        Aabb::of_points(
+            ids.iter().flat_map(|&v| {
+                let end = self.dx.map_or(self.x[v], |d| self.x[v] + d[v]);
+                [self.x[v], end]
+            }),
+            grow,
+        )
+    }
+
+    fn vertex(&self, v: usize) -> Aabb {
+        self.of(&[v], self.inflate)
+    }
+
+    fn face(&self, f: &[usize; 3]) -> Aabb {
+        self.of(f, 0.0)
+    }
+
+    fn edge(&self, e: &[usize; 2]) -> Aabb {
+        self.of(e, 0.5 * self.inflate)
+    }
+}
+
 /// Candidate point–triangle and edge–edge pairs of a mesh for positions `x` (m) and, when
 /// given, the step `dx` (the boxes then cover the swept volume x → x + dx).
 ///
@@ -164,24 +196,16 @@ pub fn candidate_pairs(
     edges: &[[usize; 2]],
     inflate: f64,
 ) -> CandidatePairs {
-    let swept = |ids: &[usize], grow: f64| {
-        Aabb::of_points(
-            ids.iter().flat_map(|&v| {
-                let end = dx.map_or(x[v], |d| x[v] + d[v]);
-                [x[v], end]
-            }),
-            grow,
-        )
-    };
-    let face_boxes: Vec<Aabb> = faces.iter().map(|f| swept(f, 0.0)).collect();
-    let edge_boxes: Vec<Aabb> = edges.iter().map(|e| swept(e, 0.5 * inflate)).collect();
+    let boxes = SweptBoxes { x, dx, inflate };
+    let face_boxes: Vec<Aabb> = faces.iter().map(|f| boxes.face(f)).collect();
+    let edge_boxes: Vec<Aabb> = edges.iter().map(|e| boxes.edge(e)).collect();
     let mut out = CandidatePairs::default();
     let mut hits = Vec::new();
 
     let hash = SpatialHash::new(&face_boxes);
     let mut seen = marks(face_boxes.len());
     for v in 0..x.len() {
-        let b = swept(&[v], inflate);
+        let b = boxes.vertex(v);
         hash.query(&b, &mut hits, &mut seen, v as u32);
         for &f in &hits {
             let f = f as usize;
@@ -207,4 +231,33 @@ pub fn candidate_pairs(
         }
     }
     out
+}
+
+/// The pairs of `superset` (sorted, as [`candidate_pairs`] returns them) that
+/// [`candidate_pairs`] with the same arguments would return, in the same order, by the same box
+/// tests: equal to it whenever `superset` contains its result (e.g. the candidates of a larger
+/// inflation at nearby positions), without a broad phase.
+pub fn filter_candidate_pairs(
+    superset: &CandidatePairs,
+    x: &[Vector3<f64>],
+    dx: Option<&[Vector3<f64>]>,
+    faces: &[[usize; 3]],
+    edges: &[[usize; 2]],
+    inflate: f64,
+) -> CandidatePairs {
+    let boxes = SweptBoxes { x, dx, inflate };
+    CandidatePairs {
+        point_triangle: superset
+            .point_triangle
+            .iter()
+            .copied()
+            .filter(|&[v, f]| boxes.face(&faces[f]).overlaps(&boxes.vertex(v)))
+            .collect(),
+        edge_edge: superset
+            .edge_edge
+            .iter()
+            .copied()
+            .filter(|&[i, j]| boxes.edge(&edges[j]).overlaps(&boxes.edge(&edges[i])))
+            .collect(),
+    }
 }

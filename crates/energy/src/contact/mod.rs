@@ -22,7 +22,9 @@ pub mod mollifier;
 pub mod pair;
 
 pub use barrier::barrier;
-pub use broad_phase::{Aabb, CandidatePairs, candidate_pairs, overlapping_pairs};
+pub use broad_phase::{
+    Aabb, CandidatePairs, candidate_pairs, filter_candidate_pairs, overlapping_pairs,
+};
 pub use ccd::{CcdSettings, additive_ccd};
 pub use distance::{
     DistanceType, PairDerivatives, PairPoints, distance2_derivatives, distance2_of_type,

@@ -15,8 +15,8 @@ use thinshell_energy::DofMap;
 use thinshell_energy::contact::{
     Aabb, BarrierGeometry, CandidatePairs, CcdSettings, PairBarrier, PairKind, PairPoints,
     additive_ccd, barrier, candidate_pairs, distance2_derivatives, edge_edge_distance2,
-    mollifier_threshold, overlapping_pairs, pair_barrier, pair_energy, point_triangle_distance2,
-    segment_crosses_triangle,
+    filter_candidate_pairs, mollifier_threshold, overlapping_pairs, pair_barrier, pair_energy,
+    point_triangle_distance2, segment_crosses_triangle,
 };
 use thinshell_energy::linalg::project_psd;
 use thinshell_mesh::Mesh;
@@ -56,6 +56,24 @@ impl Default for ContactSettings {
             thickness_offset: true,
         }
     }
+}
+
+/// What a contact term learns as a run goes, for checkpoints: with it a restored run continues
+/// bit for bit ([`ShellSystem::contact_run_state`](super::ShellSystem::contact_run_state)).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ContactRunState {
+    /// κ (J/m²).
+    pub stiffness: f64,
+    /// Whether the adaptive stiffness has set κ₀ (false for a fixed stiffness).
+    pub adaptive_initialised: bool,
+    /// The adaptive stiffness's smallest gap at the previous solve's start (m; +∞ before).
+    pub adaptive_last_gap: f64,
+    /// [`ContactStats::approximated_pairs`].
+    pub approximated_pairs: usize,
+    /// [`ContactStats::pattern_rebuilds`].
+    pub pattern_rebuilds: usize,
+    /// The vertex couplings `[a, b]` (a < b) of the widened Hessian pattern, if built.
+    pub pattern_couplings: Option<Vec<[usize; 2]>>,
 }
 
 /// An invalid contact setting or an intersecting state.
@@ -254,11 +272,12 @@ impl Contact {
         pairs
     }
 
-    /// The cached candidates (see [`Contact::candidates`]) when they hold every self pair whose
-    /// gap at `x` is at most `reach` (m): the cache has every pair within offset + 2 d̂ at its
-    /// positions, and a pair's distance changes by at most twice the largest vertex
-    /// displacement since. For a short CCD step (`reach` = ξ + 2 |Δx|max) this saves its broad
-    /// phase; the extra pairs only cost their CCD, which returns at once for a far pair.
+    /// The cached candidates (see [`Contact::candidates`]) when they contain every pair the
+    /// broad phase finds with boxes grown by offset + `reach` at `x` (m), swept or not: the
+    /// cache's boxes were grown by offset + 2 d̂ at its positions, and every box of `x` lies
+    /// within the largest vertex displacement since of its cached box (per axis, so grown
+    /// boxes that overlap now overlapped then once the growth covers twice that). For a short
+    /// CCD step (`reach` = ξ + 2 |Δx|max) this saves its broad phase.
     fn cached_candidates_within(&self, x: &[V], reach: f64) -> Option<Arc<CandidatePairs>> {
         let cache = self.cache.0.lock().unwrap_or_else(|e| e.into_inner());
         let (x_ref, pairs) = cache.as_ref()?;
@@ -550,9 +569,11 @@ impl Contact {
                 ..CcdSettings::default()
             };
             let step = dx.iter().map(V::norm).fold(0.0, f64::max);
+            // The same pairs either way (the cache holds them all when it qualifies), so the
+            // step does not depend on the cache's history.
             let c = match self.cached_candidates_within(x0, self.separation + 2.0 * step) {
-                Some(c) => c,
-                None => Arc::new(candidate_pairs(x0, Some(&dx), &self.faces, &self.edges, xi)),
+                Some(c) => filter_candidate_pairs(&c, x0, Some(&dx), &self.faces, &self.edges, xi),
+                None => candidate_pairs(x0, Some(&dx), &self.faces, &self.edges, xi),
             };
             for &[v, f] in &c.point_triangle {
                 let t = self.faces[f];

@@ -24,6 +24,8 @@ pub(crate) struct ContactPattern {
     /// The assembler-pattern matrix the shell terms are assembled into before the copy
     /// (taken out while in use).
     pub(crate) scratch: Option<SparseColMat<usize, f64>>,
+    /// The vertex couplings it was built from (checkpoints rebuild it from them).
+    pub(crate) couplings: Vec<[usize; 2]>,
 }
 
 impl ContactPattern {
@@ -93,6 +95,7 @@ impl ContactPattern {
             symbolic,
             shell_map,
             scratch: Some(base.clone()),
+            couplings: couplings.to_vec(),
         }
     }
 

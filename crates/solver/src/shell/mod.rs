@@ -22,7 +22,9 @@ pub mod system;
 
 pub use angles::{AngleReport, AngleSettings};
 pub use bc::{Boundary, Prescribed};
-pub use contact::{Contact, ContactError, ContactSettings, ContactStats, Obstacle};
+pub use contact::{
+    Contact, ContactError, ContactRunState, ContactSettings, ContactStats, Obstacle,
+};
 pub use explicit::ExplicitEuler;
 pub use implicit::ImplicitEuler;
 pub use integrator::{Integrator, NewtonCache, StepKind, StepReport};

@@ -10,7 +10,7 @@ use thinshell_mesh::Mesh;
 
 use super::angles::{AngleRelaxation, AngleReport, AngleSettings};
 use super::bc::Boundary;
-use super::contact::{Contact, ContactSettings, ContactStats};
+use super::contact::{Contact, ContactError, ContactRunState, ContactSettings, ContactStats};
 use super::contact_pattern::ContactPattern;
 use super::loads::{Loads, add_pressure_gradient};
 use crate::SolverError;
@@ -173,6 +173,54 @@ impl ShellSystem {
             pattern_rebuilds: self.contact_pattern_rebuilds,
             ..c.stats(x)
         })
+    }
+
+    /// The contact term's run state (κ, the adaptive stiffness's memory, the counters and the
+    /// widened Hessian pattern's couplings); `None` without contact.
+    pub fn contact_run_state(&self) -> Option<ContactRunState> {
+        self.contact.as_ref().map(|c| ContactRunState {
+            stiffness: c.stiffness,
+            adaptive_initialised: c.adaptive.is_some_and(|a| a.initialised),
+            adaptive_last_gap: c.adaptive.map_or(f64::INFINITY, |a| a.last_gap),
+            approximated_pairs: self.contact_approximated,
+            pattern_rebuilds: self.contact_pattern_rebuilds,
+            pattern_couplings: self.contact_pattern.as_ref().map(|p| p.couplings.clone()),
+        })
+    }
+
+    /// Restores what [`ShellSystem::contact_run_state`] returned (on a system whose contact was
+    /// set with the same settings). Errors, leaving the system unchanged: no contact, a
+    /// stiffness that is not positive and finite, a coupling out of range.
+    pub fn restore_contact_run_state(&mut self, s: &ContactRunState) -> Result<(), SolverError> {
+        let n = self.mesh.n_vertices();
+        let bad = |what: String| SolverError::from(ContactError::Invalid(what));
+        if !(s.stiffness > 0.0 && s.stiffness.is_finite()) {
+            return Err(bad(format!("restored stiffness {}", s.stiffness)));
+        }
+        if let Some(&[a, b]) = s
+            .pattern_couplings
+            .iter()
+            .flatten()
+            .find(|&&[a, b]| !(a < b && b < n))
+        {
+            return Err(bad(format!(
+                "restored coupling [{a}, {b}] with {n} vertices"
+            )));
+        }
+        let Some(c) = &mut self.contact else {
+            return Err(bad("a contact state for a system without contact".into()));
+        };
+        c.stiffness = s.stiffness;
+        if let Some(a) = &mut c.adaptive {
+            a.initialised = s.adaptive_initialised;
+            a.last_gap = s.adaptive_last_gap;
+        }
+        self.contact_approximated = s.approximated_pairs;
+        self.contact_pattern_rebuilds = s.pattern_rebuilds;
+        self.contact_pattern = s.pattern_couplings.as_ref().map(|couplings| {
+            ContactPattern::new(&self.assembler.hessian_template(), &self.dofs, couplings)
+        });
+        Ok(())
     }
 
     /// Number of edge angles a [`State`] of this system carries (0 without edge unknowns).
