@@ -190,9 +190,7 @@ fn drop_onto(obstacle: Obstacle, lift: f64, steps: usize) -> [f64; 7] {
     let max_gap = state.x.iter().map(gap).fold(0.0, f64::max);
     let final_min = state.x.iter().map(gap).fold(f64::INFINITY, f64::min);
     let c = sys.contact.as_ref().unwrap();
-    let mut g = vec![0.0; 3 * state.x.len()];
-    c.add_gradient(&state.x, &mut g);
-    let lift_force: f64 = -g.iter().skip(2).step_by(3).sum::<f64>();
+    let lift_force: f64 = c.forces(&state.x).iter().map(|f| f.z).sum();
     let weight: f64 = sys.mass().iter().map(|m| m * 9.81).sum();
     [
         min_gap,

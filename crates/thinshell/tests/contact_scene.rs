@@ -142,7 +142,15 @@ steps = 1
 fn run_writes_contact_columns_and_summary() {
     let out_dir = thinshell_testkit::fixtures::fresh_temp_dir("contact-run");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_thinshell"))
-        .args(["run", "--quiet", "--set", "integrator.steps=20", "--out"])
+        .args([
+            "run",
+            "--quiet",
+            "--set",
+            "integrator.steps=20",
+            "--set",
+            "output.formats=[\"vtk\"]",
+            "--out",
+        ])
         .arg(&out_dir)
         .arg(data_path("scenes/sheet_on_sphere.toml"))
         .output()
@@ -180,6 +188,12 @@ fn run_writes_contact_columns_and_summary() {
     // Landed by step 20: pairs active, barrier energy positive.
     let last = &rows[19];
     assert!(last[pairs] > 0.0 && last[energy] > 0.0, "{last:?}");
+    // The last frame carries the contact forces (N per vertex).
+    let frame = std::fs::read_to_string(out_dir.join("frame_000020.vtu")).unwrap();
+    assert!(
+        frame.contains("Name=\"contact_force\""),
+        "no contact_force field"
+    );
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
             .unwrap();

@@ -425,6 +425,16 @@ impl Contact {
         });
     }
 
+    /// The contact force on every vertex at positions `x` (N): −κ ∂B/∂x, the barrier's push
+    /// (a VTK point field of the frames).
+    pub fn forces(&self, x: &[V]) -> Vec<V> {
+        let mut g = vec![0.0; 3 * x.len()];
+        self.add_gradient(x, &mut g);
+        g.chunks_exact(3)
+            .map(|c| -V::new(c[0], c[1], c[2]))
+            .collect()
+    }
+
     /// Adds the contact Hessian at positions `x` to `h` (lower triangle over `dofs`' free
     /// dofs), each pair's Hessian projected to PSD when `project` is set. A pair whose vertex
     /// couplings are all in `h`'s pattern is added exactly; one that is not (the pattern was
