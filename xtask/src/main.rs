@@ -59,6 +59,13 @@ enum Task {
         /// Skip the 10^4-step run.
         #[arg(long)]
         quick: bool,
+        /// Run only the parts whose name contains this: scenes, flag, growth, strip.
+        #[arg(long)]
+        only: Option<String>,
+        /// Bending form of the solver-level parts (flag, growth, strip): mid_edge_average,
+        /// edge_director_sin or edge_director_tan (default: the library's default form).
+        #[arg(long, value_parser = hard_cases::parse_form)]
+        form: Option<thinshell_energy::SffKind>,
     },
     /// What accuracy costs in time: cases with known answers under every accuracy knob.
     /// Writes docs/accuracy.md, plots under docs/accuracy/ and target/xtask/accuracy.json.
@@ -167,7 +174,11 @@ fn main() -> ExitCode {
     let result = match args.task {
         Task::BenchSquare { quick } => bench_square::run(quick),
         Task::BenchSphere { quick } => bench_sphere::run(quick),
-        Task::HardCases { quick } => hard_cases::run(quick),
+        Task::HardCases { quick, only, form } => hard_cases::run(&hard_cases::Options {
+            quick,
+            only,
+            form: form.unwrap_or_default(),
+        }),
         Task::Accuracy {
             quick,
             docs_dir,

@@ -124,7 +124,7 @@ pub use error::{PathFailure, SolverError};
 pub use linear::{FactorStats, RegularizationKind, RegularizationParams, SparseCholesky};
 pub use newton::{
     Convergence, HessianPolicy, IterationHessian, IterativeFallback, LinearSolver, NewtonReport,
-    NewtonSettings, NewtonTimings, NewtonWorkspace, RegularizationEvent, newton_solve,
+    NewtonSettings, NewtonTimings, NewtonWorkspace, RegularizationEvent, Stability, newton_solve,
 };
 pub use objective::Objective;
 pub use ordering::Ordering;

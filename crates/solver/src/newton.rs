@@ -432,7 +432,16 @@ pub struct NewtonReport {
     /// Iterations whose direction came from CG preconditioned with a reused factor
     /// ([`NewtonSettings::reuse_factor`]).
     pub reused_steps: usize,
-    /// CG iterations over the whole solve (reuse and fallback).
+    /// Directions solved with the factor of a slightly shifted Hessian (the objective's
+    /// [`Objective::hessian_diagonal_shift`] or a regularisation of at most 1e-8 of the mean
+    /// diagonal) and refined by CG into those of the unshifted Hessian.
+    pub refined_steps: usize,
+    /// Largest difference seen between [`Objective::value`] and [`Objective::gradient`]'s
+    /// value at the same point (units of f; 0 when never compared): the evaluation round-off
+    /// of f, far above `16 ε |f|` for shells whose strains are small against 1. The round-off
+    /// tests use the larger of the two, and so does [`NewtonReport::descent_violation`].
+    pub value_noise: f64,
+    /// CG iterations over the whole solve (reuse, refinement and fallback).
     pub cg_iterations: usize,
     /// Direct, or the iterative fallback (the factor did not fit in memory).
     pub linear_solver: LinearSolver,
@@ -458,7 +467,9 @@ impl NewtonReport {
     /// that breaks the contract.
     pub fn descent_violation(&self, window: usize) -> Option<usize> {
         let v = &self.values;
-        let close = |a: f64, b: f64| b <= a + 64.0 * f64::EPSILON * a.abs().max(b.abs());
+        let close = |a: f64, b: f64| {
+            b <= a + (64.0 * f64::EPSILON * a.abs().max(b.abs())).max(2.0 * self.value_noise)
+        };
         for i in 0..v.len().saturating_sub(1) {
             if !close(v[i], v[i + 1]) {
                 let end = (i + window + 3).min(v.len());
@@ -787,11 +798,18 @@ struct Record {
     timings: NewtonTimings,
     factorizations: usize,
     reused_steps: usize,
+    refined_steps: usize,
     cg_iterations: usize,
     linear_solver: LinearSolver,
+    value_noise: f64,
 }
 
 impl Record {
+    /// Round-off of an objective value f: `16 ε |f|`, or the evaluation noise seen so far.
+    fn noise(&self, f: f64) -> f64 {
+        value_noise(f).max(self.value_noise)
+    }
+
     fn report(self, iterations: usize, convergence: Convergence) -> NewtonReport {
         NewtonReport {
             iterations,
@@ -810,6 +828,8 @@ impl Record {
             timings: self.timings,
             factorizations: self.factorizations,
             reused_steps: self.reused_steps,
+            refined_steps: self.refined_steps,
+            value_noise: self.value_noise,
             cg_iterations: self.cg_iterations,
             linear_solver: self.linear_solver,
         }
@@ -932,6 +952,77 @@ impl NewtonWorkspace {
     }
 }
 
+/// The stability of an equilibrium ([`NewtonWorkspace::stability`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stability {
+    /// Smallest eigenvalue λ of `H v = λ S v`: the objective's own Hessian H without its
+    /// diagonal shift ([`Objective::hessian_diagonal_shift`]), measured against each unknown's
+    /// own stiffness `S = diag(max(|H_dd|, 1e-6·mean|H_dd|))` (dimensionless), over the
+    /// unknowns' space less the objective's [`Objective::rigid_modes`]. Negative: the
+    /// equilibrium is unstable (a saddle or maximum); near 0: near a critical load. NaN when H
+    /// is so indefinite that `H + 10³·S` is not positive definite (`stable` is then false).
+    pub min_eigenvalue: f64,
+    /// Its mode in the free unknowns, scaled to `‖v‖∞ = 1` (the buckling mode at a critical
+    /// load).
+    pub mode: Vec<f64>,
+    /// Relative residual `‖H v − λ S v‖₂ / ‖S v‖₂` of the estimate.
+    pub residual: f64,
+    /// Rigid modes left out.
+    pub rigid_modes: usize,
+    /// `min_eigenvalue > 0`.
+    pub stable: bool,
+}
+
+impl NewtonWorkspace {
+    /// The smallest eigenvalue and mode of the objective's own, unshifted Hessian at `x`
+    /// (see [`Stability`]): inverse iteration on a Cholesky factor (two to a few
+    /// factorisations, up to 60 triangular solves). Needs the direct solver.
+    pub fn stability<O: Objective + ?Sized>(
+        &mut self,
+        objective: &mut O,
+        x: &[f64],
+    ) -> Result<Stability, SolverError> {
+        if x.len() != self.n_dofs() || objective.n_dofs() != self.n_dofs() {
+            return Err(SolverError::DimensionMismatch {
+                what: "x",
+                expected: self.n_dofs(),
+                found: x.len(),
+            });
+        }
+        let Some(cholesky) = self.cholesky.as_mut() else {
+            return Err(SolverError::Linear(
+                "the stability analysis needs a Cholesky factorisation, which does not fit in \
+                 the memory budget (the solve used the iterative fallback)"
+                    .into(),
+            ));
+        };
+        let mut timings = NewtonTimings::default();
+        assemble(objective, x, &mut self.hessian, false, 0, &mut timings)?;
+        self.reusable = None;
+        let shift = objective.hessian_diagonal_shift();
+        if shift != 0.0 {
+            let val = self.hessian.val_mut();
+            self.diag_offsets.iter().for_each(|&o| val[o] -= shift);
+        }
+        curvature::scaling(&self.hessian, &self.diag_offsets, &mut self.scale);
+        let modes = objective.rigid_modes(x);
+        let (pair, _) = curvature::smallest_eigenpair(
+            cholesky,
+            &mut self.hessian,
+            &self.diag_offsets,
+            &self.scale,
+            &modes,
+        )?;
+        Ok(Stability {
+            stable: pair.value > 0.0,
+            min_eigenvalue: pair.value,
+            mode: pair.vector,
+            residual: pair.residual,
+            rigid_modes: modes.len(),
+        })
+    }
+}
+
 /// The iterative fallback of a workspace whose Cholesky factor does not fit in memory.
 struct Fallback {
     kind: IterativeFallback,
@@ -1007,6 +1098,7 @@ fn try_reuse(
     ws: &mut NewtonWorkspace,
     kind: IterationHessian,
     eta: f64,
+    obj_shift: f64,
     settings: &NewtonSettings,
     rec: &mut Record,
 ) -> Result<bool, SolverError> {
@@ -1020,6 +1112,7 @@ fn try_reuse(
         dx,
         x_trial,
         pcg: scratch,
+        diag_offsets,
         ..
     } = ws
     else {
@@ -1029,6 +1122,19 @@ fn try_reuse(
     for (b, g) in x_trial.iter_mut().zip(g.iter()) {
         *b = -g;
     }
+    // The own Hessian's unshifted system (see `refine_direction`; PSD ones keep their shift).
+    let obj_shift = if kind == IterationHessian::Own {
+        obj_shift
+    } else {
+        0.0
+    };
+    let shift_diagonal = |hessian: &mut SparseColMat<usize, f64>, by: f64| {
+        if by != 0.0 {
+            let val = hessian.val_mut();
+            diag_offsets.iter().for_each(|&o| val[o] += by);
+        }
+    };
+    shift_diagonal(hessian, -obj_shift);
     let t = Instant::now();
     let o = pcg(
         hessian.as_ref(),
@@ -1038,7 +1144,9 @@ fn try_reuse(
         settings.reuse_max_iterations,
         scratch,
         |r| cholesky.solve_in_place(r),
-    )?;
+    );
+    shift_diagonal(hessian, obj_shift);
+    let o = o?;
     rec.timings.solve += t.elapsed();
     rec.cg_iterations += o.iterations;
     if o.converged && !o.negative_curvature {
@@ -1198,6 +1306,90 @@ fn solve_direction(
     result
 }
 
+/// Relative residual of the correction estimate that may end a solve (see
+/// [`estimate_correction`]).
+const ESTIMATE_TOLERANCE: f64 = 1e-6;
+
+/// CG iterations [`refine_direction`] may take. The preconditioned matrix `(H + s)⁻¹ H` has
+/// its eigenvalues in (0, 1], all near 1 but those of the few soft modes whose curvature is
+/// near the shift s, so CG needs about as many iterations as there are such modes.
+const REFINE_MAX_ITERATIONS: usize = 40;
+
+/// Relative residual `‖H dx + ∇f‖₂ / ‖∇f‖₂` of a refined direction: far below what changes
+/// Newton's path, and reachable where ∇f is at round-off (a tighter, forcing-term tolerance
+/// there stalls on the components of ∇f's round-off along rigid motions, which H cannot
+/// reduce).
+const REFINE_TOLERANCE: f64 = 1e-6;
+
+/// Turns `ws.dx = −(H + s)⁻¹∇f`, solved with the factor of the Hessian `H` in `ws` plus a
+/// small shift s (the objective's constant diagonal shift `obj_shift`, and/or a regularisation
+/// shift of at most [`SMALL_SHIFT`]), into the direction of the unshifted system
+/// `(H − obj_shift·I) dx = −∇f`, by CG preconditioned with that factor to relative residual
+/// `eta`. With the shifted direction Newton converges only linearly (ratio s/(λ + s)) on soft
+/// modes of curvature λ near s — the long bending modes of slender and thin shells — and the
+/// correction used by the step test underestimates the distance to the equilibrium there.
+///
+/// Returns whether CG converged. Otherwise (non-positive curvature along a CG direction,
+/// typically a rigid motion of an unheld shell, or the iteration limit) `ws.dx` is the shifted
+/// direction again, which then serves as before: the shift is far below the stiffness of every
+/// mode but the softest.
+fn refine_direction(
+    ws: &mut NewtonWorkspace,
+    obj_shift: f64,
+    eta: f64,
+    rec: &mut Record,
+) -> Result<bool, SolverError> {
+    let NewtonWorkspace {
+        cholesky: Some(cholesky),
+        hessian,
+        g,
+        dx,
+        x_trial,
+        pcg: scratch,
+        diag_offsets,
+        ..
+    } = ws
+    else {
+        return Ok(false);
+    };
+    if obj_shift > 0.0 {
+        let val = hessian.val_mut();
+        for &o in diag_offsets.iter() {
+            val[o] -= obj_shift;
+        }
+    }
+    for (b, g) in x_trial.iter_mut().zip(g.iter()) {
+        *b = -g;
+    }
+    let t = Instant::now();
+    let o = pcg(
+        hessian.as_ref(),
+        x_trial,
+        dx,
+        eta,
+        REFINE_MAX_ITERATIONS,
+        scratch,
+        |r| cholesky.solve_in_place(r),
+    );
+    if obj_shift > 0.0 {
+        let val = hessian.val_mut();
+        for &o in diag_offsets.iter() {
+            val[o] += obj_shift;
+        }
+    }
+    let o = o?;
+    rec.cg_iterations += o.iterations;
+    let solved = o.converged && !o.negative_curvature;
+    if solved {
+        rec.refined_steps += 1;
+    } else {
+        dx.copy_from_slice(x_trial);
+        cholesky.solve_in_place(dx)?;
+    }
+    rec.timings.solve += t.elapsed();
+    Ok(solved)
+}
+
 /// Estimates the Newton correction at the new iterate with the last factor (or, with the
 /// iterative fallback, by CG on the last Hessian): `ws.dx = −H⁻¹∇f`. Returns whether the
 /// estimate is usable (CG converged).
@@ -1233,7 +1425,7 @@ fn estimate_correction(
         hessian.as_ref(),
         x_trial,
         dx,
-        1e-6,
+        ESTIMATE_TOLERANCE,
         settings.cg_max_iterations,
         scratch,
         |r| {
@@ -1303,6 +1495,8 @@ pub fn newton_solve<O: Objective + ?Sized>(
         timings: NewtonTimings::default(),
         factorizations: 0,
         reused_steps: 0,
+        refined_steps: 0,
+        value_noise: 0.0,
         cg_iterations: 0,
         linear_solver: ws.linear_solver(),
     };
@@ -1351,6 +1545,12 @@ pub fn newton_solve<O: Objective + ?Sized>(
     // at a minimum).
     let mut met_indefinite = false;
     let mut want_escape = false;
+    // Consecutive PSD iterations that reduced the residual by less than PSD_SLOW_RATIO, and
+    // whether the PSD iterations have stalled: only then does an indefinite own Hessian get
+    // trust-region steps (far from a solution Gauss–Newton is the faster: its model ignores
+    // the compressive stresses whose negative curvature makes the shifted steps short).
+    let mut psd_slow = 0usize;
+    let mut psd_stalled = false;
     let x_start = (settings.relative_step_tolerance > 0.0).then(|| x.to_vec());
     let mut try_own = true;
     // A converged point: where an indefinite own Hessian was met on the way, first make sure
@@ -1459,9 +1659,18 @@ pub fn newton_solve<O: Objective + ?Sized>(
         if kind == IterationHessian::Psd {
             apply_damping(ws, damping);
         }
+        let mut reused = false;
         let mut direction = None;
-        if try_reuse(ws, kind, eta_reuse, settings, &mut rec)? {
+        if try_reuse(
+            ws,
+            kind,
+            eta_reuse,
+            objective.hessian_diagonal_shift(),
+            settings,
+            &mut rec,
+        )? {
             direction = Some((FactorOutcome::default(), true));
+            reused = true;
         }
         // Trust region: while the own Hessian is known to be indefinite (σ or the last
         // positive-definite shift above the small one), go straight to the shifted search.
@@ -1494,7 +1703,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             };
             match solve_direction(ws, kind, &small, eta, settings, &mut rec) {
                 Ok(d) => direction = Some(d),
-                Err(FactorError::NotPositiveDefinite { .. }) if trust => {
+                Err(FactorError::NotPositiveDefinite { .. }) if trust && psd_stalled => {
                     // Indefinite: a trust-region step on the shifted own Hessian.
                     rec.failed_factorizations += 1;
                     ws.mu = 0.0;
@@ -1525,8 +1734,16 @@ pub fn newton_solve<O: Objective + ?Sized>(
                         &mut rec.timings,
                     )?;
                     apply_damping(ws, damping);
-                    if try_reuse(ws, kind, eta_reuse, settings, &mut rec)? {
+                    if try_reuse(
+                        ws,
+                        kind,
+                        eta_reuse,
+                        objective.hessian_diagonal_shift(),
+                        settings,
+                        &mut rec,
+                    )? {
                         direction = Some((FactorOutcome::default(), true));
+                        reused = true;
                     }
                 }
                 Err(FactorError::Other(e)) => return Err(e),
@@ -1548,8 +1765,16 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 &mut rec.timings,
             )?;
             apply_damping(ws, damping);
-            if try_reuse(ws, kind, eta_reuse, settings, &mut rec)? {
+            if try_reuse(
+                ws,
+                kind,
+                eta_reuse,
+                objective.hessian_diagonal_shift(),
+                settings,
+                &mut rec,
+            )? {
                 direction = Some((FactorOutcome::default(), true));
+                reused = true;
             }
         }
         let (outcome, exact) = match direction {
@@ -1578,8 +1803,20 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 attempts: outcome.attempts,
             });
         }
-        // A direction that may stand for the unshifted Newton correction in the tests below.
+        // A direction that may stand for the unshifted Newton correction in the tests below:
+        // one solved with a slightly shifted factor is refined into it first.
         let unshifted = outcome.mu <= SMALL_SHIFT && exact;
+        let obj_shift = objective.hessian_diagonal_shift();
+        // Own-Hessian directions only: on the PSD (Gauss–Newton) Hessian the small shift
+        // damps the directions its model leaves flat (e.g. folding a crease), which it sees no
+        // cost for; solved without it, those steps run far beyond where the model holds.
+        if unshifted
+            && !reused
+            && kind == IterationHessian::Own
+            && (outcome.mu > 0.0 || obj_shift > 0.0)
+        {
+            refine_direction(ws, obj_shift, REFINE_TOLERANCE, &mut rec)?;
+        }
 
         let step_limit = current_step_limit(step_limit, settings, x, x_start.as_deref());
         if let Some(dof) = first_non_finite(&ws.dx) {
@@ -1602,7 +1839,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             // Round-off: f cannot resolve the predicted decrease and the last step no longer
             // halved the gradient (while it does, Newton still makes progress on it).
             let n = rec.residuals.len();
-            if -0.5 * slope <= value_noise(f)
+            if -0.5 * slope <= rec.noise(f)
                 && n >= 2
                 && rec.residuals[n - 1] > 0.5 * rec.residuals[n - 2]
             {
@@ -1623,7 +1860,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             let dhd: f64 = ws.dx.iter().zip(&ws.hd).map(|(a, b)| a * b).sum();
             let pred = -(alpha * slope + 0.5 * alpha * alpha * dhd);
             // (NaN included: no usable prediction.)
-            if pred.is_nan() || pred <= WATCHDOG_MIN_DECREASE * value_noise(f) {
+            if pred.is_nan() || pred <= WATCHDOG_MIN_DECREASE * rec.noise(f) {
                 // The shifted model promises nothing f can resolve: x is near a critical
                 // point of an indefinite Hessian. Leave it along negative curvature.
                 leave_saddle!(false);
@@ -1650,8 +1887,9 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 sigma *= TR_GROWTH;
                 if tr_rejections >= MAX_TR_REJECTIONS {
                     // The shifted model keeps failing here (far from any quadratic
-                    // behaviour): PSD steps, as before issue #26, until the own Hessian is
-                    // tried again.
+                    // behaviour): PSD steps, as before issue #26, until they stall again.
+                    psd_stalled = false;
+                    psd_slow = 0;
                     try_own = false;
                     wait = backoff;
                     backoff = backoff.saturating_mul(2);
@@ -1700,7 +1938,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     // Once the predicted decrease is below the round-off of f, values cannot
                     // discriminate: accept a full step that does not raise f beyond round-off
                     // and reduces the gradient.
-                    let noise = value_noise(f.abs().max(f_t.abs()));
+                    let noise = rec.noise(f.abs().max(f_t.abs()));
                     if trial_has_gradient
                         && -slope <= noise
                         && f_t <= f + noise
@@ -1713,7 +1951,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     && settings.watchdog > 0
                     && watch.is_none()
                     && watch_allowed
-                    && -slope > WATCHDOG_MIN_DECREASE * value_noise(f)
+                    && -slope > WATCHDOG_MIN_DECREASE * rec.noise(f)
                     && f_t.is_finite()
                     && first_non_finite(&ws.g_trial).is_none()
                 {
@@ -1733,8 +1971,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     rec.watchdog_steps += 1;
                     break f_t;
                 }
-                if backtracks == 0 && watch.is_none() && unshifted && -0.5 * slope <= value_noise(f)
-                {
+                if backtracks == 0 && watch.is_none() && unshifted && -0.5 * slope <= rec.noise(f) {
                     // The unshifted Newton step predicts a decrease below the round-off of f and
                     // its full step is not distinguishable from x: x is at the round-off floor
                     // (typically a solve restarted at its own equilibrium), not stuck.
@@ -1782,6 +2019,11 @@ pub fn newton_solve<O: Objective + ?Sized>(
             let t = Instant::now();
             f = objective.gradient(x, &mut ws.g)?;
             rec.timings.assembly += t.elapsed();
+            if f.is_finite() && f_trial.is_finite() {
+                // Two evaluations of f at one point by different operations: their
+                // difference shows its round-off.
+                rec.value_noise = rec.value_noise.max((f - f_trial).abs());
+            }
         }
         iteration += 1;
         rec.hessians.push(kind);
@@ -1843,6 +2085,24 @@ pub fn newton_solve<O: Objective + ?Sized>(
         // poor here; a full PSD step that achieved at least half the predicted decrease
         // (ratio ρ = Δf / (½ ∇fᵀdx), the PSD model's prediction) means the iterate is where
         // the quadratic model holds, so the own Hessian is worth another try.
+        if kind == IterationHessian::Psd {
+            let n = rec.residuals.len();
+            if rec.residuals[n - 1] > PSD_SLOW_RATIO * rec.residuals[n - 2] {
+                psd_slow += 1;
+            } else {
+                psd_slow = 0;
+            }
+            if trust && !psd_stalled && psd_slow >= PSD_STALL_ITERATIONS {
+                // Gauss–Newton converges only linearly here: the own Hessian (shifted in a
+                // trust region where it is indefinite) from the next iteration on.
+                psd_stalled = true;
+                try_own = true;
+                wait = 0;
+                backoff = 1;
+            }
+        } else {
+            psd_slow = 0;
+        }
         if adaptive {
             match kind {
                 IterationHessian::Shifted => {
@@ -1899,6 +2159,16 @@ pub fn newton_solve<O: Objective + ?Sized>(
             let t = Instant::now();
             let solved = estimate_correction(ws, settings, &mut rec)?;
             rec.timings.solve += t.elapsed();
+            if solved
+                && ws.cholesky.is_some()
+                && norm_inf(&ws.dx) <= step_limit
+                && (reused || outcome.mu > 0.0 || obj_shift > 0.0)
+            {
+                // A shifted (or old) factor underestimates the correction along soft modes
+                // (the refined one is larger there): an estimate that would end the solve
+                // solves the unshifted system where CG can.
+                refine_direction(ws, obj_shift, ESTIMATE_TOLERANCE, &mut rec)?;
+            }
             let est = if solved {
                 norm_inf(&ws.dx)
             } else {
@@ -1911,6 +2181,11 @@ pub fn newton_solve<O: Objective + ?Sized>(
         }
     }
 }
+
+/// A PSD iteration that leaves more than this fraction of the residual is slow.
+const PSD_SLOW_RATIO: f64 = 0.5;
+/// Consecutive slow PSD iterations after which the PSD iterations count as stalled.
+const PSD_STALL_ITERATIONS: usize = 2;
 
 /// A shifted step is taken when its actual decrease is at least this fraction of the decrease
 /// the exact quadratic model predicts (the trust-region acceptance ratio).
@@ -2150,7 +2425,7 @@ fn escape_saddle<O: Objective + ?Sized>(
             rec.timings.line_search_evaluations += 1;
             Ok(if val.is_finite() { val } else { f64::INFINITY })
         };
-    let noise = value_noise(f);
+    let noise = rec.noise(f);
     let mut t = (1e-3 * length_scale).min(t_max);
     let mut best = (0.0, f);
     let ft = value_at(t, ws, rec)?;

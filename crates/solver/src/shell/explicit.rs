@@ -127,6 +127,7 @@ impl Integrator for ExplicitEuler {
             energies,
             stable: None,
             contact: system.contact_stats(&state.x),
+            stability: None,
         })
     }
 }

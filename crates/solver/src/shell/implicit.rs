@@ -38,6 +38,12 @@ pub struct ImplicitEuler {
     pub cache: NewtonCache,
 }
 
+/// Default [`NewtonSettings::relative_step_tolerance`] of implicit steps: a step's Newton
+/// solve has converged once its correction is a millionth of how far the step moved from
+/// its start (the inertial prediction), far below the step's own time discretisation error,
+/// which is of the order of that move.
+const IMPLICIT_RELATIVE_STEP_TOLERANCE: f64 = 1e-6;
+
 impl ImplicitEuler {
     /// Fixed step `dt` (s) with default Newton settings, except that saddles of the
     /// incremental potential are kept ([`NewtonSettings::escape_saddles`] = `false`): a shell in
@@ -48,6 +54,7 @@ impl ImplicitEuler {
             dt,
             newton: NewtonSettings {
                 escape_saddles: false,
+                relative_step_tolerance: IMPLICIT_RELATIVE_STEP_TOLERANCE,
                 ..NewtonSettings::default()
             },
             force_scale: None,
@@ -163,6 +170,7 @@ impl Integrator for ImplicitEuler {
                         energies,
                         stable: None,
                         contact: system.contact_stats(&state.x),
+                        stability: None,
                     });
                 }
                 Err(e) if halvings < self.max_halvings && retryable(&e) => {

@@ -17,6 +17,7 @@ pub mod loads;
 mod objective;
 pub mod obstacle;
 pub mod path;
+mod rigid;
 pub mod statics;
 pub mod system;
 

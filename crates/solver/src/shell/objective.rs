@@ -32,6 +32,8 @@ pub(crate) struct ShellObjective<'a> {
     /// Static solves: shift κ·mean|H_dd| added to the Hessian diagonal only (the gradient is
     /// exact, so the minimiser is unchanged); it makes rigid-motion null spaces invertible.
     hessian_shift: f64,
+    /// The absolute shift the last Hessian assembly added ([`Objective::hessian_diagonal_shift`]).
+    last_shift: f64,
     /// Unit of the reported residuals (N).
     force_scale: f64,
     /// Whether `‖∇‖∞ ≤ tol · force_scale` may end a solve (the caller gave the scale).
@@ -76,6 +78,7 @@ impl<'a> ShellObjective<'a> {
             inertia,
             damping,
             hessian_shift,
+            last_shift: 0.0,
             last_terms: EnergyTerms::default(),
             approximated_pairs: 0,
         };
@@ -354,6 +357,21 @@ impl Objective for ShellObjective<'_> {
         self.sys.length_scale()
     }
 
+    fn hessian_diagonal_shift(&self) -> f64 {
+        self.last_shift
+    }
+
+    /// The rigid motions the boundary leaves free: translations unless an obstacle is in
+    /// contact, rotations also when no external load (whose work changes under rotation) acts
+    /// either.
+    fn rigid_modes(&mut self, u: &[f64]) -> Vec<Vec<f64>> {
+        let mut x = self.x_full.clone();
+        let mut phi = self.phi_full.clone();
+        self.sys.scatter(u, &mut x, &mut phi);
+        let rotations = self.sys.f_ext.iter().all(|&f| f == 0.0);
+        super::rigid::free_rigid_modes(&self.sys.dofs, &x, self.sys.contact.is_none(), rotations)
+    }
+
     /// With contact on: the CCD step limit ([`super::contact::Contact::max_step`]).
     fn max_step(&mut self, u: &[f64], du: &[f64]) -> Result<f64, SolverError> {
         let Some(c) = &self.sys.contact else {
@@ -465,10 +483,12 @@ impl ShellObjective<'_> {
                 val[o] += m;
             }
         }
+        self.last_shift = 0.0;
         if self.hessian_shift > 0.0 && !offsets.is_empty() {
             let mean = offsets.iter().map(|&o| val[o].abs()).sum::<f64>() / offsets.len() as f64;
+            self.last_shift = self.hessian_shift * mean;
             for &o in offsets {
-                val[o] += self.hessian_shift * mean;
+                val[o] += self.last_shift;
             }
         }
         Ok(())

@@ -726,6 +726,10 @@ pub enum HessianSpec {
     /// (`thinshell_solver::HessianPolicy::Adaptive`).
     #[default]
     Adaptive,
+    /// The adaptive policy as it was before issue #26: Gauss–Newton wherever the exact Hessian
+    /// is indefinite, no trust-region steps, no saddle escape
+    /// (`thinshell_solver::HessianPolicy::AdaptivePsd`; for comparisons).
+    AdaptivePsd,
     /// Exact second derivatives throughout (regularised when not positive definite).
     Exact,
     /// Gauss–Newton (positive semidefinite).
@@ -789,7 +793,7 @@ pub struct NewtonSpec {
     /// Add μI after a failed Cholesky (default true).
     #[serde(default)]
     pub regularization: Option<bool>,
-    /// `adaptive` (default), `exact`, `gauss_newton`, `projected`.
+    /// `adaptive` (default), `adaptive_psd`, `exact`, `gauss_newton`, `projected`.
     #[serde(default)]
     pub hessian: HessianSpec,
     /// Reuse the last Cholesky factor as the preconditioner of CG while it converges quickly

@@ -326,6 +326,7 @@ impl Simulation {
         let nw = &it.newton;
         let (hessian_mode, policy) = match nw.hessian {
             HessianSpec::Adaptive => (HessianMode::Exact, HessianPolicy::Adaptive),
+            HessianSpec::AdaptivePsd => (HessianMode::Exact, HessianPolicy::AdaptivePsd),
             HessianSpec::Exact => (HessianMode::Exact, HessianPolicy::Fixed),
             HessianSpec::GaussNewton => (HessianMode::GaussNewton, HessianPolicy::Fixed),
             HessianSpec::Projected => (HessianMode::ProjectedPsd, HessianPolicy::Fixed),

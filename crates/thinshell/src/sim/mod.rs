@@ -97,9 +97,13 @@ pub struct StepRecord {
     /// Newton steps tried and rejected (not in `newton_iterations`; they count against the
     /// iteration limit).
     pub rejected_steps: usize,
-    /// Static steps: whether the equilibrium is a minimum (exact Hessian positive definite);
-    /// `false` is a saddle or maximum. `None` for dynamic steps.
+    /// Static steps: whether the equilibrium is a minimum (smallest eigenvalue of the exact
+    /// Hessian positive); `false` is a saddle or maximum. `None` for dynamic steps.
     pub stable: Option<bool>,
+    /// Static steps: that smallest eigenvalue, relative to each unknown's own stiffness
+    /// (`thinshell_solver::Stability`); it crosses 0 at a critical load. `None` for dynamic
+    /// steps.
+    pub min_eigenvalue: Option<f64>,
     /// Path-following steps (`[path]`): the step's path quantities; `None` otherwise.
     pub path: Option<PathRecord>,
     /// Scenes with the `contact` effect: the contact term at the end of the step; `None`
@@ -620,6 +624,7 @@ impl Simulation {
         record.growth_s = secs(growth_time);
         record.stable = report.stable;
         record.contact = report.contact.map(ContactRecord::from);
+        record.min_eigenvalue = report.stability.as_ref().map(|s| s.min_eigenvalue);
         record.wall_s = secs(start.elapsed());
         record.other_s = record.wall_s
             - (record.assembly_s
