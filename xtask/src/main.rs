@@ -8,10 +8,12 @@
 //! - `verify`: the verification suite against analytic and published answers (issue #16).
 //! - `test`: every test of the project (the README's test command).
 //! - `perf`: issue #17's performance table (docs/performance.md's generated section).
+//! - `contact-cost`: what the `contact` effect costs (issue #30) on the scroll at three sizes.
 
 mod accuracy;
 mod bench_sphere;
 mod bench_square;
+mod contact_cost;
 mod hard_cases;
 #[cfg(test)]
 mod one_build;
@@ -120,6 +122,17 @@ enum Task {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// What the `contact` effect costs (issue #30): broad phase, CCD, barrier assembly and
+    /// implicit steps with and without contact on the rolling scroll at three sizes. Prints a
+    /// markdown table and writes target/xtask/contact-cost.json.
+    ContactCost {
+        /// The smallest size and one round.
+        #[arg(long)]
+        quick: bool,
+        /// Interleaved rounds; the table quotes medians over them.
+        #[arg(long, default_value_t = 3)]
+        rounds: usize,
+    },
     /// Internal: one `perf --big` measurement in its own process (peak memory = its VmHWM).
     #[command(hide = true)]
     PerfChild {
@@ -207,6 +220,9 @@ fn main() -> ExitCode {
             rounds,
         } => perf::child_main(level, threads, rounds),
         Task::Test { rust_only } => test::run(&test::Options { rust_only }),
+        Task::ContactCost { quick, rounds } => {
+            contact_cost::run(&contact_cost::Options { quick, rounds })
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

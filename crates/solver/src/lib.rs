@@ -136,7 +136,7 @@ pub use progress::{CancelFlag, NewtonProgress, ProgressHook};
 pub struct ReadmeDoctests;
 
 pub use shell::{
-    AngleReport, AngleSettings, Boundary, Contact, ContactError, ContactSettings, ContactStats,
-    ExplicitEuler, ImplicitEuler, Integrator, Loads, NewtonCache, Obstacle, Prescribed, ShellPath,
-    ShellSystem, State, Static, StepKind, StepReport,
+    AngleReport, AngleSettings, Boundary, Contact, ContactError, ContactRunState, ContactSettings,
+    ContactStats, ExplicitEuler, ImplicitEuler, Integrator, Loads, NewtonCache, Obstacle,
+    Prescribed, ShellPath, ShellSystem, State, Static, StepKind, StepReport,
 };

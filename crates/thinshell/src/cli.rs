@@ -246,13 +246,22 @@ impl Writer {
                     g.stimulus().iter().map(|m| m.bottom).collect(),
                 ));
             }
+            let contact_force = sim
+                .system()
+                .contact
+                .as_ref()
+                .map(|c| c.forces(sim.positions()));
+            let mut point_vectors = vec![
+                ("displacement", displacement.as_slice()),
+                ("velocity", sim.velocities()),
+            ];
+            if let Some(f) = &contact_force {
+                point_vectors.push(("contact_force", f));
+            }
             let frame = crate::vtk::Frame {
                 mesh: sim.mesh(),
                 points: sim.positions(),
-                point_vectors: vec![
-                    ("displacement", &displacement),
-                    ("velocity", sim.velocities()),
-                ],
+                point_vectors,
                 cell_scalars,
             };
             if let Err(e) = series.write(&format!("frame_{step:06}.vtu"), sim.time(), &frame) {

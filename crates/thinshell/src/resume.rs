@@ -75,6 +75,10 @@ pub struct Totals {
     pub unstable_steps: Vec<usize>,
     /// Wall time of the steps, s (the sum of `steps.csv`'s `wall_s`; varies between runs).
     pub wall_s: f64,
+    /// With the `contact` effect: the contact term over the run (absent from checkpoints of
+    /// earlier versions, hence the default).
+    #[serde(default)]
+    pub contact: Option<crate::sim::ContactTotals>,
 }
 
 impl Totals {
@@ -99,6 +103,9 @@ impl Totals {
             self.unstable_steps.push(r.step);
         }
         self.wall_s += r.wall_s;
+        if let Some(c) = &r.contact {
+            self.contact.get_or_insert_default().add(c);
+        }
     }
 }
 

@@ -173,6 +173,7 @@ impl Integrator for ImplicitEuler {
                         hessian,
                         energies,
                         stable: None,
+                        contact: system.contact_stats(&state.x),
                         stability: None,
                     });
                 }

@@ -219,6 +219,7 @@ impl Integrator for Static {
             energies,
             stable: stability.as_ref().map(|s| s.stable),
             stability,
+            contact: system.contact_stats(&state.x),
         })
     }
 }

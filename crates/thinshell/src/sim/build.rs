@@ -475,6 +475,10 @@ fn contact_settings(spec: Option<&ContactSpec>) -> ContactSettings {
                 center: v3(&o.center.unwrap_or_default()),
                 radius: o.radius.unwrap_or(1.0),
             },
+            ObstacleKind::Box => Obstacle::Box {
+                min: v3(&o.min.unwrap_or_default()),
+                max: v3(&o.max.unwrap_or([1.0; 3])),
+            },
         })
         .collect();
     ContactSettings {
