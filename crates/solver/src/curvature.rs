@@ -180,13 +180,17 @@ pub(crate) fn inverse_iteration(
     })
 }
 
-fn normalise_s(v: &mut [f64], s: &[f64]) {
-    let norm = v
-        .iter()
+/// `√(vᵀ S v)`.
+fn s_norm(v: &[f64], s: &[f64]) -> f64 {
+    v.iter()
         .zip(s)
         .map(|(a, si)| a * a * si)
         .sum::<f64>()
-        .sqrt();
+        .sqrt()
+}
+
+fn normalise_s(v: &mut [f64], s: &[f64]) {
+    let norm = s_norm(v, s);
     if norm > 0.0 && norm.is_finite() {
         v.iter_mut().for_each(|x| *x /= norm);
     }
@@ -233,19 +237,8 @@ pub(crate) fn smallest_eigenpair(
     for d in deflate {
         let mut v = d.clone();
         project_out(&mut v, &basis, s);
-        let norm = v
-            .iter()
-            .zip(s)
-            .map(|(a, si)| a * a * si)
-            .sum::<f64>()
-            .sqrt();
-        let scale = d
-            .iter()
-            .zip(s)
-            .map(|(a, si)| a * a * si)
-            .sum::<f64>()
-            .sqrt();
-        if norm > 1e-10 * scale && norm.is_finite() {
+        let norm = s_norm(&v, s);
+        if norm > 1e-10 * s_norm(d, s) && norm.is_finite() {
             v.iter_mut().for_each(|x| *x /= norm);
             basis.push(v);
         }

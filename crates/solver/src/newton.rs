@@ -920,6 +920,30 @@ fn assemble<O: Objective + ?Sized>(
 }
 
 impl NewtonWorkspace {
+    /// Errors unless `x` and `objective` fit the workspace and it has the direct solver, which
+    /// `what` needs.
+    fn check_direct<O: Objective + ?Sized>(
+        &self,
+        objective: &O,
+        x: &[f64],
+        what: &str,
+    ) -> Result<(), SolverError> {
+        if x.len() != self.n_dofs() || objective.n_dofs() != self.n_dofs() {
+            return Err(SolverError::DimensionMismatch {
+                what: "x",
+                expected: self.n_dofs(),
+                found: x.len(),
+            });
+        }
+        if self.cholesky.is_none() {
+            return Err(SolverError::Linear(format!(
+                "{what} needs a Cholesky factorisation, which does not fit in the memory budget \
+                 (the solve used the iterative fallback)"
+            )));
+        }
+        Ok(())
+    }
+
     /// Whether the objective's own Hessian at `x` is positive definite: its unshifted Cholesky
     /// factorisation succeeds (e.g. the stability test of an equilibrium; a shift the objective
     /// itself adds, like a static solve's `hessian_shift`, is part of its Hessian).
@@ -928,19 +952,9 @@ impl NewtonWorkspace {
         objective: &mut O,
         x: &[f64],
     ) -> Result<bool, SolverError> {
-        if x.len() != self.n_dofs() || objective.n_dofs() != self.n_dofs() {
-            return Err(SolverError::DimensionMismatch {
-                what: "x",
-                expected: self.n_dofs(),
-                found: x.len(),
-            });
-        }
+        self.check_direct(objective, x, "the positive-definiteness test")?;
         let Some(cholesky) = self.cholesky.as_mut() else {
-            return Err(SolverError::Linear(
-                "the positive-definiteness test needs a Cholesky factorisation, which does not \
-                 fit in the memory budget (the solve used the iterative fallback)"
-                    .into(),
-            ));
+            return Ok(false);
         };
         let mut timings = NewtonTimings::default();
         assemble(objective, x, &mut self.hessian, false, 0, &mut timings)?;
@@ -987,20 +1001,7 @@ impl NewtonWorkspace {
         objective: &mut O,
         x: &[f64],
     ) -> Result<Stability, SolverError> {
-        if x.len() != self.n_dofs() || objective.n_dofs() != self.n_dofs() {
-            return Err(SolverError::DimensionMismatch {
-                what: "x",
-                expected: self.n_dofs(),
-                found: x.len(),
-            });
-        }
-        let Some(cholesky) = self.cholesky.as_mut() else {
-            return Err(SolverError::Linear(
-                "the stability analysis needs a Cholesky factorisation, which does not fit in \
-                 the memory budget (the solve used the iterative fallback)"
-                    .into(),
-            ));
-        };
+        self.check_direct(objective, x, "the stability analysis")?;
         let mut timings = NewtonTimings::default();
         assemble(objective, x, &mut self.hessian, false, 0, &mut timings)?;
         self.reusable = None;
@@ -1011,6 +1012,9 @@ impl NewtonWorkspace {
         }
         curvature::scaling(&self.hessian, &self.diag_offsets, &mut self.scale);
         let modes = objective.rigid_modes(x);
+        let Some(cholesky) = self.cholesky.as_mut() else {
+            return Err(SolverError::Linear("no Cholesky factorisation".into()));
+        };
         let (pair, _) = curvature::smallest_eigenpair(
             cholesky,
             &mut self.hessian,
