@@ -3,8 +3,9 @@ simulation stays usable and continues bit for bit; a sweep cancels queued runs, 
 ones, keeps complete runs reusable and marks partial ones; a script without the
 ``__main__`` guard is told so.
 
-The long step: a flat 30 x 30 rectangle with the rest curvature of a cylinder, solved statically
-in one step: about 20 Newton iterations (1.5 s on a 2-core VM). A signal 0.3 s into it must leave
+The long step: a flat 60 x 60 rectangle with the rest curvature of a cylinder, solved statically
+in one step: about 20 Newton iterations (1.5–2.5 s on a 2-core VM; 30 x 30 took as long before the
+Newton changes of issue #26 and now converges in 0.3 s, too soon for the signal). A signal 0.3 s into it must leave
 the step untaken (``steps_done == 0``): the solve was cancelled between iterations.
 """
 
@@ -30,8 +31,8 @@ LONG = [
     'integrator.kind="static"',
     "integrator.steps=1",
     'mesh.generator="rectangle"',
-    "mesh.nx=30",
-    "mesh.ny=30",
+    "mesh.nx=60",
+    "mesh.ny=60",
     "integrator.newton.line_search=true",
 ]
 
@@ -94,7 +95,7 @@ POOL_CHILD = textwrap.dedent(
         signal.signal(signal.SIGINT, on_sigint)
         scene = thinshell.Scene.from_file(sys.argv[1], LONG)
         # Run 0 is short (a 4 x 4 mesh); the three others take ~20 Newton iterations each.
-        grid = {"mesh.nx": [4, 30, 31, 32]}
+        grid = {"mesh.nx": [4, 60, 61, 62]}
         try:
             thinshell.sweep(scene, grid, sys.argv[2], max_workers=2, threads=1)
             print(json.dumps({"finished": True}))
@@ -162,7 +163,7 @@ DASK_CHILD = textwrap.dedent(
 
     if __name__ == "__main__":
         scene = thinshell.Scene.from_file(sys.argv[1], LONG)
-        grid = {"mesh.nx": [4, 30, 31, 32]}
+        grid = {"mesh.nx": [4, 60, 61, 62]}
         with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
             with distributed.Client(cluster) as client:
                 signal.signal(signal.SIGINT, on_sigint)
@@ -237,10 +238,10 @@ def test_ctrl_c_in_a_serial_sweep_marks_the_partial_run(scenes, tmp_path):
     timer.start()
     try:
         with pytest.raises(KeyboardInterrupt):
-            thinshell.sweep(scene, {"mesh.nx": [30, 31]}, tmp_path, max_workers=1)
+            thinshell.sweep(scene, {"mesh.nx": [60, 61]}, tmp_path, max_workers=1)
     finally:
         timer.cancel()
     partial = list(tmp_path.glob("run-*/interrupted.json"))
     assert len(partial) == 1 and not list(tmp_path.glob("run-*/result.json"))
     row = json.loads(partial[0].read_text())
-    assert row["status"] == "interrupted" and row["steps"] == 0 and row["mesh.nx"] == 30
+    assert row["status"] == "interrupted" and row["steps"] == 0 and row["mesh.nx"] == 60
