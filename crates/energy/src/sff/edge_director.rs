@@ -12,6 +12,11 @@
 //! and b = −[[II_0 + II_1, II_0], [II_0, II_0 + II_2]] (m) in the basis (e1, e2) =
 //! (x1 − x0, x2 − x0). With all φ = 0 the sin variant equals [`MidEdgeAverage`](super::MidEdgeAverage).
 //!
+//! On a free edge with a fit (`stencil.ghost[i]`, model.md §1.2) θ_i/2 is replaced by
+//! atan(II_i^fit / (2 d_i)), II_i^fit the second moment of the quadratic through the six stencil
+//! points ([`boundary::fitted_moments`]); its derivatives come from dual numbers over the 18
+//! positions and φ_i.
+//!
 //! Derivatives are taken per edge over 13 local dofs — the hinge vertices (p0, p1, p2, q) =
 //! (x_i, x_{i+1}, x_{i+2}, x_{3+i}) and φ_i — and scattered into the 21 face dofs
 //! (18 positions in stencil order, then φ_0, φ_1, φ_2).
@@ -21,8 +26,12 @@
 
 use super::mid_edge_average::{cross_normal, normalize_hess, normalize_jac, skew};
 use super::{SecondFundamentalForm, SffDerivatives};
+use crate::material::dual::DualN;
 use crate::stencil::{EdgeAngles, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
+
+mod boundary;
+pub(crate) use boundary::fit_quality;
 
 /// Number of face dofs of the director form: 18 positions, then the three edge angles.
 pub const DIRECTOR_DOFS: usize = 21;
@@ -299,14 +308,57 @@ fn dihedral_derivatives(p: [&Vector3<f64>; 4], hess: bool) -> (f64, PVec, Option
     }
 }
 
+/// Whether any free edge of the stencil uses the free-edge fit.
+#[inline]
+fn fitted_free_edges(s: &FaceStencil) -> bool {
+    (0..3).any(|e| !s.flap[e] && s.ghost[e])
+}
+
 impl EdgeDirector {
+    /// II_i (m) of fitted free edge i with its gradient and Hessian over the 18 stencil
+    /// positions (dual variables 0..18) and φ_i (variable 18): 2 d_i f(α_i) with
+    /// α_i = atan(II_i^fit / (2 d_i)) + σ_i φ_i.
+    fn fitted_moment(&self, s: &FaceStencil, angles: &EdgeAngles, i: usize) -> DualN<19> {
+        type D = DualN<19>;
+        let p: [[D; 3]; 6] =
+            std::array::from_fn(|v| std::array::from_fn(|c| D::variable(s.x[v][c], 3 * v + c)));
+        let fit = boundary::fitted_moments(&p)[i];
+        let cross = |a: &[D; 3], b: &[D; 3]| -> [D; 3] {
+            [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
+        };
+        let diff = |a: &[D; 3], b: &[D; 3]| -> [D; 3] { [a[0] - b[0], a[1] - b[1], a[2] - b[2]] };
+        let norm2 = |a: &[D; 3]| a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
+        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+        let n = cross(&diff(&p[1], &p[0]), &diff(&p[2], &p[0]));
+        // d = |n| / |edge|.
+        let d = (norm2(&n) * norm2(&diff(&p[k], &p[j])).recip()).sqrt();
+        let t = (fit * d.recip()).scale(0.5);
+        let t2 = 1.0 + t.v * t.v;
+        let atan = t.chain(t.v.atan(), 1.0 / t2, -2.0 * t.v / (t2 * t2));
+        let alpha = atan + D::variable(angles.phi[i], 18).scale(angles.sigma[i]);
+        let (f0, f1, f2) = self.variant.eval(alpha.v);
+        (d * alpha.chain(f0, f1, f2)).scale(2.0)
+    }
+
     /// II_i (m) of the three local edges.
     fn second_moments(&self, s: &FaceStencil, angles: &EdgeAngles) -> [f64; 3] {
         let x = &s.x;
         let area2 = (x[1] - x[0]).cross(&(x[2] - x[0])).norm();
+        let fitted = fitted_free_edges(s).then(|| {
+            let p: [[f64; 3]; 6] = std::array::from_fn(|v| [x[v].x, x[v].y, x[v].z]);
+            boundary::fitted_moments(&p)
+        });
         std::array::from_fn(|i| {
             let [a, b, c, q] = hinge_blocks(i);
             let d = area2 / (x[c] - x[b]).norm();
+            if let (Some(ii), true) = (&fitted, !s.flap[i] && s.ghost[i]) {
+                let alpha = (0.5 * ii[i] / d).atan() + angles.sigma[i] * angles.phi[i];
+                return 2.0 * d * self.variant.eval(alpha).0;
+            }
             let theta = if s.flap[i] {
                 dihedral([&x[a], &x[b], &x[c], &x[q]])
             } else {
@@ -352,6 +404,27 @@ impl EdgeDirector {
             let blk = hinge_blocks(i);
             let omega: f64 = w.map_or(0.0, |w| (0..3).map(|k| w[k] * C[k][i]).sum());
             let want_h = h.is_some() && omega != 0.0;
+            if !s.flap[i] && s.ghost[i] {
+                let d = self.fitted_moment(s, angles, i);
+                ii[i] = d.v;
+                for k in 0..3 {
+                    if C[k][i] != 0.0 {
+                        for l in 0..18 {
+                            jac[(k, l)] -= C[k][i] * d.g[l];
+                        }
+                        jac[(k, 18 + i)] -= C[k][i] * d.g[18];
+                    }
+                }
+                if let Some(h) = h.as_deref_mut().filter(|_| want_h) {
+                    let dof = |l: usize| if l < 18 { l } else { 18 + i };
+                    for r in 0..19 {
+                        for c in 0..19 {
+                            h[(dof(r), dof(c))] -= omega * d.h[(r, c)];
+                        }
+                    }
+                }
+                continue;
+            }
             let (d, gd, hd) = altitude([&x[blk[0]], &x[blk[1]], &x[blk[2]]], want_h);
             let (theta, gt, ht) = if s.flap[i] {
                 dihedral_derivatives([&x[blk[0]], &x[blk[1]], &x[blk[2]], &x[blk[3]]], want_h)
@@ -498,7 +571,12 @@ mod tests {
                 phi: [next() * 0.3, next() * 0.3, next() * 0.3],
                 sigma: [1.0, -1.0, if case % 2 == 0 { 1.0 } else { -1.0 }],
             };
-            let s = FaceStencil { x, flap, angles };
+            let s = FaceStencil {
+                x,
+                flap,
+                ghost: [false; 3],
+                angles,
+            };
             let w = Vector3::new(next(), next(), next());
             // Some cases with a zero weight per edge (ω_i = 0 skips its Hessian).
             let w = if case % 11 == 0 {

@@ -3,6 +3,7 @@
 mod edge_director;
 mod mid_edge_average;
 
+pub(crate) use edge_director::fit_quality;
 pub use edge_director::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
 pub use mid_edge_average::MidEdgeAverage;
 

@@ -97,8 +97,11 @@ impl AngleRelaxation {
     ) -> Result<AngleRelaxation, SolverError> {
         let n = mesh.n_vertices();
         let all_vertices = (0..n).map(VertexId::new);
+        // Fitted free edges have no angle unknown (model.md §1.2).
+        let fitted = thinshell_energy::fitted_free_edges(mesh);
+        let fixed = clamped_edges.iter().chain(&fitted).copied();
         let dofs = DofMap::with_pinned_vertices(n, all_vertices)
-            .and_then(|d| d.with_edges(mesh.n_edges(), clamped_edges.iter().copied()))?;
+            .and_then(|d| d.with_edges(mesh.n_edges(), fixed))?;
         let assembler = Assembler::for_model(mesh, &dofs, model)?;
         let hessian = assembler.hessian_template();
         let cholesky = SparseCholesky::new(hessian.symbolic(), Ordering::Amd, None, Par::Seq)?;

@@ -100,7 +100,10 @@ impl ShellSystem {
         rest.validate(&mesh)?;
         let mut dofs = boundary.dof_map(&mesh)?;
         if ShellSystem::has_edge_unknowns_for(&model) {
-            dofs = dofs.with_edges(mesh.n_edges(), boundary.clamped_edges.iter().copied())?;
+            // Fitted free edges have no angle unknown (model.md §1.2).
+            let fitted = thinshell_energy::fitted_free_edges(&mesh);
+            let fixed = boundary.clamped_edges.iter().chain(&fitted).copied();
+            dofs = dofs.with_edges(mesh.n_edges(), fixed)?;
         }
         let mass = lumped_mass(&mesh, &rest, &model.material)?;
         let f_ext = loads.forces(&mass)?;
