@@ -308,12 +308,6 @@ fn dihedral_derivatives(p: [&Vector3<f64>; 4], hess: bool) -> (f64, PVec, Option
     }
 }
 
-/// Whether any free edge of the stencil uses the free-edge fit.
-#[inline]
-fn fitted_free_edges(s: &FaceStencil) -> bool {
-    (0..3).any(|e| !s.flap[e] && s.ghost[e])
-}
-
 impl EdgeDirector {
     /// II_i (m) of fitted free edge i with its gradient and Hessian over the 18 stencil
     /// positions (dual variables 0..18) and φ_i (variable 18): 2 d_i f(α_i) with
@@ -322,43 +316,22 @@ impl EdgeDirector {
         type D = DualN<19>;
         let p: [[D; 3]; 6] =
             std::array::from_fn(|v| std::array::from_fn(|c| D::variable(s.x[v][c], 3 * v + c)));
-        let fit = boundary::fitted_moments(&p)[i];
-        let cross = |a: &[D; 3], b: &[D; 3]| -> [D; 3] {
-            [
-                a[1] * b[2] - a[2] * b[1],
-                a[2] * b[0] - a[0] * b[2],
-                a[0] * b[1] - a[1] * b[0],
-            ]
-        };
-        let diff = |a: &[D; 3], b: &[D; 3]| -> [D; 3] { [a[0] - b[0], a[1] - b[1], a[2] - b[2]] };
-        let norm2 = |a: &[D; 3]| a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
-        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
-        let n = cross(&diff(&p[1], &p[0]), &diff(&p[2], &p[0]));
-        // d = |n| / |edge|.
-        let d = (norm2(&n) * norm2(&diff(&p[k], &p[j])).recip()).sqrt();
-        let t = (fit * d.recip()).scale(0.5);
-        let t2 = 1.0 + t.v * t.v;
-        let atan = t.chain(t.v.atan(), 1.0 / t2, -2.0 * t.v / (t2 * t2));
-        let alpha = atan + D::variable(angles.phi[i], 18).scale(angles.sigma[i]);
-        let (f0, f1, f2) = self.variant.eval(alpha.v);
-        (d * alpha.chain(f0, f1, f2)).scale(2.0)
+        let sigma_phi = D::variable(angles.phi[i], 18).scale(angles.sigma[i]);
+        boundary::fitted_edge_moment(&p, i, sigma_phi, |a| self.variant.eval(a))
     }
 
     /// II_i (m) of the three local edges.
     fn second_moments(&self, s: &FaceStencil, angles: &EdgeAngles) -> [f64; 3] {
         let x = &s.x;
         let area2 = (x[1] - x[0]).cross(&(x[2] - x[0])).norm();
-        let fitted = fitted_free_edges(s).then(|| {
-            let p: [[f64; 3]; 6] = std::array::from_fn(|v| [x[v].x, x[v].y, x[v].z]);
-            boundary::fitted_moments(&p)
-        });
+        let p: [[f64; 3]; 6] = std::array::from_fn(|v| [x[v].x, x[v].y, x[v].z]);
         std::array::from_fn(|i| {
+            if !s.flap[i] && s.ghost[i] {
+                let sigma_phi = angles.sigma[i] * angles.phi[i];
+                return boundary::fitted_edge_moment(&p, i, sigma_phi, |a| self.variant.eval(a));
+            }
             let [a, b, c, q] = hinge_blocks(i);
             let d = area2 / (x[c] - x[b]).norm();
-            if let (Some(ii), true) = (&fitted, !s.flap[i] && s.ghost[i]) {
-                let alpha = (0.5 * ii[i] / d).atan() + angles.sigma[i] * angles.phi[i];
-                return 2.0 * d * self.variant.eval(alpha).0;
-            }
             let theta = if s.flap[i] {
                 dihedral([&x[a], &x[b], &x[c], &x[q]])
             } else {

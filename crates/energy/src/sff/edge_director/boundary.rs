@@ -20,6 +20,10 @@ pub(crate) trait Scalar:
     fn recip(self) -> Self;
     /// √x.
     fn sqrt(self) -> Self;
+    /// g(x) for g with value f0, first derivative f1, second derivative f2 at x.
+    fn apply(self, f0: f64, f1: f64, f2: f64) -> Self;
+    /// The value.
+    fn value(self) -> f64;
 }
 
 impl Scalar for f64 {
@@ -35,6 +39,14 @@ impl Scalar for f64 {
     fn sqrt(self) -> Self {
         f64::sqrt(self)
     }
+    #[inline]
+    fn apply(self, f0: f64, _: f64, _: f64) -> Self {
+        f0
+    }
+    #[inline]
+    fn value(self) -> f64 {
+        self
+    }
 }
 
 impl<const N: usize> Scalar for DualN<N> {
@@ -49,6 +61,14 @@ impl<const N: usize> Scalar for DualN<N> {
     #[inline]
     fn sqrt(self) -> Self {
         DualN::sqrt(self)
+    }
+    #[inline]
+    fn apply(self, f0: f64, f1: f64, f2: f64) -> Self {
+        self.chain(f0, f1, f2)
+    }
+    #[inline]
+    fn value(self) -> f64 {
+        self.v
     }
 }
 
@@ -126,6 +146,29 @@ pub(crate) fn fitted_moments<T: Scalar>(x: &[V<T>; 6]) -> [T; 3] {
         det3(&ml) * inv
     });
     std::array::from_fn(|i| c[(i + 1) % 3] + c[(i + 2) % 3] - c[i])
+}
+
+/// II_i (m) of fitted free edge i: 2 d_i f(α_i) with α_i = atan(II_i^fit / (2 d_i)) + σ_i φ_i
+/// (`sigma_phi`), d_i = |e1 × e2| / |x_{i+2} − x_{i+1}| and f = `angle_fn`, which returns
+/// (f, f′, f″) at α. One sequence of operations for values and dual numbers, so that both
+/// give the same value to the last bit.
+pub(crate) fn fitted_edge_moment<T: Scalar>(
+    x: &[V<T>; 6],
+    i: usize,
+    sigma_phi: T,
+    angle_fn: impl Fn(f64) -> (f64, f64, f64),
+) -> T {
+    let fit = fitted_moments(x)[i];
+    let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+    let n = cross(&sub(&x[1], &x[0]), &sub(&x[2], &x[0]));
+    let e = sub(&x[k], &x[j]);
+    let d = dot(&n, &n).sqrt() * dot(&e, &e).sqrt().recip();
+    let t = fit * d.recip() * T::cst(0.5);
+    let tv = t.value();
+    let t2 = 1.0 + tv * tv;
+    let alpha = t.apply(tv.atan(), 1.0 / t2, -2.0 * tv / (t2 * t2)) + sigma_phi;
+    let (f0, f1, f2) = angle_fn(alpha.value());
+    d * alpha.apply(f0, f1, f2) * T::cst(2.0)
 }
 
 /// How well the outer points of `x` determine the fit (dimensionless, 0 when they cannot):
