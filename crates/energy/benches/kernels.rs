@@ -26,6 +26,7 @@ fn stencil() -> FaceStencil {
         ],
         flap: [true; 3],
         ghost: [false; 3],
+        clamp: [None; 3],
         angles: EdgeAngles {
             phi: [0.05, -0.1, 0.02],
             sigma: [1.0, -1.0, 1.0],

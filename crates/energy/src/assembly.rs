@@ -517,6 +517,19 @@ impl Assembler {
         Ok(())
     }
 
+    /// Clamps the boundary edges `edges` for the edge-director forms (model.md §1.3): their
+    /// directors stay where they are at the reference positions `x_ref` (m); see
+    /// [`Stencils::set_clamped_edges`]. Without an edge-director form the clamp acts through
+    /// held vertices only and this is a no-op apart from the checks. Errors on an edge out of
+    /// range or a wrong length of `x_ref`.
+    pub fn clamp_edges(
+        &mut self,
+        edges: &[thinshell_mesh::EdgeId],
+        x_ref: &[nalgebra::Vector3<f64>],
+    ) -> Result<(), EnergyError> {
+        self.stencils.set_clamped_edges(edges, x_ref)
+    }
+
     /// Per-face energies (J) of the last evaluation, in face order.
     pub fn face_energies(&self) -> &[EnergyTerms] {
         &self.energies

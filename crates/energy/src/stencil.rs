@@ -30,6 +30,10 @@ pub struct FaceStencil {
     /// vertex; its edge angle is then not an unknown. All false: free edges keep a free
     /// director angle (the previous, first-order treatment).
     pub ghost: [bool; 3],
+    /// `clamp[e]` (only where `!flap[e]`): the prescribed unit director (dimensionless, fixed in
+    /// space) of clamped edge e, model.md §1.3; takes precedence over `ghost[e]`, whose outer
+    /// vertex then still serves the fit of the face's other free edges.
+    pub clamp: [Option<Vector3<f64>>; 3],
     /// Edge angles and orientation signs of the face's three edges.
     pub angles: EdgeAngles,
 }
@@ -42,6 +46,7 @@ impl FaceStencil {
             x,
             flap,
             ghost: [false; 3],
+            clamp: [None; 3],
             angles: EdgeAngles::default(),
         }
     }

@@ -1,7 +1,8 @@
 //! Per-face stencils (face vertices + flap vertices, and the face's edges with their
 //! orientation signs for edge-director unknowns) from the mesh topology, built once.
 
-use crate::sff::fit_quality;
+use crate::EnergyError;
+use crate::sff::{fit_quality, fitted_moments};
 use crate::stencil::{EdgeAngles, FaceStencil, edge_signs};
 use nalgebra::Vector3;
 use thinshell_mesh::{EdgeId, FaceId, Mesh, VertexId};
@@ -23,6 +24,8 @@ pub struct Stencils {
     flap: Vec<[bool; 3]>,
     /// `ghost[f][e]`: free edge e of f uses the fit, slot `3 + e` holding its outer vertex.
     ghost: Vec<[bool; 3]>,
+    /// `clamp[f][e]`: the prescribed unit director of clamped edge e of f (model.md §1.3).
+    clamp: Vec<[Option<Vector3<f64>>; 3]>,
     /// Edge of each local edge (opposite local vertex e).
     edges: Vec<[EdgeId; 3]>,
     /// σ per local edge ([`edge_signs`]).
@@ -64,12 +67,82 @@ impl Stencils {
             .map(|f| topo.face_edges(FaceId::new(f)))
             .collect();
         Stencils {
+            clamp: vec![[None; 3]; vertices.len()],
             vertices,
             flap,
             ghost,
             edges,
             signs: edge_signs(mesh),
         }
+    }
+
+    /// Clamps the boundary edges `edges` (model.md §1.3): each keeps, fixed in space, the
+    /// director it has at the reference positions `x_ref` (m, one per vertex) — the face normal
+    /// turned about the edge by the fitted angle atan(II_fit / (2d)) where the edge has a fit,
+    /// the face normal otherwise — so that at `x_ref` the clamped and the free-edge forms agree
+    /// (rest forms built from `x_ref` stay stress-free). Replaces earlier clamps; interior
+    /// edges in `edges` are ignored here (their angle is fixed by the dof map). Errors on an
+    /// edge out of range or a wrong length of `x_ref`.
+    pub fn set_clamped_edges(
+        &mut self,
+        edges: &[EdgeId],
+        x_ref: &[Vector3<f64>],
+    ) -> Result<(), EnergyError> {
+        let n_edges = self
+            .edges
+            .iter()
+            .flatten()
+            .map(|e| e.idx() + 1)
+            .max()
+            .unwrap_or(0);
+        let n_vertices = self
+            .vertices
+            .iter()
+            .flatten()
+            .map(|v| v.idx() + 1)
+            .max()
+            .unwrap_or(0);
+        if x_ref.len() < n_vertices {
+            return Err(EnergyError::LengthMismatch {
+                what: "clamp reference positions",
+                expected: n_vertices,
+                got: x_ref.len(),
+            });
+        }
+        let mut clamped = vec![false; n_edges];
+        for &e in edges {
+            *clamped
+                .get_mut(e.idx())
+                .ok_or(EnergyError::InvalidEdge { edge: e, n_edges })? = true;
+        }
+        for f in 0..self.n_faces() {
+            let s = self.stencil(f, x_ref);
+            let x = &s.x;
+            for e in 0..3 {
+                self.clamp[f][e] = None;
+                if s.flap[e] || !clamped[self.edges[f][e].idx()] {
+                    continue;
+                }
+                let normal = (x[1] - x[0]).cross(&(x[2] - x[0]));
+                let edge = x[(e + 2) % 3] - x[(e + 1) % 3];
+                let (n, axis) = (normal.normalize(), edge.normalize());
+                let alpha = if s.ghost[e] {
+                    let p: [[f64; 3]; 6] = std::array::from_fn(|v| [x[v].x, x[v].y, x[v].z]);
+                    let d = normal.norm() / edge.norm();
+                    (0.5 * fitted_moments(&p)[e] / d).atan()
+                } else {
+                    0.0
+                };
+                let director = n * alpha.cos() + axis.cross(&n) * alpha.sin();
+                if !director.iter().all(|c| c.is_finite()) {
+                    return Err(EnergyError::NonFiniteVertex {
+                        vertex: self.vertices[f][(e + 1) % 3],
+                    });
+                }
+                self.clamp[f][e] = Some(director);
+            }
+        }
+        Ok(())
     }
 
     /// Which free edges of face `f` use the free-edge fit (model.md §1.2): their director is
@@ -172,6 +245,7 @@ impl Stencils {
             ],
             flap: self.flap[f],
             ghost: self.ghost[f],
+            clamp: self.clamp[f],
             angles,
         }
     }

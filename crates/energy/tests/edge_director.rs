@@ -791,6 +791,7 @@ fn tan_variant_resists_folding_flat_sin_does_not() {
         ],
         flap: [true, false, false],
         ghost: [false; 3],
+        clamp: [None; 3],
         angles: EdgeAngles::default(),
     };
     let rest = FaceRest {
@@ -871,6 +872,7 @@ fn fitted_free_edges_are_exact_for_a_quadratic_height() {
             x: pts.map(|p| rot * p + shift),
             flap: [false; 3],
             ghost: [true; 3],
+            clamp: [None; 3],
             angles: EdgeAngles::default(),
         };
         let b = form.b(&s);
@@ -908,6 +910,7 @@ fn fitted_free_edges_are_consistent_on_a_sphere() {
             x,
             flap: [false; 3],
             ghost: [true; 3],
+            clamp: [None; 3],
             angles: EdgeAngles::default(),
         };
         let b = form.b(&s);

@@ -31,7 +31,7 @@ use crate::stencil::{EdgeAngles, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
 mod boundary;
-pub(crate) use boundary::fit_quality;
+pub(crate) use boundary::{fit_quality, fitted_moments};
 
 /// Number of face dofs of the director form: 18 positions, then the three edge angles.
 pub const DIRECTOR_DOFS: usize = 21;
@@ -308,16 +308,26 @@ fn dihedral_derivatives(p: [&Vector3<f64>; 4], hess: bool) -> (f64, PVec, Option
     }
 }
 
+/// The prescribed director of clamped boundary edge i, if any.
+#[inline]
+fn clamp_of(s: &FaceStencil, i: usize) -> Option<[f64; 3]> {
+    s.clamp[i].filter(|_| !s.flap[i]).map(|n| [n.x, n.y, n.z])
+}
+
 impl EdgeDirector {
-    /// II_i (m) of fitted free edge i with its gradient and Hessian over the 18 stencil
+    /// II_i (m) of fitted free edge or clamped edge i with its gradient and Hessian over the 18 stencil
     /// positions (dual variables 0..18) and φ_i (variable 18): 2 d_i f(α_i) with
     /// α_i = atan(II_i^fit / (2 d_i)) + σ_i φ_i.
-    fn fitted_moment(&self, s: &FaceStencil, angles: &EdgeAngles, i: usize) -> DualN<19> {
+    fn boundary_moment(&self, s: &FaceStencil, angles: &EdgeAngles, i: usize) -> DualN<19> {
         type D = DualN<19>;
         let p: [[D; 3]; 6] =
             std::array::from_fn(|v| std::array::from_fn(|c| D::variable(s.x[v][c], 3 * v + c)));
         let sigma_phi = D::variable(angles.phi[i], 18).scale(angles.sigma[i]);
-        boundary::fitted_edge_moment(&p, i, sigma_phi, |a| self.variant.eval(a))
+        let f = |a| self.variant.eval(a);
+        match clamp_of(s, i) {
+            Some(nc) => boundary::clamped_edge_moment(&p, i, nc, sigma_phi, f),
+            None => boundary::fitted_edge_moment(&p, i, sigma_phi, f),
+        }
     }
 
     /// II_i (m) of the three local edges.
@@ -326,6 +336,11 @@ impl EdgeDirector {
         let area2 = (x[1] - x[0]).cross(&(x[2] - x[0])).norm();
         let p: [[f64; 3]; 6] = std::array::from_fn(|v| [x[v].x, x[v].y, x[v].z]);
         std::array::from_fn(|i| {
+            if let Some(nc) = clamp_of(s, i) {
+                let sigma_phi = angles.sigma[i] * angles.phi[i];
+                let f = |a| self.variant.eval(a);
+                return boundary::clamped_edge_moment(&p, i, nc, sigma_phi, f);
+            }
             if !s.flap[i] && s.ghost[i] {
                 let sigma_phi = angles.sigma[i] * angles.phi[i];
                 return boundary::fitted_edge_moment(&p, i, sigma_phi, |a| self.variant.eval(a));
@@ -377,8 +392,8 @@ impl EdgeDirector {
             let blk = hinge_blocks(i);
             let omega: f64 = w.map_or(0.0, |w| (0..3).map(|k| w[k] * C[k][i]).sum());
             let want_h = h.is_some() && omega != 0.0;
-            if !s.flap[i] && s.ghost[i] {
-                let d = self.fitted_moment(s, angles, i);
+            if !s.flap[i] && (s.ghost[i] || s.clamp[i].is_some()) {
+                let d = self.boundary_moment(s, angles, i);
                 ii[i] = d.v;
                 for k in 0..3 {
                     if C[k][i] != 0.0 {
@@ -548,6 +563,7 @@ mod tests {
                 x,
                 flap,
                 ghost: [false; 3],
+                clamp: [None; 3],
                 angles,
             };
             let w = Vector3::new(next(), next(), next());

@@ -3,8 +3,8 @@
 mod edge_director;
 mod mid_edge_average;
 
-pub(crate) use edge_director::fit_quality;
 pub use edge_director::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
+pub(crate) use edge_director::{fit_quality, fitted_moments};
 pub use mid_edge_average::MidEdgeAverage;
 
 use crate::stencil::FaceStencil;

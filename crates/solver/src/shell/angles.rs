@@ -102,7 +102,8 @@ impl AngleRelaxation {
         let fixed = clamped_edges.iter().chain(&fitted).copied();
         let dofs = DofMap::with_pinned_vertices(n, all_vertices)
             .and_then(|d| d.with_edges(mesh.n_edges(), fixed))?;
-        let assembler = Assembler::for_model(mesh, &dofs, model)?;
+        let mut assembler = Assembler::for_model(mesh, &dofs, model)?;
+        assembler.clamp_edges(clamped_edges, mesh.positions())?;
         let hessian = assembler.hessian_template();
         let cholesky = SparseCholesky::new(hessian.symbolic(), Ordering::Amd, None, Par::Seq)?;
         let n3 = 3 * n;

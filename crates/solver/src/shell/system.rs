@@ -89,7 +89,8 @@ impl std::fmt::Debug for ShellSystem {
 impl ShellSystem {
     /// Builds the dof map, lumped masses, external forces and the assembler. With an
     /// edge-director second fundamental form and bending on, the unknowns include one angle
-    /// per edge; the angles of clamped edges are fixed at 0 (pins leave them free).
+    /// per edge, except on clamped edges (fixed at 0; their directors are held, model.md §1.3)
+    /// and on fitted free edges (model.md §1.2); pins leave the angles free.
     pub fn new(
         mesh: Mesh,
         model: ShellModel,
@@ -98,8 +99,9 @@ impl ShellSystem {
         loads: Loads,
     ) -> Result<ShellSystem, SolverError> {
         rest.validate(&mesh)?;
-        let mut dofs = boundary.dof_map(&mesh)?;
-        if ShellSystem::has_edge_unknowns_for(&model) {
+        let directors = ShellSystem::has_edge_unknowns_for(&model);
+        let mut dofs = boundary.dof_map(&mesh, !directors)?;
+        if directors {
             // Fitted free edges have no angle unknown (model.md §1.2).
             let fitted = thinshell_energy::fitted_free_edges(&mesh);
             let fixed = boundary.clamped_edges.iter().chain(&fitted).copied();
@@ -107,7 +109,11 @@ impl ShellSystem {
         }
         let mass = lumped_mass(&mesh, &rest, &model.material)?;
         let f_ext = loads.forces(&mass)?;
-        let assembler = Assembler::for_model(&mesh, &dofs, &model)?;
+        let mut assembler = Assembler::for_model(&mesh, &dofs, &model)?;
+        if directors {
+            // The clamp holds the directors of the clamped edges (model.md §1.3).
+            assembler.clamp_edges(&boundary.clamped_edges, mesh.positions())?;
+        }
         let angle_scale = mean_edge_length(&mesh);
         Ok(ShellSystem {
             mesh,

@@ -269,7 +269,10 @@ impl Simulation {
                 });
             }
         }
-        let held = boundary.held_coordinates(&mesh).map_err(solver_err)?;
+        let second_row = !ShellSystem::has_edge_unknowns_for(&model);
+        let held = boundary
+            .held_coordinates(&mesh, second_row)
+            .map_err(solver_err)?;
         if held.len() >= 3 * n {
             return Err(invalid(
                 "boundary",

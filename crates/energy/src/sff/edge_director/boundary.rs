@@ -171,6 +171,32 @@ pub(crate) fn fitted_edge_moment<T: Scalar>(
     d * alpha.apply(f0, f1, f2) * T::cst(2.0)
 }
 
+/// II_i (m) of clamped edge i with prescribed unit director `nc` (model.md §1.3):
+/// 2 d_i f(α_i), α_i = atan(t) + σ_i φ_i, where t = tan of the signed angle from the face normal
+/// to `nc` about ê = (x_{i+2} − x_{i+1})/|·| — the dihedral angle of §1.1 with the clamp's
+/// director in place of the neighbour's normal: t = ((n × nc)·ê) / (n·nc), n = e1 × e2. Needs
+/// the face within 90° of the clamp (n·nc > 0), as any clamp that holds.
+pub(crate) fn clamped_edge_moment<T: Scalar>(
+    x: &[V<T>; 6],
+    i: usize,
+    nc: [f64; 3],
+    sigma_phi: T,
+    angle_fn: impl Fn(f64) -> (f64, f64, f64),
+) -> T {
+    let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+    let n = cross(&sub(&x[1], &x[0]), &sub(&x[2], &x[0]));
+    let e = sub(&x[k], &x[j]);
+    let nc = nc.map(T::cst);
+    let len_e = dot(&e, &e).sqrt();
+    let d = dot(&n, &n).sqrt() * len_e.recip();
+    let t = dot(&cross(&n, &nc), &e) * (dot(&n, &nc) * len_e).recip();
+    let tv = t.value();
+    let t2 = 1.0 + tv * tv;
+    let alpha = t.apply(tv.atan(), 1.0 / t2, -2.0 * tv / (t2 * t2)) + sigma_phi;
+    let (f0, f1, f2) = angle_fn(alpha.value());
+    d * alpha.apply(f0, f1, f2) * T::cst(2.0)
+}
+
 /// How well the outer points of `x` determine the fit (dimensionless, 0 when they cannot):
 /// |det| of the bubble matrix with each row scaled by 1/(1 + |λ|²) of its point, so that far
 /// points (larger extrapolation error) are not preferred for their larger bubble values.
