@@ -112,13 +112,33 @@ fn bend(
     out
 }
 
-/// Stencils of [`stencil_strategy`] whose free edges use the free-edge fit (each with
-/// probability 3/4), the outer point of the fit being the stencil's point across that edge.
+/// Stencils of [`stencil_strategy`] whose free edges use the free-edge fit (model.md §1.2, each
+/// with probability 3/4, the outer point of the fit being the stencil's point across that edge)
+/// or are clamped (§1.3, probability 1/4 of the others and 1/4 of the fitted ones, with a
+/// prescribed director within 0.6 rad of the face normal).
 fn fitted_stencil_strategy() -> impl Strategy<Value = FaceStencil> {
-    (stencil_strategy(), prop::array::uniform3(0u8..4)).prop_map(|(s, coin)| FaceStencil {
-        ghost: std::array::from_fn(|e| !s.flap[e] && coin[e] > 0),
-        ..s
-    })
+    (
+        stencil_strategy(),
+        prop::array::uniform3(0u8..4),
+        prop::array::uniform3(0u8..4),
+        prop::array::uniform3(prop::array::uniform2(-0.6f64..0.6)),
+    )
+        .prop_map(|(s, coin, clamp, tilt)| {
+            let n = (s.x[1] - s.x[0]).cross(&(s.x[2] - s.x[0])).normalize();
+            let t = (s.x[1] - s.x[0]).normalize();
+            let u = n.cross(&t);
+            FaceStencil {
+                ghost: std::array::from_fn(|e| !s.flap[e] && coin[e] > 0),
+                clamp: std::array::from_fn(|e| {
+                    (!s.flap[e] && clamp[e] == 0).then(|| {
+                        Rotation3::from_axis_angle(&Unit::new_normalize(t), tilt[e][0])
+                            * Rotation3::from_axis_angle(&Unit::new_normalize(u), tilt[e][1])
+                            * n
+                    })
+                }),
+                ..s
+            }
+        })
 }
 
 /// Body of the derivative tests: Jacobian of b and Σ w_k ∇²b_k against central differences.
@@ -251,7 +271,7 @@ proptest! {
         check_derivatives(&s, &a, &form, w)?;
     }
 
-    /// The same with the free-edge fit (model.md §1.2) on random free edges.
+    /// The same with the free-edge fit (model.md §1.2) and clamps (§1.3) on random free edges.
     #[test]
     fn fitted_free_edge_derivatives_match_fd(
         s in fitted_stencil_strategy(),
@@ -274,7 +294,7 @@ proptest! {
         check_kernel(&s, &a, &form, &r)?;
     }
 
-    /// The same with the free-edge fit on random free edges.
+    /// The same with the free-edge fit and clamps on random free edges.
     #[test]
     fn fitted_free_edge_kernel_matches_fd(
         s in fitted_stencil_strategy(),
@@ -923,4 +943,54 @@ fn fitted_free_edges_are_consistent_on_a_sphere() {
         assert!(w[0] / w[1] >= 3.5, "{errs:?}");
     }
     assert!(errs[2] < 2e-3, "{errs:?}");
+}
+
+/// A clamped edge (model.md §1.3) whose prescribed director is the face normal turned about the
+/// edge by β gives the b of the same face with that edge free at director angle φ = β (σ = 1):
+/// II = 2 d f(β) for either variant, to round-off (1e-12).
+#[test]
+fn clamped_edge_moment_is_the_prescribed_director_angle() {
+    let mut rng = SplitMix64::new(5);
+    for _ in 0..100 {
+        let x: [Vector3<f64>; 6] = std::array::from_fn(|v| {
+            let base = [
+                Vector3::new(0.0, 0.0, 0.0),
+                Vector3::new(1.0, 0.0, 0.0),
+                Vector3::new(0.4, 0.9, 0.0),
+                Vector3::new(1.0, 1.0, 0.2),
+                Vector3::new(-0.6, 0.5, 0.1),
+                Vector3::new(0.5, -0.7, -0.1),
+            ];
+            base[v] + rng.vector3(0.1)
+        });
+        let i = (rng.uniform(0.0, 3.0) as usize).min(2);
+        let beta = rng.uniform(-1.0, 1.0);
+        let n = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
+        let edge = x[(i + 2) % 3] - x[(i + 1) % 3];
+        let nc = Rotation3::from_axis_angle(&Unit::new_normalize(edge), beta) * n;
+        let mut clamp = [None; 3];
+        clamp[i] = Some(nc);
+        let mut flap = [true; 3];
+        flap[i] = false;
+        let s = FaceStencil {
+            x,
+            flap,
+            ghost: [false; 3],
+            clamp,
+            angles: EdgeAngles::default(),
+        };
+        for variant in [DirectorVariant::Tan, DirectorVariant::Sin] {
+            let free = FaceStencil {
+                clamp: [None; 3],
+                angles: EdgeAngles {
+                    phi: std::array::from_fn(|e| if e == i { beta } else { 0.0 }),
+                    sigma: [1.0; 3],
+                },
+                ..s
+            };
+            let form = EdgeDirector { variant };
+            let (b, b_free) = (form.b(&s), form.b(&free));
+            assert!((b - b_free).abs().max() <= 1e-12, "{b} vs {b_free}");
+        }
+    }
 }
