@@ -89,11 +89,13 @@ pub(crate) struct AngleRelaxation {
 }
 
 impl AngleRelaxation {
-    /// The angle-only problem of `model` on `mesh` with the angles of `clamped_edges` fixed.
+    /// The angle-only problem of `model` on `mesh` with the angles of `clamped_edges` fixed and
+    /// their directors held as at `clamp_reference` (model.md §1.3).
     pub(crate) fn new(
         mesh: &Mesh,
         model: &ShellModel,
         clamped_edges: &[EdgeId],
+        clamp_reference: &[Vector3<f64>],
     ) -> Result<AngleRelaxation, SolverError> {
         let n = mesh.n_vertices();
         let all_vertices = (0..n).map(VertexId::new);
@@ -103,7 +105,7 @@ impl AngleRelaxation {
         let dofs = DofMap::with_pinned_vertices(n, all_vertices)
             .and_then(|d| d.with_edges(mesh.n_edges(), fixed))?;
         let mut assembler = Assembler::for_model(mesh, &dofs, model)?;
-        assembler.clamp_edges(clamped_edges, mesh.positions())?;
+        assembler.clamp_edges(clamped_edges, clamp_reference)?;
         let hessian = assembler.hessian_template();
         let cholesky = SparseCholesky::new(hessian.symbolic(), Ordering::Amd, None, Par::Seq)?;
         let n3 = 3 * n;

@@ -72,6 +72,9 @@ pub struct ShellSystem {
     pub(crate) angle_scale: f64,
     /// Angle-only sub-problem of [`ShellSystem::relax_edge_angles`], built on first use.
     pub(crate) angle_relaxation: Option<Box<AngleRelaxation>>,
+    /// Positions (m) at which clamped edges' directors are held (model.md §1.3); empty: the
+    /// mesh's positions.
+    pub(crate) clamp_reference: Vec<Vector3<f64>>,
     /// The contact term, when the scene names the `contact` effect ([`ShellSystem::set_contact`]).
     pub contact: Option<Contact>,
 }
@@ -87,6 +90,30 @@ impl std::fmt::Debug for ShellSystem {
 }
 
 impl ShellSystem {
+    /// Holds the directors of the clamped edges as they are at `x_ref` (m, one position per
+    /// vertex) instead of at the mesh's positions (model.md §1.3): for a start state that is not
+    /// the mesh's own shape. No effect without edge-director unknowns. Errors on a wrong length
+    /// or a degenerate clamped face.
+    pub fn set_clamp_reference(&mut self, x_ref: &[Vector3<f64>]) -> Result<(), SolverError> {
+        if !self.has_edge_unknowns() {
+            return Ok(());
+        }
+        self.assembler
+            .clamp_edges(&self.boundary.clamped_edges, x_ref)?;
+        self.clamp_reference = x_ref.to_vec();
+        self.angle_relaxation = None;
+        Ok(())
+    }
+
+    /// Positions at which the clamped directors are held.
+    fn clamp_reference(&self) -> &[Vector3<f64>] {
+        if self.clamp_reference.is_empty() {
+            self.mesh.positions()
+        } else {
+            &self.clamp_reference
+        }
+    }
+
     /// Builds the dof map, lumped masses, external forces and the assembler. With an
     /// edge-director second fundamental form and bending on, the unknowns include one angle
     /// per edge, except on clamped edges (fixed at 0; their directors are held, model.md §1.3)
@@ -129,6 +156,7 @@ impl ShellSystem {
             assembler,
             angle_scale,
             angle_relaxation: None,
+            clamp_reference: Vec::new(),
             contact: None,
         })
     }
@@ -456,6 +484,7 @@ impl ShellSystem {
                 &self.mesh,
                 &self.model,
                 &self.boundary.clamped_edges,
+                self.clamp_reference(),
             )?),
         };
         let result = cache.relax(&self.model, &self.rest, x, phi, damping, settings);

@@ -397,6 +397,10 @@ impl Simulation {
         };
         let mut system =
             ShellSystem::new(mesh, model, rest, boundary, loads).map_err(solver_err)?;
+        if x != x_ref {
+            // Clamps hold the directors of the start state (model.md §1.3).
+            system.set_clamp_reference(&x).map_err(solver_err)?;
+        }
         system.hessian_mode = hessian_mode;
         if on(Effect::Contact) {
             system
