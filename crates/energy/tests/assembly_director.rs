@@ -414,3 +414,94 @@ fn mismatched_edge_unknowns_are_typed_errors() {
     let a = Assembler::for_model(&c.mesh, &DofMap::all_free(nv), &no_bend).unwrap();
     assert!(!a.has_edge_unknowns());
 }
+
+/// Free-edge fits (model.md §1.2) couple a boundary face to its outer vertices: the assembled
+/// Hessian columns of every outer vertex (all free dofs, exact mode, bending only) match
+/// differences of the assembled gradient, to 1e-6 of each column's largest entry.
+#[test]
+fn fitted_outer_vertices_are_in_the_assembled_hessian() {
+    let sff = SffKind::EdgeDirector(DirectorVariant::Tan);
+    let c = case(5, sff);
+    let bend = Terms {
+        stretch: false,
+        bend: true,
+        damping: false,
+    };
+    let m = model(sff, bend);
+    let stencils = Stencils::new(&c.mesh);
+    let mut outer: Vec<usize> = (0..c.mesh.n_faces())
+        .flat_map(|f| {
+            let (g, v) = (stencils.ghost(f), *stencils.vertices(f));
+            (0..3).filter(move |&e| g[e]).map(move |e| v[3 + e].idx())
+        })
+        .collect();
+    outer.sort_unstable();
+    outer.dedup();
+    assert!(!outer.is_empty());
+    let nv = c.mesh.n_vertices();
+    let d = DofMap::all_free(nv)
+        .with_edges(
+            c.mesh.n_edges(),
+            thinshell_energy::fitted_free_edges(&c.mesh),
+        )
+        .unwrap();
+    let mut asm = Assembler::for_model(&c.mesh, &d, &m).unwrap();
+    let n = d.n_coordinates();
+    let mut g = vec![0.0; n];
+    let mut h = asm.hessian_template();
+    asm.evaluate_with_angles(
+        &m,
+        &c.x,
+        &c.phi,
+        &c.rest,
+        None,
+        EvalOutput {
+            gradient: Some(&mut g),
+            hessian: Some((&mut h, HessianMode::Exact)),
+        },
+    )
+    .unwrap();
+    let hd = dense(&h);
+    let free = d.free_coordinates().to_vec();
+    let q0 = full(&c.x, &c.phi);
+    let mut grad_free = |q: &[f64]| {
+        let (x, phi) = split(q, nv);
+        let mut g = vec![0.0; n];
+        asm.evaluate_with_angles(
+            &m,
+            &x,
+            &phi,
+            &c.rest,
+            None,
+            EvalOutput {
+                gradient: Some(&mut g),
+                hessian: None,
+            },
+        )
+        .unwrap();
+        free.iter().map(|&k| g[k]).collect::<Vec<_>>()
+    };
+    let eps = 1e-6;
+    for &v in &outer {
+        for axis in 0..3 {
+            let k = 3 * v + axis;
+            let col = free.iter().position(|&c| c == k).unwrap();
+            let (mut qp, mut qm) = (q0.clone(), q0.clone());
+            qp[k] += eps;
+            qm[k] -= eps;
+            let (gp, gm) = (grad_free(&qp), grad_free(&qm));
+            let fd: Vec<f64> = (0..free.len())
+                .map(|r| (gp[r] - gm[r]) / (2.0 * eps))
+                .collect();
+            let scale = fd.iter().fold(0.0f64, |s, x| s.max(x.abs()));
+            assert!(scale > 0.0);
+            for (row, f) in fd.iter().enumerate() {
+                assert!(
+                    (f - hd[(row, col)]).abs() <= 1e-6 * scale,
+                    "outer vertex {v} axis {axis}, row {row}: {} vs {f}",
+                    hd[(row, col)]
+                );
+            }
+        }
+    }
+}

@@ -14,8 +14,9 @@
 //!
 //! On a free edge with a fit (`stencil.ghost[i]`, model.md §1.2) θ_i/2 is replaced by
 //! atan(II_i^fit / (2 d_i)), II_i^fit the second moment of the quadratic through the six stencil
-//! points ([`boundary::fitted_moments`]); its derivatives come from dual numbers over the 18
-//! positions and φ_i.
+//! points ([`boundary::fitted_moments`]); on a clamped edge (`stencil.clamp[i]`, §1.3) by the
+//! angle from the face normal to the clamp's director about the edge. Their derivatives come
+//! from dual numbers over the 18 positions and φ_i.
 //!
 //! Derivatives are taken per edge over 13 local dofs — the hinge vertices (p0, p1, p2, q) =
 //! (x_i, x_{i+1}, x_{i+2}, x_{3+i}) and φ_i — and scattered into the 21 face dofs

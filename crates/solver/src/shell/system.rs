@@ -3,8 +3,8 @@
 
 use nalgebra::Vector3;
 use thinshell_energy::{
-    Assembler, DampingState, DofMap, EnergyTerms, EvalOutput, HessianMode, RestState, ShellModel,
-    lumped_mass,
+    Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, HessianMode, RestState,
+    ShellModel, lumped_mass,
 };
 use thinshell_mesh::Mesh;
 
@@ -103,6 +103,17 @@ impl ShellSystem {
         self.clamp_reference = x_ref.to_vec();
         self.angle_relaxation = None;
         Ok(())
+    }
+
+    /// An assembler over this system's unknowns for `model` (this system's mesh and form, e.g.
+    /// with damping off) that holds the system's clamped directors (model.md §1.3): per-face
+    /// diagnostics then match the system's energy.
+    pub fn assembler_for(&self, model: &ShellModel) -> Result<Assembler, EnergyError> {
+        let mut assembler = Assembler::for_model(&self.mesh, &self.dofs, model)?;
+        if self.has_edge_unknowns() {
+            assembler.clamp_edges(&self.boundary.clamped_edges, self.clamp_reference())?;
+        }
+        Ok(assembler)
     }
 
     /// Positions at which the clamped directors are held.

@@ -1,8 +1,9 @@
-//! Free-edge directors (model.md §1.2): the quadratic height function over the face plane
-//! through the six stencil points — the face vertices and, across each edge, its flap vertex
-//! or, on a free edge, a nearby mesh vertex chosen once by [`crate::Stencils`] — gives the
-//! second moments II_i of the three edges; a free edge uses its II_i in place of the director
-//! angle it no longer has.
+//! Directors of boundary edges. Free edges (model.md §1.2): the quadratic height function over
+//! the face plane through the six stencil points — the face vertices and, across each edge, its
+//! flap vertex or, on a free edge, a nearby mesh vertex chosen once by [`crate::Stencils`] —
+//! gives the second moments II_i of the three edges; a free edge uses its II_i in place of the
+//! director angle it no longer has. Clamped edges (§1.3): the director is a prescribed unit
+//! vector, the tilt its angle from the face normal about the edge.
 //!
 //! Written once over [`Scalar`], evaluated in f64 for values and in second-order dual numbers
 //! for the exact gradient and Hessian.
