@@ -115,11 +115,12 @@ impl Stencils {
                 .get_mut(e.idx())
                 .ok_or(EnergyError::InvalidEdge { edge: e, n_edges })? = true;
         }
-        for f in 0..self.n_faces() {
+        // Built aside, so that an error leaves the previous clamps in place.
+        let mut clamp = vec![[None; 3]; self.n_faces()];
+        for (f, slot) in clamp.iter_mut().enumerate() {
             let s = self.stencil(f, x_ref);
             let x = &s.x;
             for e in 0..3 {
-                self.clamp[f][e] = None;
                 if s.flap[e] || !clamped[self.edges[f][e].idx()] {
                     continue;
                 }
@@ -139,9 +140,10 @@ impl Stencils {
                         vertex: self.vertices[f][(e + 1) % 3],
                     });
                 }
-                self.clamp[f][e] = Some(director);
+                slot[e] = Some(director);
             }
         }
+        self.clamp = clamp;
         Ok(())
     }
 

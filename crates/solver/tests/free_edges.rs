@@ -138,7 +138,8 @@ fn half_cylinder_bending_energy_converges_at_second_order_with_free_edges() {
 /// (b̄ = 0) and the sphere's own metric (ā = a: no stretching): bending energy against
 /// h³/12 · ∫ ‖S‖²_SV dA with S = I/r, ‖S‖²_SV = (2α + 2β)/r², over the area 2π r² cos 18°.
 /// Meshes `hemisphere_with_hole(1, 18°, n, 5n)`, n = 4, 8, 16, 32 (160 → 10 240 faces).
-/// Measured: see the printed table and model.md §1.2. Asserted: order ≥ 1.8 on the last step.
+/// Measured: relative errors +2.9e-2, +5.3e-3, +1.1e-3, +2.5e-4, orders 2.46, 2.26, 2.15.
+/// Asserted: order ≥ 1.8 on the last step, |error| < 5e-4 on the finest mesh.
 #[test]
 fn hemisphere_with_a_hole_bending_energy_converges_at_second_order() {
     let hole = 18f64.to_radians();
@@ -162,5 +163,5 @@ fn hemisphere_with_a_hole_bending_energy_converges_at_second_order() {
     let o = orders(&errors, &faces);
     println!("hemisphere with hole: faces {faces:?}; errors {errors:?}; orders {o:.2?}");
     assert!(o[o.len() - 1] >= 1.8, "orders {o:?}, errors {errors:?}");
-    assert!(errors[errors.len() - 1].abs() < 1e-3, "{errors:?}");
+    assert!(errors[errors.len() - 1].abs() < 5e-4, "{errors:?}");
 }

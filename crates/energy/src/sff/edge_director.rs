@@ -316,9 +316,10 @@ fn clamp_of(s: &FaceStencil, i: usize) -> Option<[f64; 3]> {
 }
 
 impl EdgeDirector {
-    /// II_i (m) of fitted free edge or clamped edge i with its gradient and Hessian over the 18 stencil
-    /// positions (dual variables 0..18) and φ_i (variable 18): 2 d_i f(α_i) with
-    /// α_i = atan(II_i^fit / (2 d_i)) + σ_i φ_i.
+    /// II_i (m) of fitted free edge or clamped edge i with its gradient and Hessian over the 18
+    /// stencil positions (dual variables 0..18) and φ_i (variable 18): 2 d_i f(α_i) with
+    /// α_i = atan(t) + σ_i φ_i, t = II_i^fit / (2 d_i) (fit) or the tangent of the angle from the
+    /// face normal to the clamp's director (clamp).
     fn boundary_moment(&self, s: &FaceStencil, angles: &EdgeAngles, i: usize) -> DualN<19> {
         type D = DualN<19>;
         let p: [[D; 3]; 6] =
