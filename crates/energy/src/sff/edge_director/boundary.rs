@@ -203,7 +203,8 @@ pub(crate) fn clamped_edge_moment<T: Scalar>(
 /// points (larger extrapolation error) are not preferred for their larger bubble values.
 pub(crate) fn fit_quality(x: &[V<f64>; 6]) -> f64 {
     let (mut m, _, det) = system(x);
-    if !(det > 0.0) {
+    // A degenerate (or NaN) face cannot carry a fit.
+    if det.is_nan() || det <= 0.0 {
         return 0.0;
     }
     let e1 = sub(&x[1], &x[0]);
