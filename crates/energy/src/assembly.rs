@@ -525,9 +525,23 @@ impl Assembler {
     pub fn clamp_edges(
         &mut self,
         edges: &[thinshell_mesh::EdgeId],
-        x_ref: &[nalgebra::Vector3<f64>],
+        x_ref: &[Vector3<f64>],
     ) -> Result<(), EnergyError> {
         self.stencils.set_clamped_edges(edges, x_ref)
+    }
+
+    /// Kelvin–Voigt damping forms of the configuration (`x_prev` m, `phi_prev` rad or empty)
+    /// at the start of a step of `dt` s, as [`DampingState::from_configuration`] but through
+    /// this assembler's stencils, so that clamped edges (model.md §1.3) enter b^prev as they
+    /// enter b. Same errors.
+    pub fn damping_state(
+        &self,
+        x_prev: &[Vector3<f64>],
+        phi_prev: &[f64],
+        sff: SffKind,
+        dt: f64,
+    ) -> Result<DampingState, EnergyError> {
+        DampingState::with_stencils(&self.stencils, x_prev, phi_prev, sff, dt)
     }
 
     /// Per-face energies (J) of the last evaluation, in face order.

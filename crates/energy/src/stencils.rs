@@ -30,6 +30,9 @@ pub struct Stencils {
     edges: Vec<[EdgeId; 3]>,
     /// σ per local edge ([`edge_signs`]).
     signs: Vec<[f64; 3]>,
+    /// Vertex and edge counts of the mesh.
+    n_vertices: usize,
+    n_edges: usize,
 }
 
 impl Stencils {
@@ -73,7 +76,19 @@ impl Stencils {
             ghost,
             edges,
             signs: edge_signs(mesh),
+            n_vertices: mesh.n_vertices(),
+            n_edges: mesh.n_edges(),
         }
+    }
+
+    /// Number of vertices of the mesh.
+    pub fn n_vertices(&self) -> usize {
+        self.n_vertices
+    }
+
+    /// Number of edges of the mesh.
+    pub fn n_edges(&self) -> usize {
+        self.n_edges
     }
 
     /// Clamps the boundary edges `edges` (model.md §1.3): each keeps, fixed in space, the
@@ -88,21 +103,8 @@ impl Stencils {
         edges: &[EdgeId],
         x_ref: &[Vector3<f64>],
     ) -> Result<(), EnergyError> {
-        let n_edges = self
-            .edges
-            .iter()
-            .flatten()
-            .map(|e| e.idx() + 1)
-            .max()
-            .unwrap_or(0);
-        let n_vertices = self
-            .vertices
-            .iter()
-            .flatten()
-            .map(|v| v.idx() + 1)
-            .max()
-            .unwrap_or(0);
-        if x_ref.len() < n_vertices {
+        let (n_vertices, n_edges) = (self.n_vertices, self.n_edges);
+        if x_ref.len() != n_vertices {
             return Err(EnergyError::LengthMismatch {
                 what: "clamp reference positions",
                 expected: n_vertices,

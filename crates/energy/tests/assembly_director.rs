@@ -505,3 +505,45 @@ fn fitted_outer_vertices_are_in_the_assembled_hessian() {
         }
     }
 }
+
+/// Clamped edges (model.md §1.3) enter the damping forms as they enter b: with the assembler's
+/// own damping state, the Kelvin–Voigt energy of a configuration against itself is 0 on a
+/// deformed mesh with clamped boundary edges; the same forms without the clamps (the mesh-only
+/// `DampingState::from_configuration`) would charge the clamped faces.
+#[test]
+fn damping_forms_follow_the_clamps() {
+    let sff = SffKind::EdgeDirector(DirectorVariant::Tan);
+    let c = case(4, sff);
+    let terms = Terms {
+        stretch: false,
+        bend: true,
+        damping: true,
+    };
+    let m = model(sff, terms);
+    let nv = c.mesh.n_vertices();
+    let clamped: Vec<EdgeId> = c.mesh.topology().boundary_edges().to_vec();
+    let d = DofMap::all_free(nv)
+        .with_edges(c.mesh.n_edges(), clamped.iter().copied())
+        .unwrap();
+    let mut asm = Assembler::for_model(&c.mesh, &d, &m).unwrap();
+    asm.clamp_edges(&clamped, c.mesh.positions()).unwrap();
+    let own = asm.damping_state(&c.x, &c.phi, sff, 1e-2).unwrap();
+    let e_own = asm
+        .evaluate_with_angles(&m, &c.x, &c.phi, &c.rest, Some(&own), EvalOutput::default())
+        .unwrap()
+        .damping;
+    let mesh_only = DampingState::from_configuration(&c.mesh, &c.x, &c.phi, sff, 1e-2).unwrap();
+    let e_mesh = asm
+        .evaluate_with_angles(
+            &m,
+            &c.x,
+            &c.phi,
+            &c.rest,
+            Some(&mesh_only),
+            EvalOutput::default(),
+        )
+        .unwrap()
+        .damping;
+    assert!(e_mesh > 0.0, "{e_mesh}");
+    assert!(e_own <= 1e-12 * e_mesh, "{e_own} vs {e_mesh}");
+}
