@@ -34,16 +34,9 @@ type Forms<'py> = (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>);
 /// How often a waiting step checks Python's signals.
 const SIGNAL_POLL: Duration = Duration::from_millis(20);
 
-/// What the wrapper adds up over the steps taken through it (kept in checkpoints as their
-/// attachment, so a restored simulation reports the totals of the whole run).
-#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
-struct Totals {
-    newton_iterations: usize,
-    gauss_newton_iterations: usize,
-    stable: Option<bool>,
-    unstable_steps: Vec<usize>,
-    wall_s: f64,
-}
+// What the wrapper adds up over the steps taken through it (kept in checkpoints as their
+// attachment, so a restored simulation reports the totals of the whole run): the CLI's totals.
+use thinshell::resume::Totals;
 
 /// The simulation and what the wrapper adds up over the steps taken through it.
 struct Inner {
@@ -66,14 +59,7 @@ fn failure_message(f: thinshell::cli::Failure) -> String {
 
 impl Inner {
     fn record(&mut self, r: &StepRecord) {
-        let t = &mut self.totals;
-        t.newton_iterations += r.newton_iterations;
-        t.gauss_newton_iterations += r.gauss_newton_iterations;
-        t.wall_s += r.wall_s;
-        t.stable = r.stable;
-        if r.stable == Some(false) {
-            t.unstable_steps.push(r.step);
-        }
+        self.totals.add(r);
         self.status = if self.sim.steps_done() >= self.sim.steps_total() {
             "completed"
         } else {
@@ -504,7 +490,7 @@ impl PySimulation {
         let inner = self.lock()?;
         let s = &inner.sim;
         let t = &inner.totals;
-        let value = serde_json::json!({
+        let mut value = serde_json::json!({
             "name": s.name(),
             "status": inner.status,
             "error": inner.error,
@@ -512,13 +498,9 @@ impl PySimulation {
             "steps_requested": s.steps_total(),
             "time_s": s.time(),
             "energy": Energies::from(s.energy()),
-            "wall_s": t.wall_s,
-            "newton_iterations": t.newton_iterations,
-            "gauss_newton_iterations": t.gauss_newton_iterations,
             "load_factor": s.load_factor(),
-            "stable": t.stable,
-            "unstable_steps": t.unstable_steps,
         });
+        t.write_into(&mut value);
         convert::to_py(py, &value)
     }
 

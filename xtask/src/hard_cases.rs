@@ -29,7 +29,23 @@ use thinshell_solver::{
     ShellSystem, SolverError, State, Static,
 };
 
-const SFF: SffKind = SffKind::MidEdgeAverage;
+/// Options of `cargo xtask hard-cases`.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Skip the 10⁴-step run.
+    pub quick: bool,
+    /// Run only the parts whose name contains this (`scenes`, `flag`, `growth`, `strip`).
+    pub only: Option<String>,
+    /// Bending form of the solver-level parts (the scene files name their own).
+    pub form: SffKind,
+}
+
+/// The Newton policies each solver-level case runs with: the default, and the adaptive policy
+/// as it was before issue #26 (the "before" column of docs/robustness.md).
+const POLICIES: [(HessianPolicy, &str); 2] = [
+    (HessianPolicy::Adaptive, "default"),
+    (HessianPolicy::AdaptivePsd, "adaptive_psd (before #26)"),
+];
 
 const SCENES: [&str; 5] = [
     "square_enlarged.toml",
@@ -83,8 +99,13 @@ fn scenes(rows: &mut Vec<Value>) -> Result<()> {
     for file in SCENES {
         for dt in [1e-3, 1e-2] {
             let steps = (0.1f64 / dt).round() as usize;
-            for robust in [false, true] {
+            for (robust, policy) in [
+                (false, "adaptive"),
+                (false, "adaptive_psd"),
+                (true, "adaptive"),
+            ] {
                 let mut set = vec![
+                    format!("integrator.newton.hessian={policy}"),
                     format!("integrator.dt={dt:e}"),
                     format!("integrator.steps={steps}"),
                 ];
@@ -121,10 +142,10 @@ fn scenes(rows: &mut Vec<Value>) -> Result<()> {
                 if !finite(sim.positions()) {
                     bail!("{file}: non-finite last good state");
                 }
-                let variant = if robust {
-                    "line search + adaptive_dt"
-                } else {
-                    "as in the file"
+                let variant = match (robust, policy) {
+                    (true, _) => "line search + adaptive_dt".to_string(),
+                    (false, "adaptive") => "as in the file".to_string(),
+                    (false, p) => format!("as in the file, hessian = {p} (before #26)"),
                 };
                 let case = format!("{file}, dt = {dt:e} s, {variant}");
                 let outcome = match &failure {
@@ -147,7 +168,7 @@ fn scenes(rows: &mut Vec<Value>) -> Result<()> {
     Ok(())
 }
 
-fn model(material: Material, damping: bool) -> ShellModel {
+fn model(material: Material, damping: bool, sff: SffKind) -> ShellModel {
     ShellModel {
         material,
         terms: Terms {
@@ -155,17 +176,17 @@ fn model(material: Material, damping: bool) -> ShellModel {
             bend: true,
             damping,
         },
-        sff: SFF,
+        sff,
     }
 }
 
 /// Part 2: a 0.2 m paper flag (8 × 8 cells) pinned along x = 0 under gravity, η/E = 1 ms,
 /// 10⁴ steps of 1 ms; the total energy (elastic + kinetic + gravity) is checked every step.
-fn long_run(rows: &mut Vec<Value>) -> Result<()> {
+fn long_run(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
     let n = 8;
     let mesh = generators::rectangle(0.2, 0.2, n, n)?;
     let x0 = mesh.positions().to_vec();
-    let rest = RestState::from_mesh(&mesh, &x0, SFF)?;
+    let rest = RestState::from_mesh(&mesh, &x0, form)?;
     let material = Material {
         viscosity: 2e9 * 1e-3,
         ..Material::paper()
@@ -180,7 +201,7 @@ fn long_run(rows: &mut Vec<Value>) -> Result<()> {
     };
     let mut sys = ShellSystem::new(
         mesh.clone(),
-        model(material, true),
+        model(material, true, form),
         rest.clone(),
         boundary,
         loads,
@@ -188,7 +209,7 @@ fn long_run(rows: &mut Vec<Value>) -> Result<()> {
     // Energies without damping (it needs a previous state): a second system for evaluation.
     let mut probe = ShellSystem::new(
         mesh,
-        model(material, false),
+        model(material, false, form),
         rest,
         Boundary::default(),
         Loads::default(),
@@ -283,12 +304,16 @@ fn run_implicit(
 }
 
 /// Part 3: uniform growth ā = k a⁰ (b̄ = b⁰) on a level-3 icosphere (642 vertices).
-fn growth(rows: &mut Vec<Value>) -> Result<()> {
+fn growth(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
     for k in [0.25, 4.0] {
-        for robust in [false, true] {
+        for (robust, (policy, pname)) in [
+            (false, POLICIES[0]),
+            (false, POLICIES[1]),
+            (true, POLICIES[0]),
+        ] {
             let mesh = generators::icosphere(1.0, 3)?;
             let x0 = mesh.positions().to_vec();
-            let mut rest = RestState::from_mesh(&mesh, &x0, SFF)?;
+            let mut rest = RestState::from_mesh(&mesh, &x0, form)?;
             rest.a_bar.iter_mut().for_each(|a| *a *= k);
             let material = Material {
                 viscosity: 2e9 * 1e-3,
@@ -296,12 +321,13 @@ fn growth(rows: &mut Vec<Value>) -> Result<()> {
             };
             let mut sys = ShellSystem::new(
                 mesh,
-                model(material, true),
+                model(material, true, form),
                 rest,
                 Boundary::default(),
                 Loads::default(),
             )?;
             let mut ie = ImplicitEuler::new(1e-2);
+            ie.newton.hessian = policy;
             if robust {
                 ie.fallback_hessian = Some(HessianMode::GaussNewton);
                 ie.max_halvings = 8;
@@ -311,7 +337,11 @@ fn growth(rows: &mut Vec<Value>) -> Result<()> {
             let what = format!("icosphere level 3, a_bar = {k} a0, dt = 1e-2 s, 20 steps");
             let (done, its, fb, halvings, failure) =
                 run_implicit(&mut ie, &mut sys, &mut state, 20, &what)?;
-            let variant = if robust { "with fallbacks" } else { "plain" };
+            let variant = if robust {
+                format!("with fallbacks, {pname}")
+            } else {
+                format!("plain, {pname}")
+            };
             let outcome = match &failure {
                 None => format!(
                     "{done} steps, {its} Newton iterations, {fb} Gauss-Newton steps, {halvings} \
@@ -332,17 +362,18 @@ fn growth(rows: &mut Vec<Value>) -> Result<()> {
 
 /// Part 4: the swelling strip (100 × 2 mm, h = 1 mm, `ny` cells across) of
 /// crates/growth/tests/coupled.rs, four quasi-static ramp steps.
-fn strip(rows: &mut Vec<Value>) -> Result<()> {
+fn strip(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
     for ny in [4, 8, 16, 32] {
         for variant in [
             "default (adaptive)",
+            "adaptive_psd (before #26)",
             "exact",
             "exact, first shift 1e-9",
             "Gauss-Newton fallback",
         ] {
             let mesh = generators::rectangle(0.1, 0.002, 50, ny)?;
             let x0 = mesh.positions().to_vec();
-            let initial = RestState::from_mesh(&mesh, &x0, SFF)?;
+            let initial = RestState::from_mesh(&mesh, &x0, form)?;
             let material = Material {
                 thickness: 1e-3,
                 ..Material::paper()
@@ -359,7 +390,7 @@ fn strip(rows: &mut Vec<Value>) -> Result<()> {
             let mut growth = Growth::new(swelling, Box::new(ramp), initial.clone(), 1e-3)?;
             let mut sys = ShellSystem::new(
                 mesh,
-                model(material, false),
+                model(material, false, form),
                 initial,
                 Boundary::default(),
                 Loads::default(),
@@ -368,6 +399,7 @@ fn strip(rows: &mut Vec<Value>) -> Result<()> {
             let mut st = Static::default();
             match variant {
                 "default (adaptive)" => {}
+                "adaptive_psd (before #26)" => st.newton.hessian = HessianPolicy::AdaptivePsd,
                 // The exact variants document the former default: no watchdog either.
                 "exact" => {
                     st.newton.hessian = HessianPolicy::Fixed;
@@ -386,6 +418,17 @@ fn strip(rows: &mut Vec<Value>) -> Result<()> {
                     st.newton.watchdog = 0;
                     st.fallback_hessian = Some(HessianMode::GaussNewton);
                 }
+            }
+            if std::env::var("VERBOSE").is_ok() {
+                // Every Newton iteration, to see which Hessian each used.
+                st.set_progress(Some(std::sync::Arc::new(
+                    |p: &thinshell_solver::NewtonProgress| {
+                        println!(
+                            "  it {:3} {:?} residual {:.3e} step {:.3e}",
+                            p.iteration, p.hessian, p.residual, p.step_length
+                        );
+                    },
+                )));
             }
             let mut state = State::at_rest(x0);
             let mut its = Vec::new();
@@ -426,21 +469,43 @@ fn strip(rows: &mut Vec<Value>) -> Result<()> {
 }
 
 /// Runs the task; `quick` skips the 10⁴-step run.
-pub fn run(quick: bool) -> Result<()> {
+pub fn run(opts: &Options) -> Result<()> {
     let out = crate::out_dir();
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let mut rows = Vec::new();
     let t0 = Instant::now();
-    scenes(&mut rows)?;
-    if !quick {
-        long_run(&mut rows)?;
+    let wanted = |part: &str| opts.only.as_deref().is_none_or(|o| part.contains(o));
+    println!("solver-level parts with the {} form", opts.form.name());
+    if wanted("scenes") {
+        scenes(&mut rows)?;
     }
-    growth(&mut rows)?;
-    strip(&mut rows)?;
+    if !opts.quick && wanted("flag") {
+        long_run(&mut rows, opts.form)?;
+    }
+    if wanted("growth") {
+        growth(&mut rows, opts.form)?;
+    }
+    if wanted("strip") {
+        strip(&mut rows, opts.form)?;
+    }
     println!("hard cases: {:.1} s", t0.elapsed().as_secs_f64());
     let path = out.join("hard-cases.json");
     std::fs::write(&path, serde_json::to_string_pretty(&rows)?)
         .with_context(|| format!("writing {}", path.display()))?;
     println!("wrote {}", path.display());
     Ok(())
+}
+
+/// The bending form named `name` ([`SffKind::name`]).
+pub fn parse_form(name: &str) -> Result<SffKind, String> {
+    SffKind::ALL
+        .into_iter()
+        .find(|k| k.name() == name)
+        .ok_or_else(|| {
+            let names: Vec<&str> = SffKind::ALL.iter().map(|k| k.name()).collect();
+            format!(
+                "unknown bending form '{name}' (one of {})",
+                names.join(", ")
+            )
+        })
 }

@@ -8,10 +8,12 @@
 //! - `verify`: the verification suite against analytic and published answers (issue #16).
 //! - `test`: every test of the project (the README's test command).
 //! - `perf`: issue #17's performance table (docs/performance.md's generated section).
+//! - `contact-cost`: what the `contact` effect costs (issue #30) on the scroll at three sizes.
 
 mod accuracy;
 mod bench_sphere;
 mod bench_square;
+mod contact_cost;
 mod hard_cases;
 #[cfg(test)]
 mod one_build;
@@ -57,6 +59,13 @@ enum Task {
         /// Skip the 10^4-step run.
         #[arg(long)]
         quick: bool,
+        /// Run only the parts whose name contains this: scenes, flag, growth, strip.
+        #[arg(long)]
+        only: Option<String>,
+        /// Bending form of the solver-level parts (flag, growth, strip): mid_edge_average,
+        /// edge_director_sin or edge_director_tan (default: the library's default form).
+        #[arg(long, value_parser = hard_cases::parse_form)]
+        form: Option<thinshell_energy::SffKind>,
     },
     /// What accuracy costs in time: cases with known answers under every accuracy knob.
     /// Writes docs/accuracy.md, plots under docs/accuracy/ and target/xtask/accuracy.json.
@@ -113,6 +122,17 @@ enum Task {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// What the `contact` effect costs (issue #30): broad phase, CCD, barrier assembly and
+    /// implicit steps with and without contact on the rolling scroll at three sizes. Prints a
+    /// markdown table and writes target/xtask/contact-cost.json.
+    ContactCost {
+        /// The smallest size and one round.
+        #[arg(long)]
+        quick: bool,
+        /// Interleaved rounds; the table quotes medians over them.
+        #[arg(long, default_value_t = 3)]
+        rounds: usize,
+    },
     /// Internal: one `perf --big` measurement in its own process (peak memory = its VmHWM).
     #[command(hide = true)]
     PerfChild {
@@ -154,7 +174,11 @@ fn main() -> ExitCode {
     let result = match args.task {
         Task::BenchSquare { quick } => bench_square::run(quick),
         Task::BenchSphere { quick } => bench_sphere::run(quick),
-        Task::HardCases { quick } => hard_cases::run(quick),
+        Task::HardCases { quick, only, form } => hard_cases::run(&hard_cases::Options {
+            quick,
+            only,
+            form: form.unwrap_or_default(),
+        }),
         Task::Accuracy {
             quick,
             docs_dir,
@@ -196,6 +220,9 @@ fn main() -> ExitCode {
             rounds,
         } => perf::child_main(level, threads, rounds),
         Task::Test { rust_only } => test::run(&test::Options { rust_only }),
+        Task::ContactCost { quick, rounds } => {
+            contact_cost::run(&contact_cost::Options { quick, rounds })
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

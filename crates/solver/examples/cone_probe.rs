@@ -2,7 +2,8 @@
 //! into a cone with sin(half-angle) = 1 + c, solved statically with default settings.
 //!
 //! `cargo run --release -p thinshell-solver --example cone_probe -- C H RINGS AROUND [sin|avg] [-v]`
-//! (defaults −0.3, 1e-2, 16, 64, the default form); `VERBOSE=1` prints every Newton iteration.
+//! (defaults −0.3, 1e-2, 16, 64, the default form); `VERBOSE=1` prints every Newton iteration,
+//! `POLICY=adaptive_psd` solves with the adaptive policy as it was before issue #26.
 #![allow(clippy::unwrap_used, missing_docs)]
 use std::time::Instant;
 
@@ -60,6 +61,10 @@ fn main() {
         .collect();
     let mut state = State::at_rest(start);
     let mut solver = Static::default();
+    // POLICY=adaptive_psd: the adaptive policy before issue #26, for comparison.
+    if std::env::var("POLICY").is_ok_and(|p| p == "adaptive_psd") {
+        solver.newton.hessian = thinshell_solver::HessianPolicy::AdaptivePsd;
+    }
     if std::env::var("VERBOSE").is_ok() {
         solver.set_progress(Some(std::sync::Arc::new(
             |p: &thinshell_solver::NewtonProgress| {

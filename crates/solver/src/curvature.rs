@@ -180,13 +180,17 @@ pub(crate) fn inverse_iteration(
     })
 }
 
-fn normalise_s(v: &mut [f64], s: &[f64]) {
-    let norm = v
-        .iter()
+/// `√(vᵀ S v)`.
+fn s_norm(v: &[f64], s: &[f64]) -> f64 {
+    v.iter()
         .zip(s)
         .map(|(a, si)| a * a * si)
         .sum::<f64>()
-        .sqrt();
+        .sqrt()
+}
+
+fn normalise_s(v: &mut [f64], s: &[f64]) {
+    let norm = s_norm(v, s);
     if norm > 0.0 && norm.is_finite() {
         v.iter_mut().for_each(|x| *x /= norm);
     }
@@ -202,4 +206,65 @@ fn project_out(v: &mut [f64], basis: &[Vec<f64>], s: &[f64]) {
             .sum();
         v.iter_mut().zip(b).for_each(|(a, bi)| *a -= c * bi);
     }
+}
+
+/// The relative shift `σ₀·S` of the first factorisation of [`smallest_eigenpair`]: it keeps the
+/// factor of a singular H (rigid motions) finite without amplifying round-off along them much.
+const STABILITY_SHIFT: f64 = 1e-8;
+
+/// Largest shift [`smallest_eigenpair`] tries to make `H + σS` positive definite.
+const STABILITY_MAX_SHIFT: f64 = 1e3;
+
+/// Inverse iterations of [`smallest_eigenpair`].
+const STABILITY_ITERATIONS: usize = 60;
+
+/// The smallest eigenpair of the pencil `H v = λ S v` on the S-orthogonal complement of
+/// `deflate` (any independent vectors, e.g. rigid motions), for the **unshifted** `h`: inverse
+/// iteration on the factor of `H + σS` with σ = 1e-8 when that is positive definite (it then
+/// finds the eigenvalue nearest −σ, the smallest, however small or slightly negative — the
+/// shift blurs nothing, the Rayleigh quotient is of H itself), else with σ just above the
+/// shift that makes it positive definite (the most negative eigenvalue). Returns the pair and
+/// the factorisations made. `value` is NaN when even `H + 1e3·S` is not positive definite.
+pub(crate) fn smallest_eigenpair(
+    cholesky: &mut SparseCholesky,
+    h: &mut SparseColMat<usize, f64>,
+    diag_offsets: &[usize],
+    s: &[f64],
+    deflate: &[Vec<f64>],
+) -> Result<(Eigenpair, usize), SolverError> {
+    // S-orthonormal deflation basis (Gram–Schmidt in the S inner product).
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    for d in deflate {
+        let mut v = d.clone();
+        project_out(&mut v, &basis, s);
+        let norm = s_norm(&v, s);
+        if norm > 1e-10 * s_norm(d, s) && norm.is_finite() {
+            v.iter_mut().for_each(|x| *x /= norm);
+            basis.push(v);
+        }
+    }
+    let mut attempts = 1;
+    if !factorize_shifted(cholesky, h, diag_offsets, s, STABILITY_SHIFT)? {
+        let probe = probe_shift(
+            cholesky,
+            h,
+            diag_offsets,
+            s,
+            SHIFT_GROWTH * STABILITY_SHIFT,
+            STABILITY_MAX_SHIFT,
+        )?;
+        attempts += probe.attempts;
+        if probe.shift.is_none() {
+            return Ok((
+                Eigenpair {
+                    value: f64::NAN,
+                    vector: vec![0.0; s.len()],
+                    residual: f64::NAN,
+                },
+                attempts,
+            ));
+        }
+    }
+    let pair = inverse_iteration(cholesky, h, s, &basis, STABILITY_ITERATIONS)?;
+    Ok((pair, attempts))
 }

@@ -124,7 +124,7 @@ pub use error::{PathFailure, SolverError};
 pub use linear::{FactorStats, RegularizationKind, RegularizationParams, SparseCholesky};
 pub use newton::{
     Convergence, HessianPolicy, IterationHessian, IterativeFallback, LinearSolver, NewtonReport,
-    NewtonSettings, NewtonTimings, NewtonWorkspace, RegularizationEvent, newton_solve,
+    NewtonSettings, NewtonTimings, NewtonWorkspace, RegularizationEvent, Stability, newton_solve,
 };
 pub use objective::Objective;
 pub use ordering::Ordering;
@@ -136,7 +136,7 @@ pub use progress::{CancelFlag, NewtonProgress, ProgressHook};
 pub struct ReadmeDoctests;
 
 pub use shell::{
-    AngleReport, AngleSettings, Boundary, Contact, ContactError, ContactSettings, ContactStats,
-    ExplicitEuler, ImplicitEuler, Integrator, Loads, NewtonCache, Obstacle, Prescribed, ShellPath,
-    ShellSystem, State, Static, StepKind, StepReport,
+    AngleReport, AngleSettings, Boundary, Contact, ContactError, ContactRunState, ContactSettings,
+    ContactStats, ExplicitEuler, ImplicitEuler, Integrator, Loads, NewtonCache, Obstacle,
+    Prescribed, ShellPath, ShellSystem, State, Static, StepKind, StepReport,
 };

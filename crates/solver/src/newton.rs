@@ -81,6 +81,7 @@ use faer::sparse::SparseColMat;
 use crate::SolverError;
 use crate::curvature::{self, SHIFT_GROWTH};
 use crate::iterative::{Ic0, PcgScratch, pcg, sym_lower_matvec};
+use crate::ldlt::SparseLdlt;
 use crate::linear::{
     FactorError, FactorOutcome, FactorStats, RegularizationKind, RegularizationParams,
     SparseCholesky,
@@ -206,9 +207,9 @@ pub struct NewtonSettings {
     pub escape_saddles: bool,
     /// Converged also when the Newton correction is below this fraction of the distance the
     /// solve has moved from its start, `‖dx‖∞ ≤ relative_step_tolerance · ‖x − x₀‖∞` (≥ 0; 0
-    /// disables it, the default for static solves). Implicit steps set it (1e-6 by default):
-    /// the change over a step is the size its time discretisation error is relative to, so a
-    /// correction a million times smaller is far below that error.
+    /// disables it, the default for static solves). `ImplicitEuler::new` sets 1e-3: the move
+    /// of a step from its inertial prediction is of the order of its time discretisation
+    /// error, so a correction a thousand times smaller is far below that error.
     pub relative_step_tolerance: f64,
 }
 
@@ -432,7 +433,16 @@ pub struct NewtonReport {
     /// Iterations whose direction came from CG preconditioned with a reused factor
     /// ([`NewtonSettings::reuse_factor`]).
     pub reused_steps: usize,
-    /// CG iterations over the whole solve (reuse and fallback).
+    /// Directions solved with the factor of a slightly shifted Hessian (the objective's
+    /// [`Objective::hessian_diagonal_shift`] or a regularisation of at most 1e-8 of the mean
+    /// diagonal) and refined by CG into those of the unshifted Hessian.
+    pub refined_steps: usize,
+    /// Largest difference seen between [`Objective::value`] and [`Objective::gradient`]'s
+    /// value at the same point (units of f; 0 when never compared): the evaluation round-off
+    /// of f, far above `16 ε |f|` for shells whose strains are small against 1. The round-off
+    /// tests use the larger of the two, and so does [`NewtonReport::descent_violation`].
+    pub value_noise: f64,
+    /// CG iterations over the whole solve (reuse, refinement and fallback).
     pub cg_iterations: usize,
     /// Direct, or the iterative fallback (the factor did not fit in memory).
     pub linear_solver: LinearSolver,
@@ -458,7 +468,9 @@ impl NewtonReport {
     /// that breaks the contract.
     pub fn descent_violation(&self, window: usize) -> Option<usize> {
         let v = &self.values;
-        let close = |a: f64, b: f64| b <= a + 64.0 * f64::EPSILON * a.abs().max(b.abs());
+        let close = |a: f64, b: f64| {
+            b <= a + (64.0 * f64::EPSILON * a.abs().max(b.abs())).max(2.0 * self.value_noise)
+        };
         for i in 0..v.len().saturating_sub(1) {
             if !close(v[i], v[i + 1]) {
                 let end = (i + window + 3).min(v.len());
@@ -511,6 +523,9 @@ pub struct NewtonWorkspace {
     progress: Option<ProgressHook>,
     /// Checked before every iteration of [`newton_solve`].
     cancel: Option<CancelFlag>,
+    /// Indefinite factorisation for Newton steps to a critical point whose Hessian is
+    /// indefinite (`saddle_newton`); analysed on first use.
+    ldlt: Option<SparseLdlt>,
 }
 
 impl std::fmt::Debug for NewtonWorkspace {
@@ -663,6 +678,7 @@ impl NewtonWorkspace {
             parallel: settings.parallel,
             progress: None,
             cancel: None,
+            ldlt: None,
         })
     }
 
@@ -787,11 +803,18 @@ struct Record {
     timings: NewtonTimings,
     factorizations: usize,
     reused_steps: usize,
+    refined_steps: usize,
     cg_iterations: usize,
     linear_solver: LinearSolver,
+    value_noise: f64,
 }
 
 impl Record {
+    /// Round-off of an objective value f: `16 ε |f|`, or the evaluation noise seen so far.
+    fn noise(&self, f: f64) -> f64 {
+        value_noise(f).max(self.value_noise)
+    }
+
     fn report(self, iterations: usize, convergence: Convergence) -> NewtonReport {
         NewtonReport {
             iterations,
@@ -810,6 +833,8 @@ impl Record {
             timings: self.timings,
             factorizations: self.factorizations,
             reused_steps: self.reused_steps,
+            refined_steps: self.refined_steps,
+            value_noise: self.value_noise,
             cg_iterations: self.cg_iterations,
             linear_solver: self.linear_solver,
         }
@@ -895,6 +920,30 @@ fn assemble<O: Objective + ?Sized>(
 }
 
 impl NewtonWorkspace {
+    /// Errors unless `x` and `objective` fit the workspace and it has the direct solver, which
+    /// `what` needs.
+    fn check_direct<O: Objective + ?Sized>(
+        &self,
+        objective: &O,
+        x: &[f64],
+        what: &str,
+    ) -> Result<(), SolverError> {
+        if x.len() != self.n_dofs() || objective.n_dofs() != self.n_dofs() {
+            return Err(SolverError::DimensionMismatch {
+                what: "x",
+                expected: self.n_dofs(),
+                found: x.len(),
+            });
+        }
+        if self.cholesky.is_none() {
+            return Err(SolverError::Linear(format!(
+                "{what} needs a Cholesky factorisation, which does not fit in the memory budget \
+                 (the solve used the iterative fallback)"
+            )));
+        }
+        Ok(())
+    }
+
     /// Whether the objective's own Hessian at `x` is positive definite: its unshifted Cholesky
     /// factorisation succeeds (e.g. the stability test of an equilibrium; a shift the objective
     /// itself adds, like a static solve's `hessian_shift`, is part of its Hessian).
@@ -903,19 +952,9 @@ impl NewtonWorkspace {
         objective: &mut O,
         x: &[f64],
     ) -> Result<bool, SolverError> {
-        if x.len() != self.n_dofs() || objective.n_dofs() != self.n_dofs() {
-            return Err(SolverError::DimensionMismatch {
-                what: "x",
-                expected: self.n_dofs(),
-                found: x.len(),
-            });
-        }
+        self.check_direct(objective, x, "the positive-definiteness test")?;
         let Some(cholesky) = self.cholesky.as_mut() else {
-            return Err(SolverError::Linear(
-                "the positive-definiteness test needs a Cholesky factorisation, which does not \
-                 fit in the memory budget (the solve used the iterative fallback)"
-                    .into(),
-            ));
+            return Ok(false);
         };
         let mut timings = NewtonTimings::default();
         assemble(objective, x, &mut self.hessian, false, 0, &mut timings)?;
@@ -929,6 +968,67 @@ impl NewtonWorkspace {
             Err(FactorError::NotPositiveDefinite { .. }) => Ok(false),
             Err(FactorError::Other(e)) => Err(e),
         }
+    }
+}
+
+/// The stability of an equilibrium ([`NewtonWorkspace::stability`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stability {
+    /// Smallest eigenvalue λ of `H v = λ S v`: the objective's own Hessian H without its
+    /// diagonal shift ([`Objective::hessian_diagonal_shift`]), measured against each unknown's
+    /// own stiffness `S = diag(max(|H_dd|, 1e-6·mean|H_dd|))` (dimensionless), over the
+    /// unknowns' space less the objective's [`Objective::rigid_modes`]. Negative: the
+    /// equilibrium is unstable (a saddle or maximum); near 0: near a critical load. NaN when H
+    /// is so indefinite that `H + 10³·S` is not positive definite (`stable` is then false).
+    pub min_eigenvalue: f64,
+    /// Its mode in the free unknowns, scaled to `‖v‖∞ = 1` (the buckling mode at a critical
+    /// load).
+    pub mode: Vec<f64>,
+    /// Relative residual `‖H v − λ S v‖₂ / ‖S v‖₂` of the estimate.
+    pub residual: f64,
+    /// Rigid modes left out.
+    pub rigid_modes: usize,
+    /// `min_eigenvalue > 0`.
+    pub stable: bool,
+}
+
+impl NewtonWorkspace {
+    /// The smallest eigenvalue and mode of the objective's own, unshifted Hessian at `x`
+    /// (see [`Stability`]): inverse iteration on a Cholesky factor (two to a few
+    /// factorisations, up to 60 triangular solves). Needs the direct solver.
+    pub fn stability<O: Objective + ?Sized>(
+        &mut self,
+        objective: &mut O,
+        x: &[f64],
+    ) -> Result<Stability, SolverError> {
+        self.check_direct(objective, x, "the stability analysis")?;
+        let mut timings = NewtonTimings::default();
+        assemble(objective, x, &mut self.hessian, false, 0, &mut timings)?;
+        self.reusable = None;
+        let shift = objective.hessian_diagonal_shift();
+        if shift != 0.0 {
+            let val = self.hessian.val_mut();
+            self.diag_offsets.iter().for_each(|&o| val[o] -= shift);
+        }
+        curvature::scaling(&self.hessian, &self.diag_offsets, &mut self.scale);
+        let modes = objective.rigid_modes(x);
+        let Some(cholesky) = self.cholesky.as_mut() else {
+            return Err(SolverError::Linear("no Cholesky factorisation".into()));
+        };
+        let (pair, _) = curvature::smallest_eigenpair(
+            cholesky,
+            &mut self.hessian,
+            &self.diag_offsets,
+            &self.scale,
+            &modes,
+        )?;
+        Ok(Stability {
+            stable: pair.value > 0.0,
+            min_eigenvalue: pair.value,
+            mode: pair.vector,
+            residual: pair.residual,
+            rigid_modes: modes.len(),
+        })
     }
 }
 
@@ -1007,6 +1107,7 @@ fn try_reuse(
     ws: &mut NewtonWorkspace,
     kind: IterationHessian,
     eta: f64,
+    obj_shift: f64,
     settings: &NewtonSettings,
     rec: &mut Record,
 ) -> Result<bool, SolverError> {
@@ -1020,6 +1121,7 @@ fn try_reuse(
         dx,
         x_trial,
         pcg: scratch,
+        diag_offsets,
         ..
     } = ws
     else {
@@ -1029,6 +1131,19 @@ fn try_reuse(
     for (b, g) in x_trial.iter_mut().zip(g.iter()) {
         *b = -g;
     }
+    // The own Hessian's unshifted system (see `refine_direction`; PSD ones keep their shift).
+    let obj_shift = if kind == IterationHessian::Own {
+        obj_shift
+    } else {
+        0.0
+    };
+    let shift_diagonal = |hessian: &mut SparseColMat<usize, f64>, by: f64| {
+        if by != 0.0 {
+            let val = hessian.val_mut();
+            diag_offsets.iter().for_each(|&o| val[o] += by);
+        }
+    };
+    shift_diagonal(hessian, -obj_shift);
     let t = Instant::now();
     let o = pcg(
         hessian.as_ref(),
@@ -1038,7 +1153,9 @@ fn try_reuse(
         settings.reuse_max_iterations,
         scratch,
         |r| cholesky.solve_in_place(r),
-    )?;
+    );
+    shift_diagonal(hessian, obj_shift);
+    let o = o?;
     rec.timings.solve += t.elapsed();
     rec.cg_iterations += o.iterations;
     if o.converged && !o.negative_curvature {
@@ -1198,6 +1315,90 @@ fn solve_direction(
     result
 }
 
+/// Relative residual of the correction estimate that may end a solve (see
+/// [`estimate_correction`]).
+const ESTIMATE_TOLERANCE: f64 = 1e-6;
+
+/// CG iterations [`refine_direction`] may take. The preconditioned matrix `(H + s)⁻¹ H` has
+/// its eigenvalues in (0, 1], all near 1 but those of the few soft modes whose curvature is
+/// near the shift s, so CG needs about as many iterations as there are such modes.
+const REFINE_MAX_ITERATIONS: usize = 40;
+
+/// Relative residual `‖H dx + ∇f‖₂ / ‖∇f‖₂` of a refined direction: far below what changes
+/// Newton's path, and reachable where ∇f is at round-off (a tighter, forcing-term tolerance
+/// there stalls on the components of ∇f's round-off along rigid motions, which H cannot
+/// reduce).
+const REFINE_TOLERANCE: f64 = 1e-6;
+
+/// Turns `ws.dx = −(H + s)⁻¹∇f`, solved with the factor of the Hessian `H` in `ws` plus a
+/// small shift s (the objective's constant diagonal shift `obj_shift`, and/or a regularisation
+/// shift of at most [`SMALL_SHIFT`]), into the direction of the unshifted system
+/// `(H − obj_shift·I) dx = −∇f`, by CG preconditioned with that factor to relative residual
+/// `eta`. With the shifted direction Newton converges only linearly (ratio s/(λ + s)) on soft
+/// modes of curvature λ near s — the long bending modes of slender and thin shells — and the
+/// correction used by the step test underestimates the distance to the equilibrium there.
+///
+/// Returns whether CG converged. Otherwise (non-positive curvature along a CG direction,
+/// typically a rigid motion of an unheld shell, or the iteration limit) `ws.dx` is the shifted
+/// direction again, which then serves as before: the shift is far below the stiffness of every
+/// mode but the softest.
+fn refine_direction(
+    ws: &mut NewtonWorkspace,
+    obj_shift: f64,
+    eta: f64,
+    rec: &mut Record,
+) -> Result<bool, SolverError> {
+    let NewtonWorkspace {
+        cholesky: Some(cholesky),
+        hessian,
+        g,
+        dx,
+        x_trial,
+        pcg: scratch,
+        diag_offsets,
+        ..
+    } = ws
+    else {
+        return Ok(false);
+    };
+    if obj_shift > 0.0 {
+        let val = hessian.val_mut();
+        for &o in diag_offsets.iter() {
+            val[o] -= obj_shift;
+        }
+    }
+    for (b, g) in x_trial.iter_mut().zip(g.iter()) {
+        *b = -g;
+    }
+    let t = Instant::now();
+    let o = pcg(
+        hessian.as_ref(),
+        x_trial,
+        dx,
+        eta,
+        REFINE_MAX_ITERATIONS,
+        scratch,
+        |r| cholesky.solve_in_place(r),
+    );
+    if obj_shift > 0.0 {
+        let val = hessian.val_mut();
+        for &o in diag_offsets.iter() {
+            val[o] += obj_shift;
+        }
+    }
+    let o = o?;
+    rec.cg_iterations += o.iterations;
+    let solved = o.converged && !o.negative_curvature;
+    if solved {
+        rec.refined_steps += 1;
+    } else {
+        dx.copy_from_slice(x_trial);
+        cholesky.solve_in_place(dx)?;
+    }
+    rec.timings.solve += t.elapsed();
+    Ok(solved)
+}
+
 /// Estimates the Newton correction at the new iterate with the last factor (or, with the
 /// iterative fallback, by CG on the last Hessian): `ws.dx = −H⁻¹∇f`. Returns whether the
 /// estimate is usable (CG converged).
@@ -1233,7 +1434,7 @@ fn estimate_correction(
         hessian.as_ref(),
         x_trial,
         dx,
-        1e-6,
+        ESTIMATE_TOLERANCE,
         settings.cg_max_iterations,
         scratch,
         |r| {
@@ -1303,6 +1504,8 @@ pub fn newton_solve<O: Objective + ?Sized>(
         timings: NewtonTimings::default(),
         factorizations: 0,
         reused_steps: 0,
+        refined_steps: 0,
+        value_noise: 0.0,
         cg_iterations: 0,
         linear_solver: ws.linear_solver(),
     };
@@ -1351,6 +1554,14 @@ pub fn newton_solve<O: Objective + ?Sized>(
     // at a minimum).
     let mut met_indefinite = false;
     let mut want_escape = false;
+    // Consecutive PSD iterations that reduced the residual by less than PSD_SLOW_RATIO, and
+    // whether the PSD iterations have stalled: only then does an indefinite own Hessian get
+    // trust-region steps (far from a solution Gauss–Newton is the faster: its model ignores
+    // the compressive stresses whose negative curvature makes the shifted steps short).
+    // Without line search PSD steps are taken in full, unguarded: the trust region (which has
+    // its own acceptance test) is used from the start.
+    let mut psd_slow = 0usize;
+    let mut psd_stalled = !settings.line_search;
     let x_start = (settings.relative_step_tolerance > 0.0).then(|| x.to_vec());
     let mut try_own = true;
     // A converged point: where an indefinite own Hessian was met on the way, first make sure
@@ -1459,9 +1670,18 @@ pub fn newton_solve<O: Objective + ?Sized>(
         if kind == IterationHessian::Psd {
             apply_damping(ws, damping);
         }
+        let mut reused = false;
         let mut direction = None;
-        if try_reuse(ws, kind, eta_reuse, settings, &mut rec)? {
+        if try_reuse(
+            ws,
+            kind,
+            eta_reuse,
+            objective.hessian_diagonal_shift(),
+            settings,
+            &mut rec,
+        )? {
             direction = Some((FactorOutcome::default(), true));
+            reused = true;
         }
         // Trust region: while the own Hessian is known to be indefinite (σ or the last
         // positive-definite shift above the small one), go straight to the shifted search.
@@ -1494,7 +1714,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             };
             match solve_direction(ws, kind, &small, eta, settings, &mut rec) {
                 Ok(d) => direction = Some(d),
-                Err(FactorError::NotPositiveDefinite { .. }) if trust => {
+                Err(FactorError::NotPositiveDefinite { .. }) if trust && psd_stalled => {
                     // Indefinite: a trust-region step on the shifted own Hessian.
                     rec.failed_factorizations += 1;
                     ws.mu = 0.0;
@@ -1525,8 +1745,16 @@ pub fn newton_solve<O: Objective + ?Sized>(
                         &mut rec.timings,
                     )?;
                     apply_damping(ws, damping);
-                    if try_reuse(ws, kind, eta_reuse, settings, &mut rec)? {
+                    if try_reuse(
+                        ws,
+                        kind,
+                        eta_reuse,
+                        objective.hessian_diagonal_shift(),
+                        settings,
+                        &mut rec,
+                    )? {
                         direction = Some((FactorOutcome::default(), true));
+                        reused = true;
                     }
                 }
                 Err(FactorError::Other(e)) => return Err(e),
@@ -1548,8 +1776,16 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 &mut rec.timings,
             )?;
             apply_damping(ws, damping);
-            if try_reuse(ws, kind, eta_reuse, settings, &mut rec)? {
+            if try_reuse(
+                ws,
+                kind,
+                eta_reuse,
+                objective.hessian_diagonal_shift(),
+                settings,
+                &mut rec,
+            )? {
                 direction = Some((FactorOutcome::default(), true));
+                reused = true;
             }
         }
         let (outcome, exact) = match direction {
@@ -1578,8 +1814,20 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 attempts: outcome.attempts,
             });
         }
-        // A direction that may stand for the unshifted Newton correction in the tests below.
+        // A direction that may stand for the unshifted Newton correction in the tests below:
+        // one solved with a slightly shifted factor is refined into it first.
         let unshifted = outcome.mu <= SMALL_SHIFT && exact;
+        let obj_shift = objective.hessian_diagonal_shift();
+        // Own-Hessian directions only: on the PSD (Gauss–Newton) Hessian the small shift
+        // damps the directions its model leaves flat (e.g. folding a crease), which it sees no
+        // cost for; solved without it, those steps run far beyond where the model holds.
+        if unshifted
+            && !reused
+            && kind == IterationHessian::Own
+            && (outcome.mu > 0.0 || obj_shift > 0.0)
+        {
+            refine_direction(ws, obj_shift, REFINE_TOLERANCE, &mut rec)?;
+        }
 
         let step_limit = current_step_limit(step_limit, settings, x, x_start.as_deref());
         if let Some(dof) = first_non_finite(&ws.dx) {
@@ -1602,7 +1850,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             // Round-off: f cannot resolve the predicted decrease and the last step no longer
             // halved the gradient (while it does, Newton still makes progress on it).
             let n = rec.residuals.len();
-            if -0.5 * slope <= value_noise(f)
+            if -0.5 * slope <= rec.noise(f)
                 && n >= 2
                 && rec.residuals[n - 1] > 0.5 * rec.residuals[n - 2]
             {
@@ -1623,35 +1871,58 @@ pub fn newton_solve<O: Objective + ?Sized>(
             let dhd: f64 = ws.dx.iter().zip(&ws.hd).map(|(a, b)| a * b).sum();
             let pred = -(alpha * slope + 0.5 * alpha * alpha * dhd);
             // (NaN included: no usable prediction.)
-            if pred.is_nan() || pred <= WATCHDOG_MIN_DECREASE * value_noise(f) {
+            let mut saddle_step = None;
+            if pred.is_nan() || pred <= WATCHDOG_MIN_DECREASE * rec.noise(f) {
                 // The shifted model promises nothing f can resolve: x is near a critical
                 // point of an indefinite Hessian. Leave it along negative curvature.
                 leave_saddle!(false);
-                // Let the PSD Hessian (and then the convergence tests) decide.
-                rec.rejected_steps += 1;
-                try_own = false;
-                wait = backoff;
-                backoff = backoff.saturating_mul(2);
-                sigma = 0.0;
-                pd_floor = 0.0;
-                continue;
+                // No lower point that way (or saddles are answers here): the unshifted Newton
+                // step, which converges to the critical point quadratically, and whose length
+                // is the convergence test.
+                match saddle_newton(objective, x, f, ws, &mut rec, step_limit)? {
+                    SaddleStep::Converged => converged!(Convergence::Step),
+                    SaddleStep::Taken(f_t) => {
+                        kind = IterationHessian::Own;
+                        alpha = 1.0;
+                        saddle_step = Some(f_t);
+                    }
+                    SaddleStep::Unavailable => {
+                        // Let the PSD Hessian (and then the convergence tests) decide.
+                        rec.rejected_steps += 1;
+                        try_own = false;
+                        wait = backoff;
+                        backoff = backoff.saturating_mul(2);
+                        sigma = 0.0;
+                        pd_floor = 0.0;
+                        continue;
+                    }
+                }
             }
-            for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x.iter()).zip(&ws.dx) {
-                *xt = xi + alpha * d;
-            }
-            let t = Instant::now();
-            let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
-            rec.timings.assembly += t.elapsed();
-            rho = (f - f_t) / pred;
+            let f_t = match saddle_step {
+                Some(f_t) => f_t,
+                None => {
+                    for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x.iter()).zip(&ws.dx) {
+                        *xt = xi + alpha * d;
+                    }
+                    let t = Instant::now();
+                    let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
+                    rec.timings.assembly += t.elapsed();
+                    rho = (f - f_t) / pred;
+                    f_t
+                }
+            };
 
-            if !(f_t.is_finite() && rho >= TR_ACCEPT && first_non_finite(&ws.g_trial).is_none()) {
+            if saddle_step.is_none()
+                && !(f_t.is_finite() && rho >= TR_ACCEPT && first_non_finite(&ws.g_trial).is_none())
+            {
                 rec.rejected_steps += 1;
                 tr_rejections += 1;
                 sigma *= TR_GROWTH;
                 if tr_rejections >= MAX_TR_REJECTIONS {
                     // The shifted model keeps failing here (far from any quadratic
-                    // behaviour): PSD steps, as before issue #26, until the own Hessian is
-                    // tried again.
+                    // behaviour): PSD steps, as before issue #26, until they stall again.
+                    psd_stalled = !settings.line_search;
+                    psd_slow = 0;
                     try_own = false;
                     wait = backoff;
                     backoff = backoff.saturating_mul(2);
@@ -1700,7 +1971,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     // Once the predicted decrease is below the round-off of f, values cannot
                     // discriminate: accept a full step that does not raise f beyond round-off
                     // and reduces the gradient.
-                    let noise = value_noise(f.abs().max(f_t.abs()));
+                    let noise = rec.noise(f.abs().max(f_t.abs()));
                     if trial_has_gradient
                         && -slope <= noise
                         && f_t <= f + noise
@@ -1713,7 +1984,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     && settings.watchdog > 0
                     && watch.is_none()
                     && watch_allowed
-                    && -slope > WATCHDOG_MIN_DECREASE * value_noise(f)
+                    && -slope > WATCHDOG_MIN_DECREASE * rec.noise(f)
                     && f_t.is_finite()
                     && first_non_finite(&ws.g_trial).is_none()
                 {
@@ -1733,8 +2004,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     rec.watchdog_steps += 1;
                     break f_t;
                 }
-                if backtracks == 0 && watch.is_none() && unshifted && -0.5 * slope <= value_noise(f)
-                {
+                if backtracks == 0 && watch.is_none() && unshifted && -0.5 * slope <= rec.noise(f) {
                     // The unshifted Newton step predicts a decrease below the round-off of f and
                     // its full step is not distinguishable from x: x is at the round-off floor
                     // (typically a solve restarted at its own equilibrium), not stuck.
@@ -1782,6 +2052,11 @@ pub fn newton_solve<O: Objective + ?Sized>(
             let t = Instant::now();
             f = objective.gradient(x, &mut ws.g)?;
             rec.timings.assembly += t.elapsed();
+            if f.is_finite() && f_trial.is_finite() {
+                // Two evaluations of f at one point by different operations: their
+                // difference shows its round-off.
+                rec.value_noise = rec.value_noise.max((f - f_trial).abs());
+            }
         }
         iteration += 1;
         rec.hessians.push(kind);
@@ -1843,6 +2118,24 @@ pub fn newton_solve<O: Objective + ?Sized>(
         // poor here; a full PSD step that achieved at least half the predicted decrease
         // (ratio ρ = Δf / (½ ∇fᵀdx), the PSD model's prediction) means the iterate is where
         // the quadratic model holds, so the own Hessian is worth another try.
+        if kind == IterationHessian::Psd {
+            let n = rec.residuals.len();
+            if rec.residuals[n - 1] > PSD_SLOW_RATIO * rec.residuals[n - 2] {
+                psd_slow += 1;
+            } else {
+                psd_slow = 0;
+            }
+            if trust && !psd_stalled && psd_slow >= PSD_STALL_ITERATIONS {
+                // Gauss–Newton converges only linearly here: the own Hessian (shifted in a
+                // trust region where it is indefinite) from the next iteration on.
+                psd_stalled = true;
+                try_own = true;
+                wait = 0;
+                backoff = 1;
+            }
+        } else {
+            psd_slow = 0;
+        }
         if adaptive {
             match kind {
                 IterationHessian::Shifted => {
@@ -1899,6 +2192,16 @@ pub fn newton_solve<O: Objective + ?Sized>(
             let t = Instant::now();
             let solved = estimate_correction(ws, settings, &mut rec)?;
             rec.timings.solve += t.elapsed();
+            if solved
+                && ws.cholesky.is_some()
+                && norm_inf(&ws.dx) <= step_limit
+                && (reused || outcome.mu > 0.0 || obj_shift > 0.0)
+            {
+                // A shifted (or old) factor underestimates the correction along soft modes
+                // (the refined one is larger there): an estimate that would end the solve
+                // solves the unshifted system where CG can.
+                refine_direction(ws, obj_shift, ESTIMATE_TOLERANCE, &mut rec)?;
+            }
             let est = if solved {
                 norm_inf(&ws.dx)
             } else {
@@ -1911,6 +2214,11 @@ pub fn newton_solve<O: Objective + ?Sized>(
         }
     }
 }
+
+/// A PSD iteration that leaves more than this fraction of the residual is slow.
+const PSD_SLOW_RATIO: f64 = 0.5;
+/// Consecutive slow PSD iterations after which the PSD iterations count as stalled.
+const PSD_STALL_ITERATIONS: usize = 2;
 
 /// A shifted step is taken when its actual decrease is at least this fraction of the decrease
 /// the exact quadratic model predicts (the trust-region acceptance ratio).
@@ -2049,6 +2357,81 @@ fn shifted_direction(
     )))
 }
 
+/// What [`saddle_newton`] did.
+enum SaddleStep {
+    /// The unshifted Newton correction is below the step tolerance: x is converged.
+    Converged,
+    /// The step was taken to `ws.x_trial` (value returned, gradient in `ws.g_trial`).
+    Taken(f64),
+    /// No usable step (singular Hessian, or the step did not reduce the gradient).
+    Unavailable,
+}
+
+/// The unshifted Newton step `dx = −H⁻¹∇f` of the own Hessian in `ws` (assembled at x,
+/// indefinite) by a sparse LDLᵀ factorisation: near a critical point whose Hessian is
+/// indefinite (a saddle that could not be left, or that the caller keeps) Newton converges to it
+/// quadratically, where trust-region steps only creep. The step is taken when it reduces the
+/// gradient and raises f by no more than its round-off resolves.
+fn saddle_newton<O: Objective + ?Sized>(
+    objective: &mut O,
+    x: &[f64],
+    f: f64,
+    ws: &mut NewtonWorkspace,
+    rec: &mut Record,
+    step_limit: f64,
+) -> Result<SaddleStep, SolverError> {
+    if ws.cholesky.is_none() {
+        return Ok(SaddleStep::Unavailable);
+    }
+    if ws.ldlt.is_none() {
+        let par = if ws.parallel { Par::rayon(0) } else { Par::Seq };
+        match SparseLdlt::new(ws.hessian.symbolic(), ws.ordering, par) {
+            Ok(l) => ws.ldlt = Some(l),
+            Err(_) => return Ok(SaddleStep::Unavailable),
+        }
+    }
+    let Some(ldlt) = ws.ldlt.as_mut() else {
+        return Ok(SaddleStep::Unavailable);
+    };
+    let t = Instant::now();
+    let factored = ldlt.factorize(ws.hessian.as_ref());
+    rec.timings.factorization += t.elapsed();
+    rec.factorizations += 1;
+    if factored.is_err() {
+        return Ok(SaddleStep::Unavailable);
+    }
+    for (d, g) in ws.dx.iter_mut().zip(&ws.g) {
+        *d = -g;
+    }
+    let t = Instant::now();
+    ldlt.solve_in_place(&mut ws.dx)?;
+    rec.timings.solve += t.elapsed();
+    if first_non_finite(&ws.dx).is_some() {
+        return Ok(SaddleStep::Unavailable);
+    }
+    let dx_max = norm_inf(&ws.dx);
+    if dx_max <= step_limit {
+        rec.corrections.push(dx_max / objective.length_scale());
+        return Ok(SaddleStep::Converged);
+    }
+    for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x).zip(&ws.dx) {
+        *xt = xi + d;
+    }
+    let t = Instant::now();
+    let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
+    rec.timings.assembly += t.elapsed();
+    let resolvable = WATCHDOG_MIN_DECREASE * rec.noise(f);
+    if f_t.is_finite()
+        && f_t <= f + resolvable
+        && first_non_finite(&ws.g_trial).is_none()
+        && norm_inf(&ws.g_trial) < norm_inf(&ws.g)
+    {
+        Ok(SaddleStep::Taken(f_t))
+    } else {
+        Ok(SaddleStep::Unavailable)
+    }
+}
+
 /// Leaves a point where the own Hessian is indefinite along its most negative curvature
 /// direction (inverse iteration on the factor of `H + σS` with σ just above the shift that
 /// makes it positive definite), with the step length that most decreases f along it
@@ -2150,7 +2533,7 @@ fn escape_saddle<O: Objective + ?Sized>(
             rec.timings.line_search_evaluations += 1;
             Ok(if val.is_finite() { val } else { f64::INFINITY })
         };
-    let noise = value_noise(f);
+    let noise = rec.noise(f);
     let mut t = (1e-3 * length_scale).min(t_max);
     let mut best = (0.0, f);
     let ft = value_at(t, ws, rec)?;

@@ -79,6 +79,24 @@ pub trait Objective {
         None
     }
 
+    /// The constant (in the Hessian's units) the last [`hessian`](Objective::hessian) or
+    /// [`psd_hessian`](Objective::psd_hessian) call added to every diagonal entry with no
+    /// counterpart in f (e.g. a static solve's shift against the rigid-motion null space of an
+    /// unheld shell). Newton factorises the shifted matrix but uses it only as the
+    /// preconditioner of CG on the unshifted one, so that the shift slows neither convergence
+    /// on soft modes nor hides their curvature. Default 0.
+    fn hessian_diagonal_shift(&self) -> f64 {
+        0.0
+    }
+
+    /// Directions (in the free unknowns) along which f is invariant to second order at an
+    /// equilibrium `x`, e.g. the rigid motions of an unheld shell: the stability analysis
+    /// ([`NewtonWorkspace::stability`](crate::NewtonWorkspace::stability)) leaves them out, since
+    /// their zero eigenvalues say nothing about stability. Default: none.
+    fn rigid_modes(&mut self, _x: &[f64]) -> Vec<Vec<f64>> {
+        Vec::new()
+    }
+
     /// Largest fraction α ∈ (0, 1] of the step `dx` from `x` that the objective admits (e.g.
     /// contact: the step stops before any pair of primitives crosses, by continuous collision
     /// detection). Every line search and trust-region step starts from at most this fraction.

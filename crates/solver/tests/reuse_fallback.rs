@@ -80,7 +80,7 @@ fn reusing_the_factor_gives_the_same_steps_with_fewer_factorisations() {
     );
 }
 
-fn static_sag(settings: NewtonSettings) -> (Vec<Vector3<f64>>, LinearSolver, usize) {
+fn static_sag(settings: NewtonSettings) -> (Vec<Vector3<f64>>, LinearSolver, usize, usize) {
     let (mut system, x0, weight) = sheet(8);
     let mut statics = Static {
         force_scale: Some(weight),
@@ -89,16 +89,21 @@ fn static_sag(settings: NewtonSettings) -> (Vec<Vector3<f64>>, LinearSolver, usi
     };
     let mut x = x0;
     let r = statics.solve(&mut system, &mut x).unwrap();
-    (x, r.linear_solver, r.cg_iterations)
+    (x, r.linear_solver, r.cg_iterations, r.refined_steps)
 }
 
 #[test]
 fn the_iterative_solver_finds_the_direct_solvers_equilibrium() {
-    let (direct, kind, cg) = static_sag(NewtonSettings::default());
+    let (direct, kind, cg, refined) = static_sag(NewtonSettings::default());
     assert_eq!(kind, LinearSolver::Direct);
-    assert_eq!(cg, 0);
+    // The direct solve runs CG only to refine directions solved with the factor of the
+    // static solve's slightly shifted Hessian (a few iterations each).
+    assert!(
+        cg <= 5 * refined.max(1),
+        "{cg} CG iterations for {refined} refinements"
+    );
     for fallback in [IterativeFallback::Ic0, IterativeFallback::Jacobi] {
-        let (x, kind, cg) = static_sag(NewtonSettings {
+        let (x, kind, cg, _) = static_sag(NewtonSettings {
             force_iterative: true,
             fallback,
             ..NewtonSettings::default()

@@ -149,7 +149,7 @@ pub struct RunOptions {
 /// The header of `steps.csv`. The timing columns (`wall_s` … `other_s`) vary from run to run;
 /// every other column is deterministic. `wall_s` = `assembly_s + factorization_s + solve_s +
 /// line_search_s + growth_s + output_s + other_s`.
-pub const STEPS_CSV_HEADER: &str = "step,time_s,stretch_J,bend_J,damping_J,kinetic_J,newton_iterations,backtracks,regularizations,residual,wall_s,assembly_s,factorization_s,solve_s,load_factor,line_search_s,growth_s,output_s,other_s";
+pub const STEPS_CSV_HEADER: &str = "step,time_s,stretch_J,bend_J,damping_J,kinetic_J,newton_iterations,backtracks,regularizations,residual,wall_s,assembly_s,factorization_s,solve_s,load_factor,line_search_s,growth_s,output_s,other_s,gauss_newton_iterations,shifted_iterations,negative_curvature_iterations,rejected_steps,min_eigenvalue";
 
 /// Names of the `steps.csv` columns that are wall times (not reproducible between runs).
 pub const STEPS_CSV_TIMING_COLUMNS: [&str; 8] = [
@@ -256,13 +256,22 @@ impl Writer {
                     g.stimulus().iter().map(|m| m.bottom).collect(),
                 ));
             }
+            let contact_force = sim
+                .system()
+                .contact
+                .as_ref()
+                .map(|c| c.forces(sim.positions()));
+            let mut point_vectors = vec![
+                ("displacement", displacement.as_slice()),
+                ("velocity", sim.velocities()),
+            ];
+            if let Some(f) = &contact_force {
+                point_vectors.push(("contact_force", f));
+            }
             let frame = crate::vtk::Frame {
                 mesh: sim.mesh(),
                 points: sim.positions(),
-                point_vectors: vec![
-                    ("displacement", &displacement),
-                    ("velocity", sim.velocities()),
-                ],
+                point_vectors,
                 cell_scalars,
             };
             if let Err(e) = series.write(&format!("frame_{step:06}.vtu"), sim.time(), &frame) {
@@ -368,7 +377,7 @@ impl Observer for Writer {
         r.add_output(t.elapsed().as_secs_f64());
         self.totals.add(&r);
         let mut row = format!(
-            "{},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e},{:e},{:e},{:e},{:e},{},{:e},{:e},{:e},{:e}",
+            "{},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e},{:e},{:e},{:e},{:e},{},{:e},{:e},{:e},{:e},{},{},{},{},{}",
             r.step,
             r.time,
             r.energy.stretch,
@@ -387,7 +396,14 @@ impl Observer for Writer {
             r.line_search_s,
             r.growth_s,
             r.output_s,
-            r.other_s
+            r.other_s,
+            r.gauss_newton_iterations,
+            r.shifted_iterations,
+            r.negative_curvature_iterations,
+            r.rejected_steps,
+            r.min_eigenvalue
+                .map(|v| format!("{v:e}"))
+                .unwrap_or_default()
         );
         row += &crate::sim::csv_extra_row(&r);
         row.push('\n');
@@ -443,7 +459,7 @@ fn finish_outputs(
         writer.frame(sim);
     }
     let totals = &writer.totals;
-    let summary = serde_json::json!({
+    let mut summary = serde_json::json!({
         "scene": writer.scene_origin,
         "name": sim.name(),
         "status": status,
@@ -456,13 +472,10 @@ fn finish_outputs(
         // Of the last good state (the start state when step 1 failed).
         "energy": Energies::from(sim.energy()),
         "frames": writer.frames,
-        "wall_s": totals.wall_s,
-        "newton_iterations": totals.newton_iterations,
         "load_factor": sim.load_factor(),
-        "gauss_newton_iterations": totals.gauss_newton_iterations,
-        "stable": totals.stable,
-        "unstable_steps": totals.unstable_steps,
     });
+    // wall_s, newton_iterations and the iteration kinds, stable, unstable_steps.
+    totals.write_into(&mut summary);
     let summary_path = dir.join("summary.json");
     let text = serde_json::to_string_pretty(&summary)
         .map_err(|e| Failure::Simulation(format!("summary.json: {e}")))?;

@@ -60,24 +60,52 @@ pub struct Totals {
     pub newton_iterations: usize,
     /// Of which with the Gauss–Newton (PSD) Hessian.
     pub gauss_newton_iterations: usize,
+    /// Of which trust-region steps on the shifted exact Hessian (it was indefinite there).
+    #[serde(default)]
+    pub shifted_iterations: usize,
+    /// Of which steps along a direction of negative curvature (leaving a saddle).
+    #[serde(default)]
+    pub negative_curvature_iterations: usize,
+    /// Newton steps tried and rejected (not in `newton_iterations`).
+    #[serde(default)]
+    pub rejected_steps: usize,
     /// Whether the last static equilibrium is a minimum.
     pub stable: Option<bool>,
     /// Static steps whose equilibrium is not a minimum.
     pub unstable_steps: Vec<usize>,
     /// Wall time of the steps, s (the sum of `steps.csv`'s `wall_s`; varies between runs).
     pub wall_s: f64,
+    /// With the `contact` effect: the contact term over the run (absent from checkpoints of
+    /// earlier versions, hence the default).
+    #[serde(default)]
+    pub contact: Option<crate::sim::ContactTotals>,
 }
 
 impl Totals {
+    /// Adds the totals' fields to a `summary.json` object (the one place that names them).
+    pub fn write_into(&self, summary: &mut serde_json::Value) {
+        if let (Some(obj), Ok(serde_json::Value::Object(fields))) =
+            (summary.as_object_mut(), serde_json::to_value(self))
+        {
+            obj.extend(fields);
+        }
+    }
+
     /// Counts one step.
     pub fn add(&mut self, r: &StepRecord) {
         self.newton_iterations += r.newton_iterations;
         self.gauss_newton_iterations += r.gauss_newton_iterations;
+        self.shifted_iterations += r.shifted_iterations;
+        self.negative_curvature_iterations += r.negative_curvature_iterations;
+        self.rejected_steps += r.rejected_steps;
         self.stable = r.stable;
         if r.stable == Some(false) {
             self.unstable_steps.push(r.step);
         }
         self.wall_s += r.wall_s;
+        if let Some(c) = &r.contact {
+            self.contact.get_or_insert_default().add(c);
+        }
     }
 }
 

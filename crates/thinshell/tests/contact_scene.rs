@@ -98,6 +98,22 @@ fn contact_section_errors_have_positions() {
         e.contains("contact.obstacles[0].normal") && e.contains("zero"),
         "{e}"
     );
+    let e = scene_error(
+        "[contact]\n[[contact.obstacles]]\nkind = \"box\"\nmin = [0, 0, 0]\nmax = [1, 0, 1]",
+    );
+    assert!(
+        e.contains("contact.obstacles[0].max") && e.contains("must exceed `min`"),
+        "{e}"
+    );
+    let e = scene_error("[contact]\n[[contact.obstacles]]\nkind = \"box\"\nmin = [0, 0, 0]");
+    assert!(e.contains("needs `max`"), "{e}");
+    let e = scene_error(
+        "[contact]\n[[contact.obstacles]]\nkind = \"box\"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\nradius = 1",
+    );
+    assert!(
+        e.contains("contact.obstacles[0].radius") && e.contains("not a key"),
+        "{e}"
+    );
     let e = scene_error("[contact]\nself = false");
     assert!(e.contains("nothing to keep apart"), "{e}");
     let e = scene_error("[contact]\nfriction = 0.3");
@@ -117,5 +133,121 @@ steps = 1
     assert!(
         e.contains("c.toml:5:") && e.contains("`implicit` or `static`"),
         "{e}"
+    );
+}
+
+/// `thinshell run` of the shipped scene (20 steps): `steps.csv` carries the contact columns,
+/// every step's smallest gap is positive, and `summary.json`'s `contact` agrees with the rows.
+#[test]
+fn run_writes_contact_columns_and_summary() {
+    let out_dir = thinshell_testkit::fixtures::fresh_temp_dir("contact-run");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_thinshell"))
+        .args([
+            "run",
+            "--quiet",
+            "--set",
+            "integrator.steps=20",
+            "--set",
+            "output.formats=[\"vtk\"]",
+            "--out",
+        ])
+        .arg(&out_dir)
+        .arg(data_path("scenes/sheet_on_sphere.toml"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(out_dir.join("steps.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .unwrap_or_else(|| panic!("no column {name} in {header:?}"))
+    };
+    let (pairs, gap, energy) = (
+        col("contact_pairs"),
+        col("contact_min_gap_m"),
+        col("contact_energy_J"),
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 20);
+    let min_gap = rows.iter().map(|r| r[gap]).fold(f64::INFINITY, f64::min);
+    let max_pairs = rows.iter().map(|r| r[pairs]).fold(0.0, f64::max);
+    assert!(min_gap > 0.0, "smallest gap {min_gap}");
+    // Landed by step 20: pairs active, barrier energy positive.
+    let last = &rows[19];
+    assert!(last[pairs] > 0.0 && last[energy] > 0.0, "{last:?}");
+    // The last frame carries the contact forces (N per vertex).
+    let frame = std::fs::read_to_string(out_dir.join("frame_000020.vtu")).unwrap();
+    assert!(
+        frame.contains("Name=\"contact_force\""),
+        "no contact_force field"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    let c = &summary["contact"];
+    // serde_json's default float parsing may be one ulp off.
+    let summary_gap = c["min_gap_m"].as_f64().unwrap();
+    assert!(
+        (summary_gap - min_gap).abs() <= 1e-15 * min_gap,
+        "{c} vs {min_gap}"
+    );
+    assert_eq!(c["max_active_pairs"].as_f64(), Some(max_pairs), "{c}");
+}
+
+/// A contact scene continues bit for bit from a checkpoint taken after the adaptive stiffness
+/// was set and the Hessian pattern widened (both are in the checkpoint).
+#[test]
+fn contact_scene_resumes_bit_for_bit() {
+    let scene = Scene::load(&data_path("scenes/sheet_on_sphere.toml")).unwrap();
+    let hash = thinshell::sim::scene_hash(&scene);
+    let (split, total) = (25, 40);
+    let mut straight = Simulation::build(&scene).unwrap();
+    for _ in 0..total {
+        straight.step().unwrap();
+    }
+    let mut first = Simulation::build(&scene).unwrap();
+    for _ in 0..split {
+        first.step().unwrap();
+    }
+    let state = first.system().contact_run_state().unwrap();
+    let young_h = 1e6 * 1e-3;
+    assert!(
+        state.adaptive_initialised
+            && state.stiffness != young_h
+            && state.pattern_couplings.is_some(),
+        "{state:?}"
+    );
+    let bytes = first.checkpoint_bytes(hash, &[]);
+    let mut resumed = Simulation::build(&scene).unwrap();
+    resumed
+        .restore_bytes(&bytes, hash, Path::new("memory"))
+        .unwrap();
+    assert_eq!(resumed.system().contact_run_state(), Some(state));
+    for _ in split..total {
+        resumed.step().unwrap();
+    }
+    let bits = |s: &Simulation| -> Vec<u64> {
+        s.positions()
+            .iter()
+            .flat_map(|p| p.iter().map(|c| c.to_bits()).collect::<Vec<_>>())
+            .collect()
+    };
+    assert!(bits(&straight) == bits(&resumed), "positions differ");
+    assert_eq!(
+        straight.system().contact_run_state(),
+        resumed.system().contact_run_state()
     );
 }

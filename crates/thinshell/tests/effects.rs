@@ -97,3 +97,14 @@ bottom = 0.0
     assert_eq!(g.field_name(), "prescribed");
     assert_eq!(g.rest_updates(), 1, "a constant stimulus is applied once");
 }
+
+#[test]
+fn contact_is_built_only_when_named() {
+    let mut off = square(r#""stretching", "inertia""#, "");
+    assert!(off.system().contact.is_none());
+    assert!(off.step().unwrap().contact.is_none());
+    // Control: named, it is built and reported.
+    let mut on = square(r#""stretching", "inertia", "contact""#, "");
+    assert!(on.system().contact.is_some());
+    assert!(on.step().unwrap().contact.is_some());
+}

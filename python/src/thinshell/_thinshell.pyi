@@ -112,7 +112,11 @@ class Scene:
 StepRecord = dict[str, Any]
 """One step: step, time (s), energy {stretch, bend, damping} (J), kinetic (J),
 newton_iterations, backtracks, regularizations, residual, load_factor,
-gauss_newton_iterations, stable, wall_s, assembly_s, factorization_s, solve_s (s)."""
+gauss_newton_iterations, shifted_iterations, negative_curvature_iterations, rejected_steps,
+stable, min_eigenvalue (static steps: smallest eigenvalue of the exact Hessian, relative to each
+unknown's stiffness; None for dynamic steps), wall_s, assembly_s, factorization_s, solve_s (s); contact
+(None without the ``contact`` effect, else {active_pairs, min_gap (m, over active self pairs
+and obstacles; None without either), energy (J), approximated_pairs, pattern_rebuilds})."""
 
 class Simulation:
     """A scene built into a simulation. Steps release the GIL; one thread steps a simulation,
@@ -163,7 +167,10 @@ class Simulation:
     @property
     def summary(self) -> dict[str, Any]:
         """name, status, error, steps, steps_requested, time_s, energy (J), wall_s,
-        newton_iterations, gauss_newton_iterations, load_factor, stable, unstable_steps."""
+        newton_iterations, gauss_newton_iterations, shifted_iterations,
+        negative_curvature_iterations, rejected_steps, load_factor, stable, unstable_steps, contact
+        (None without the ``contact`` effect, else {max_active_pairs, min_gap_m,
+        approximated_steps, pattern_rebuilds})."""
     def describe(self) -> str:
         """What ``thinshell check`` prints."""
     @property

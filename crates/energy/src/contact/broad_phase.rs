@@ -1,9 +1,8 @@
 //! Broad phase: the candidate contact pairs of a triangle mesh from a uniform spatial hash of
-//! axis-aligned bounding boxes, O(n) expected inserts and queries plus an O(k log k) sort of each
-//! query's hits.
+//! axis-aligned bounding boxes: an O(n log n) sort of the boxes' cell keys, then per query a
+//! binary search per cell and an O(k log k) sort of its k hits.
 
 use nalgebra::Vector3;
-use std::collections::HashMap;
 
 /// An axis-aligned bounding box (m).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -48,10 +47,21 @@ pub struct CandidatePairs {
     pub edge_edge: Vec<[usize; 2]>,
 }
 
-/// A uniform grid of cells of side `cell` holding the ids of the boxes that touch each cell.
+/// A uniform grid of cells of side `cell`: the `(cell key, box id)` of every cell each box
+/// touches, sorted by key, so that a query looks its cells up by binary search (no hash map and
+/// no allocation per cell; keys of distinct cells may collide, which only adds candidates that
+/// the exact overlap test then drops).
 struct SpatialHash {
     cell: f64,
-    cells: HashMap<[i64; 3], Vec<u32>>,
+    keys: Vec<u64>,
+    ids: Vec<u32>,
+}
+
+/// A cell's key: its integer coordinates mixed by large odd multipliers.
+fn cell_key(c: [i64; 3]) -> u64 {
+    (c[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        ^ (c[1] as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+        ^ (c[2] as u64).wrapping_mul(0x1656_67B1_9E37_79F9)
 }
 
 impl SpatialHash {
@@ -67,11 +77,15 @@ impl SpatialHash {
         }
         let mut hash = SpatialHash {
             cell,
-            cells: HashMap::with_capacity(boxes.len()),
+            keys: Vec::new(),
+            ids: Vec::new(),
         };
+        let mut entries: Vec<(u64, u32)> = Vec::with_capacity(2 * boxes.len());
         for (i, b) in boxes.iter().enumerate() {
-            hash.for_cells(b, |key, cells| cells.entry(key).or_default().push(i as u32));
+            hash.for_cells(b, |key| entries.push((key, i as u32)));
         }
+        entries.sort_unstable();
+        (hash.keys, hash.ids) = entries.into_iter().unzip();
         hash
     }
 
@@ -81,37 +95,41 @@ impl SpatialHash {
         (lo, hi)
     }
 
-    fn for_cells(
-        &mut self,
-        b: &Aabb,
-        mut f: impl FnMut([i64; 3], &mut HashMap<[i64; 3], Vec<u32>>),
-    ) {
+    fn for_cells(&self, b: &Aabb, mut f: impl FnMut(u64)) {
         let (lo, hi) = self.range(b);
         for i in lo[0]..=hi[0] {
             for j in lo[1]..=hi[1] {
                 for k in lo[2]..=hi[2] {
-                    f([i, j, k], &mut self.cells);
+                    f(cell_key([i, j, k]));
                 }
             }
         }
     }
 
-    /// The ids of boxes sharing a cell with `b` (sorted, no repeats), into `out`.
-    fn query(&self, b: &Aabb, out: &mut Vec<u32>) {
+    /// The ids of boxes sharing a cell key with `b` (sorted, no repeats), into `out`. `seen`
+    /// (one entry per box, never equal to `stamp` before this call) marks the ids found, and
+    /// `stamp` must differ between calls.
+    fn query(&self, b: &Aabb, out: &mut Vec<u32>, seen: &mut [u32], stamp: u32) {
         out.clear();
-        let (lo, hi) = self.range(b);
-        for i in lo[0]..=hi[0] {
-            for j in lo[1]..=hi[1] {
-                for k in lo[2]..=hi[2] {
-                    if let Some(ids) = self.cells.get(&[i, j, k]) {
-                        out.extend_from_slice(ids);
-                    }
+        self.for_cells(b, |key| {
+            let mut p = self.keys.partition_point(|&k| k < key);
+            while p < self.keys.len() && self.keys[p] == key {
+                let id = self.ids[p];
+                if seen[id as usize] != stamp {
+                    seen[id as usize] = stamp;
+                    out.push(id);
                 }
+                p += 1;
             }
-        }
+        });
         out.sort_unstable();
-        out.dedup();
     }
+}
+
+/// Per-box marks for [`SpatialHash::query`]: `u32::MAX` is never a stamp (stamps are query
+/// indices below the number of queries, which fit in `u32` like the box ids).
+fn marks(n: usize) -> Vec<u32> {
+    vec![u32::MAX; n]
 }
 
 /// All `[i, j]` with `queries[i]` overlapping `boxes[j]`, sorted (the spatial hash is built
@@ -119,9 +137,10 @@ impl SpatialHash {
 pub fn overlapping_pairs(queries: &[Aabb], boxes: &[Aabb]) -> Vec<[usize; 2]> {
     let hash = SpatialHash::new(boxes);
     let mut hits = Vec::new();
+    let mut seen = marks(boxes.len());
     let mut out = Vec::new();
     for (i, q) in queries.iter().enumerate() {
-        hash.query(q, &mut hits);
+        hash.query(q, &mut hits, &mut seen, i as u32);
         out.extend(
             hits.iter()
                 .map(|&j| j as usize)
@@ -130,6 +149,38 @@ pub fn overlapping_pairs(queries: &[Aabb], boxes: &[Aabb]) -> Vec<[usize; 2]> {
         );
     }
     out
+}
+
+/// The boxes [`candidate_pairs`] tests: every primitive's box over the motion x → x + dx,
+/// a vertex's grown by `inflate`, an edge's by `inflate / 2`, a face's not at all.
+struct SweptBoxes<'a> {
+    x: &'a [Vector3<f64>],
+    dx: Option<&'a [Vector3<f64>]>,
+    inflate: f64,
+}
+
+impl SweptBoxes<'_> {
+    fn of(&self, ids: &[usize], grow: f64) -> Aabb {
+        Aabb::of_points(
+            ids.iter().flat_map(|&v| {
+                let end = self.dx.map_or(self.x[v], |d| self.x[v] + d[v]);
+                [self.x[v], end]
+            }),
+            grow,
+        )
+    }
+
+    fn vertex(&self, v: usize) -> Aabb {
+        self.of(&[v], self.inflate)
+    }
+
+    fn face(&self, f: &[usize; 3]) -> Aabb {
+        self.of(f, 0.0)
+    }
+
+    fn edge(&self, e: &[usize; 2]) -> Aabb {
+        self.of(e, 0.5 * self.inflate)
+    }
 }
 
 /// Candidate point–triangle and edge–edge pairs of a mesh for positions `x` (m) and, when
@@ -145,24 +196,17 @@ pub fn candidate_pairs(
     edges: &[[usize; 2]],
     inflate: f64,
 ) -> CandidatePairs {
-    let swept = |ids: &[usize], grow: f64| {
-        Aabb::of_points(
-            ids.iter().flat_map(|&v| {
-                let end = dx.map_or(x[v], |d| x[v] + d[v]);
-                [x[v], end]
-            }),
-            grow,
-        )
-    };
-    let face_boxes: Vec<Aabb> = faces.iter().map(|f| swept(f, 0.0)).collect();
-    let edge_boxes: Vec<Aabb> = edges.iter().map(|e| swept(e, 0.5 * inflate)).collect();
+    let boxes = SweptBoxes { x, dx, inflate };
+    let face_boxes: Vec<Aabb> = faces.iter().map(|f| boxes.face(f)).collect();
+    let edge_boxes: Vec<Aabb> = edges.iter().map(|e| boxes.edge(e)).collect();
     let mut out = CandidatePairs::default();
     let mut hits = Vec::new();
 
     let hash = SpatialHash::new(&face_boxes);
+    let mut seen = marks(face_boxes.len());
     for v in 0..x.len() {
-        let b = swept(&[v], inflate);
-        hash.query(&b, &mut hits);
+        let b = boxes.vertex(v);
+        hash.query(&b, &mut hits, &mut seen, v as u32);
         for &f in &hits {
             let f = f as usize;
             if !faces[f].contains(&v) && face_boxes[f].overlaps(&b) {
@@ -172,8 +216,9 @@ pub fn candidate_pairs(
     }
 
     let hash = SpatialHash::new(&edge_boxes);
+    let mut seen = marks(edge_boxes.len());
     for (i, e) in edges.iter().enumerate() {
-        hash.query(&edge_boxes[i], &mut hits);
+        hash.query(&edge_boxes[i], &mut hits, &mut seen, i as u32);
         for &j in &hits {
             let j = j as usize;
             if j > i
@@ -186,4 +231,33 @@ pub fn candidate_pairs(
         }
     }
     out
+}
+
+/// The pairs of `superset` (sorted, as [`candidate_pairs`] returns them) that
+/// [`candidate_pairs`] with the same arguments would return, in the same order, by the same box
+/// tests: equal to it whenever `superset` contains its result (e.g. the candidates of a larger
+/// inflation at nearby positions), without a broad phase.
+pub fn filter_candidate_pairs(
+    superset: &CandidatePairs,
+    x: &[Vector3<f64>],
+    dx: Option<&[Vector3<f64>]>,
+    faces: &[[usize; 3]],
+    edges: &[[usize; 2]],
+    inflate: f64,
+) -> CandidatePairs {
+    let boxes = SweptBoxes { x, dx, inflate };
+    CandidatePairs {
+        point_triangle: superset
+            .point_triangle
+            .iter()
+            .copied()
+            .filter(|&[v, f]| boxes.face(&faces[f]).overlaps(&boxes.vertex(v)))
+            .collect(),
+        edge_edge: superset
+            .edge_edge
+            .iter()
+            .copied()
+            .filter(|&[i, j]| boxes.edge(&edges[j]).overlaps(&boxes.edge(&edges[i])))
+            .collect(),
+    }
 }

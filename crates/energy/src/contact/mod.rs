@@ -2,8 +2,8 @@
 //!
 //! - [`distance`]: point–triangle and edge–edge squared distances classified by their closest
 //!   features ([`DistanceType`]), with exact gradients and Hessians;
-//! - [`barrier`]: IPC's smoothly clamped log barrier b(g, ĝ);
-//! - [`mollifier`]: the edge–edge mollifier for nearly parallel edges;
+//! - [`barrier`](mod@barrier): IPC's smoothly clamped log barrier b(g, ĝ);
+//! - [`mollifier`](mod@mollifier): the edge–edge mollifier for nearly parallel edges;
 //! - [`pair`]: one pair's barrier energy on its gap (distance minus a thickness offset), with
 //!   exact gradient and Hessian, optionally projected to PSD;
 //! - [`ccd`]: conservative continuous collision detection (additive CCD) along a linear step;
@@ -22,7 +22,9 @@ pub mod mollifier;
 pub mod pair;
 
 pub use barrier::barrier;
-pub use broad_phase::{Aabb, CandidatePairs, candidate_pairs, overlapping_pairs};
+pub use broad_phase::{
+    Aabb, CandidatePairs, candidate_pairs, filter_candidate_pairs, overlapping_pairs,
+};
 pub use ccd::{CcdSettings, additive_ccd};
 pub use distance::{
     DistanceType, PairDerivatives, PairPoints, distance2_derivatives, distance2_of_type,

@@ -7,41 +7,26 @@
 //! [`thinshell_energy::contact`]; this module gathers the pairs of a mesh and adds their energy,
 //! gradient and Hessian to the shell objective.
 
+use std::sync::{Arc, Mutex};
+
 use faer::sparse::SparseColMat;
 use nalgebra::{Matrix3, Vector3};
 use thinshell_energy::DofMap;
 use thinshell_energy::contact::{
     Aabb, BarrierGeometry, CandidatePairs, CcdSettings, PairBarrier, PairKind, PairPoints,
-    additive_ccd, barrier, candidate_pairs, edge_edge_distance2, mollifier_threshold,
-    overlapping_pairs, pair_barrier, pair_energy, point_triangle_distance2,
-    segment_crosses_triangle,
+    additive_ccd, barrier, candidate_pairs, distance2_derivatives, edge_edge_distance2,
+    filter_candidate_pairs, mollifier_threshold, overlapping_pairs, pair_barrier, pair_energy,
+    point_triangle_distance2, segment_crosses_triangle,
 };
 use thinshell_energy::linalg::project_psd;
 use thinshell_mesh::Mesh;
 
+use super::contact_pattern::entry;
+use super::contact_stiffness::AdaptiveStiffness;
+pub use super::obstacle::Obstacle;
 use crate::SolverError;
 
 type V = Vector3<f64>;
-
-/// A rigid, fixed obstacle.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Obstacle {
-    /// The half-space on the side of `normal` of the plane through `point` (m); the shell stays
-    /// on that side.
-    Plane {
-        /// A point of the plane (m).
-        point: V,
-        /// The normal pointing towards the shell's side (any length > 0).
-        normal: V,
-    },
-    /// A ball (m); the shell stays outside it.
-    Sphere {
-        /// Centre (m).
-        center: V,
-        /// Radius (m, > 0).
-        radius: f64,
-    },
-}
 
 /// What the contact term holds apart and how.
 #[derive(Clone, Debug, PartialEq)]
@@ -52,7 +37,9 @@ pub struct ContactSettings {
     pub self_contact: bool,
     /// d̂ (m): gaps below it are active. Default: 0.1 × the mean edge length of the mesh.
     pub distance: Option<f64>,
-    /// κ (J/m² = N/m): the barrier stiffness. Default: E·h, the membrane stiffness.
+    /// κ (J/m² = N/m): a fixed barrier stiffness. Default (`None`): adaptive, starting at E·h
+    /// (the membrane stiffness) and set at the first solve that starts with pairs pressed
+    /// together, then doubled while gaps collapse (`contact_stiffness.rs`, model.md §7).
     pub stiffness: Option<f64>,
     /// Whether gaps are measured between the shell's faces (distance minus h between two
     /// sheets, minus h/2 against an obstacle) rather than between mid-surfaces. Default true.
@@ -69,6 +56,24 @@ impl Default for ContactSettings {
             thickness_offset: true,
         }
     }
+}
+
+/// What a contact term learns as a run goes, for checkpoints: with it a restored run continues
+/// bit for bit ([`ShellSystem::contact_run_state`](super::ShellSystem::contact_run_state)).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ContactRunState {
+    /// κ (J/m²).
+    pub stiffness: f64,
+    /// Whether the adaptive stiffness has set κ₀ (false for a fixed stiffness).
+    pub adaptive_initialised: bool,
+    /// The adaptive stiffness's smallest gap at the previous solve's start (m; +∞ before).
+    pub adaptive_last_gap: f64,
+    /// [`ContactStats::approximated_pairs`].
+    pub approximated_pairs: usize,
+    /// [`ContactStats::pattern_rebuilds`].
+    pub pattern_rebuilds: usize,
+    /// The vertex couplings `[a, b]` (a < b) of the widened Hessian pattern, if built.
+    pub pattern_couplings: Option<Vec<[usize; 2]>>,
 }
 
 /// An invalid contact setting or an intersecting state.
@@ -95,8 +100,10 @@ pub struct Contact {
     self_contact: bool,
     /// d̂ (m).
     pub activation: f64,
-    /// κ (J/m²).
+    /// κ (J/m²): fixed, or the current value of the adaptive stiffness.
     pub stiffness: f64,
+    /// The adaptive stiffness's state (`None`: κ fixed by the settings).
+    pub(crate) adaptive: Option<AdaptiveStiffness>,
     /// Offset of self pairs (m): h, or 0.
     offset_self: f64,
     /// Offset against obstacles (m): h/2, or 0.
@@ -107,15 +114,45 @@ pub struct Contact {
     edges: Vec<[usize; 2]>,
     /// Reference positions for the edge–edge mollifier thresholds.
     rest: Vec<V>,
+    /// The last broad phase of [`Contact::candidates`].
+    cache: CandidateCache,
 }
 
-/// Counts and gap of the active set at one configuration.
+/// The positions and candidate pairs of the last barrier broad phase (a clone starts empty).
+#[derive(Default)]
+struct CandidateCache(Mutex<Option<(Vec<V>, Arc<CandidatePairs>)>>);
+
+impl Clone for CandidateCache {
+    fn clone(&self) -> Self {
+        CandidateCache::default()
+    }
+}
+
+impl std::fmt::Debug for CandidateCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("CandidateCache")
+    }
+}
+
+/// Counts, gap and energy of the contact term at one configuration, and how its Hessian was
+/// assembled.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactStats {
     /// Active pairs (self pairs plus vertex–obstacle pairs with gap < d̂).
     pub active_pairs: usize,
-    /// The smallest gap over all candidate pairs and obstacles (m; +∞ if none).
+    /// The smallest gap (m) over the active self pairs and every vertex–obstacle pair (+∞ if
+    /// none).
     pub min_gap: f64,
+    /// The barrier energy κ Σ m_k b(g_k, d̂) (J).
+    pub energy: f64,
+    /// Self pairs of the last Newton Hessian whose vertex couplings were outside its pattern
+    /// and so entered as per-vertex diagonal blocks only (0: that Hessian was exact; see
+    /// [`Contact::add_hessian`]). Filled in by [`ShellSystem::contact_stats`](super::ShellSystem::contact_stats);
+    /// 0 from [`Contact::stats`].
+    pub approximated_pairs: usize,
+    /// Rebuilds of the self-contact Hessian pattern (new symbolic factorisations) since contact
+    /// was set. Filled in like `approximated_pairs`.
+    pub pattern_rebuilds: usize,
 }
 
 impl Contact {
@@ -151,30 +188,12 @@ impl Contact {
                 "stiffness must be positive and finite, got {stiffness}"
             )));
         }
-        let mut obstacles = settings.obstacles.clone();
-        for o in &mut obstacles {
-            match o {
-                Obstacle::Plane { point, normal } => {
-                    let n = normal.norm();
-                    if !(n > 0.0 && n.is_finite() && point.iter().all(|v| v.is_finite())) {
-                        return Err(ContactError::Invalid(format!(
-                            "plane needs a finite point and a non-zero normal, got {point:?}, {normal:?}"
-                        )));
-                    }
-                    *normal /= n;
-                }
-                Obstacle::Sphere { center, radius } => {
-                    if !(*radius > 0.0
-                        && radius.is_finite()
-                        && center.iter().all(|v| v.is_finite()))
-                    {
-                        return Err(ContactError::Invalid(format!(
-                            "sphere needs a finite centre and a positive radius, got {center:?}, {radius}"
-                        )));
-                    }
-                }
-            }
-        }
+        let obstacles = settings
+            .obstacles
+            .iter()
+            .map(Obstacle::validated)
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(ContactError::Invalid)?;
         let h = if settings.thickness_offset {
             thickness
         } else {
@@ -185,12 +204,17 @@ impl Contact {
             self_contact: settings.self_contact,
             activation,
             stiffness,
+            adaptive: settings
+                .stiffness
+                .is_none()
+                .then(|| AdaptiveStiffness::new(young * thickness)),
             offset_self: h,
             offset_obstacle: 0.5 * h,
             separation: 1e-3 * activation,
             faces: mesh.faces().iter().map(|f| f.map(|v| v.idx())).collect(),
             edges,
             rest: p.to_vec(),
+            cache: CandidateCache::default(),
         })
     }
 
@@ -217,31 +241,61 @@ impl Contact {
         }
     }
 
-    fn candidates(&self, x: &[V]) -> CandidatePairs {
+    /// The self pairs that may be active at `x`: a superset of those whose boxes, grown by
+    /// offset + d̂, overlap (inactive extras add exactly 0 to every sum, so the results do not
+    /// depend on it). Reused from the last broad phase while no vertex has moved more than
+    /// d̂/2 since it: a pair's distance changes by at most twice the largest vertex
+    /// displacement, and the cached pairs were found with boxes grown by offset + 2 d̂.
+    fn candidates(&self, x: &[V]) -> Arc<CandidatePairs> {
         if !self.self_contact {
-            return CandidatePairs::default();
+            return Arc::default();
         }
-        candidate_pairs(
+        let slack = 0.5 * self.activation;
+        let mut cache = self.cache.0.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((x_ref, pairs)) = cache.as_ref()
+            && x_ref.len() == x.len()
+            && x_ref
+                .iter()
+                .zip(x)
+                .all(|(a, b)| (a - b).norm_squared() <= slack * slack)
+        {
+            return Arc::clone(pairs);
+        }
+        let pairs = Arc::new(candidate_pairs(
             x,
             None,
             &self.faces,
             &self.edges,
-            self.activation + self.offset_self,
-        )
+            self.offset_self + self.activation + 2.0 * slack,
+        ));
+        *cache = Some((x.to_vec(), Arc::clone(&pairs)));
+        pairs
+    }
+
+    /// The cached candidates (see [`Contact::candidates`]) when they contain every pair the
+    /// broad phase finds with boxes grown by offset + `reach` at `x` (m), swept or not: the
+    /// cache's boxes were grown by offset + 2 d̂ at its positions, and every box of `x` lies
+    /// within the largest vertex displacement since of its cached box (per axis, so grown
+    /// boxes that overlap now overlapped then once the growth covers twice that). For a short
+    /// CCD step (`reach` = ξ + 2 |Δx|max) this saves its broad phase.
+    fn cached_candidates_within(&self, x: &[V], reach: f64) -> Option<Arc<CandidatePairs>> {
+        let cache = self.cache.0.lock().unwrap_or_else(|e| e.into_inner());
+        let (x_ref, pairs) = cache.as_ref()?;
+        if x_ref.len() != x.len() {
+            return None;
+        }
+        let moved = x_ref
+            .iter()
+            .zip(x)
+            .map(|(a, b)| (a - b).norm())
+            .fold(0.0, f64::max);
+        (reach + 2.0 * moved <= 2.0 * self.activation).then(|| Arc::clone(pairs))
     }
 
     /// Gap (m) of vertex position `y` to obstacle `o`, and its unit gradient direction.
     fn obstacle_gap(&self, o: &Obstacle, y: &V) -> (f64, V) {
-        match o {
-            Obstacle::Plane { point, normal } => {
-                (normal.dot(&(y - point)) - self.offset_obstacle, *normal)
-            }
-            Obstacle::Sphere { center, radius } => {
-                let r = y - center;
-                let n = r.norm();
-                (n - radius - self.offset_obstacle, r / n)
-            }
-        }
+        let d = o.distance(y);
+        (d.distance - self.offset_obstacle, d.normal)
     }
 
     /// The contact energy (J) at positions `x`; +∞ when a pair touches or crosses.
@@ -263,46 +317,62 @@ impl Contact {
         self.stiffness * e
     }
 
-    /// Active pairs and the smallest gap at positions `x`.
+    /// Active pairs, the smallest gap and the energy at positions `x` (the Hessian counters
+    /// are left 0).
     pub fn stats(&self, x: &[V]) -> ContactStats {
         let c = self.candidates(x);
+        let g = self.geometry();
         let mut s = ContactStats {
-            active_pairs: 0,
             min_gap: f64::INFINITY,
+            ..ContactStats::default()
         };
-        let mut see = |gap: f64| {
-            s.min_gap = s.min_gap.min(gap);
+        let mut b_sum = 0.0;
+        let mut see = |gap: f64, b: f64, obstacle: bool| {
+            // Self pairs enter the smallest gap only when active: the candidate set is a
+            // superset whose extent depends on the cache (model.md §7).
+            if obstacle || gap < self.activation {
+                s.min_gap = s.min_gap.min(gap);
+            }
             if gap < self.activation {
                 s.active_pairs += 1;
             }
+            b_sum += b;
         };
         for &[v, f] in &c.point_triangle {
-            see(point_triangle_distance2(&self.pt_points(x, v, f)).0.sqrt() - self.offset_self);
+            let pts = self.pt_points(x, v, f);
+            see(
+                point_triangle_distance2(&pts).0.sqrt() - self.offset_self,
+                pair_energy(&pts, PairKind::PointTriangle, g),
+                false,
+            );
         }
         for &[i, j] in &c.edge_edge {
-            see(edge_edge_distance2(&self.ee_points(x, i, j)).0.sqrt() - self.offset_self);
+            let pts = self.ee_points(x, i, j);
+            see(
+                edge_edge_distance2(&pts).0.sqrt() - self.offset_self,
+                pair_energy(&pts, self.ee_kind(i, j), g),
+                false,
+            );
         }
         for o in &self.obstacles {
             for y in x {
-                see(self.obstacle_gap(o, y).0);
+                let gap = self.obstacle_gap(o, y).0;
+                see(gap, barrier(gap, self.activation).0, true);
             }
         }
+        s.energy = self.stiffness * b_sum;
         s
     }
 
-    /// Visits every active pair's vertices, gradient and PSD Hessian (unit stiffness).
-    fn for_active(
-        &self,
-        x: &[V],
-        mut f: impl FnMut(&[usize], &[f64], &dyn Fn(usize, usize) -> Matrix3<f64>),
-    ) {
+    /// Visits every active pair's vertices, gradient and Hessian (unit stiffness; column-major
+    /// 3n×3n for n vertices), a self pair's Hessian projected to PSD when `project` is set, a
+    /// vertex–obstacle pair's always.
+    fn for_active(&self, x: &[V], project: bool, mut f: impl FnMut(&[usize], &[f64], &[f64])) {
         let c = self.candidates(x);
         let g = self.geometry();
         let mut pair = |ids: [usize; 4], pts: PairPoints, kind: PairKind| {
-            if let PairBarrier::Active(d) = pair_barrier(&pts, kind, g, true) {
-                let block =
-                    |a: usize, b: usize| d.hessian.fixed_view::<3, 3>(3 * a, 3 * b).into_owned();
-                f(&ids, d.gradient.as_slice(), &block);
+            if let PairBarrier::Active(d) = pair_barrier(&pts, kind, g, project) {
+                f(&ids, d.gradient.as_slice(), d.hessian.as_slice());
             }
         };
         for &[v, fc] in &c.point_triangle {
@@ -323,19 +393,21 @@ impl Contact {
         }
         for o in &self.obstacles {
             for (v, y) in x.iter().enumerate() {
-                let (gap, n) = self.obstacle_gap(o, y);
-                let (_, db, ddb) = barrier(gap, self.activation);
+                let d = o.distance(y);
+                let (_, db, ddb) = barrier(d.distance - self.offset_obstacle, self.activation);
                 if db == 0.0 {
                     continue;
                 }
+                let n = d.normal;
                 let grad = n * db;
-                let mut h = n * n.transpose() * ddb;
-                if let Obstacle::Sphere { center, .. } = o {
-                    // ∇n = (I − n nᵀ)/|y − c|, times b′ < 0: the indefinite part, projected.
-                    h += (Matrix3::identity() - n * n.transpose()) * (db / (y - center).norm());
+                // b″ n nᵀ + b′ ∇²d: the curvature term is negative semi-definite (b′ < 0), and
+                // is projected in every mode: kept exact, a sheet resting on a sphere stalled
+                // Newton at round-off along its near-free tangential (rolling) directions.
+                let mut h = n * n.transpose() * ddb + d.hessian * db;
+                if d.hessian != Matrix3::zeros() {
                     project_psd(&mut h);
                 }
-                f(&[v], grad.as_slice(), &|_, _| h);
+                f(&[v], grad.as_slice(), h.as_slice());
             }
         }
     }
@@ -344,7 +416,7 @@ impl Contact {
     /// positions first).
     pub fn add_gradient(&self, x: &[V], grad: &mut [f64]) {
         let k = self.stiffness;
-        self.for_active(x, |ids, g, _| {
+        self.for_active(x, false, |ids, g, _| {
             for (a, &v) in ids.iter().enumerate() {
                 for i in 0..3 {
                     grad[3 * v + i] += k * g[3 * a + i];
@@ -353,43 +425,151 @@ impl Contact {
         });
     }
 
-    /// Adds the per-vertex 3×3 diagonal blocks of the (PSD-projected) contact Hessian to `h`
-    /// (the lower triangle over `dofs`' free dofs). Vertex–obstacle pairs are exact; for self
-    /// pairs the blocks coupling two vertices are left out, since the Hessian pattern is the
-    /// shell's (fixed) one. A principal block of a PSD matrix is PSD, so the sum stays PSD and
-    /// Newton steps stay descent directions.
-    pub fn add_hessian(&self, x: &[V], dofs: &DofMap, h: &mut SparseColMat<usize, f64>) {
+    /// The contact force on every vertex at positions `x` (N): −κ ∂B/∂x, the barrier's push
+    /// (a VTK point field of the frames).
+    pub fn forces(&self, x: &[V]) -> Vec<V> {
+        let mut g = vec![0.0; 3 * x.len()];
+        self.add_gradient(x, &mut g);
+        g.chunks_exact(3)
+            .map(|c| -V::new(c[0], c[1], c[2]))
+            .collect()
+    }
+
+    /// Adds the contact Hessian at positions `x` to `h` (lower triangle over `dofs`' free
+    /// dofs), each pair's Hessian projected to PSD when `project` is set. A pair whose vertex
+    /// couplings are all in `h`'s pattern is added exactly; one that is not (the pattern was
+    /// built before the pair came near, see `contact_pattern.rs`) adds only its per-vertex 3×3
+    /// diagonal blocks — principal blocks of a PSD matrix are PSD, so a projected Hessian stays
+    /// PSD. Returns the number of pairs so approximated.
+    pub fn add_hessian(
+        &self,
+        x: &[V],
+        dofs: &DofMap,
+        h: &mut SparseColMat<usize, f64>,
+        project: bool,
+    ) -> usize {
         let k = self.stiffness;
+        let mut approximated = 0;
         let (symbolic, val) = h.parts_mut();
-        self.for_active(x, |ids, _, block| {
+        self.for_active(x, project, |ids, _, hess| {
+            let m = 3 * ids.len();
+            let mut dof = [None; 12];
             for (a, &v) in ids.iter().enumerate() {
-                let b = block(a, a);
                 for c in 0..3 {
-                    let Some(col) = dofs.coordinate_dof(3 * v + c) else {
-                        continue;
-                    };
-                    for r in 0..3 {
-                        let Some(row) = dofs.coordinate_dof(3 * v + r) else {
-                            continue;
-                        };
-                        if row < col {
-                            continue;
-                        }
-                        let range = symbolic.col_range(col);
-                        let rows = &symbolic.row_idx()[range.clone()];
-                        if let Ok(p) = rows.binary_search(&row) {
-                            val[range.start + p] += k * b[(r, c)];
-                        }
+                    dof[3 * a + c] = dofs.coordinate_dof(3 * v + c);
+                }
+            }
+            // Value index of every (i, j) with dof(i) ≥ dof(j): each stored entry once.
+            let mut at = [[None; 12]; 12];
+            let mut exact = true;
+            for i in 0..m {
+                for j in 0..m {
+                    if let (Some(p), Some(q)) = (dof[i], dof[j])
+                        && p >= q
+                    {
+                        at[i][j] = entry(symbolic, p, q);
+                        exact &= at[i][j].is_some();
+                    }
+                }
+            }
+            approximated += usize::from(!exact);
+            for i in 0..m {
+                for j in 0..m {
+                    if let Some(o) = at[i][j]
+                        && (exact || i / 3 == j / 3)
+                    {
+                        val[o] += k * hess[j * m + i];
                     }
                 }
             }
         });
+        approximated
+    }
+
+    /// Σ_k ∇g_k over the active pairs at `x` (full coordinates, vertex-major; unit normals of
+    /// obstacle pairs, ∇d of self pairs) and the number of active pairs: the directions along
+    /// which the barrier pushes, for the adaptive stiffness.
+    pub(crate) fn gap_gradient_sum(&self, x: &[V]) -> (Vec<f64>, usize) {
+        let mut n = vec![0.0; 3 * x.len()];
+        let mut active = 0;
+        let c = self.candidates(x);
+        let mut add = |ids: [usize; 4], pts: PairPoints, (d2, ty)| {
+            let d: f64 = f64::sqrt(d2);
+            if d - self.offset_self < self.activation && d > 0.0 {
+                active += 1;
+                let g = distance2_derivatives(&pts, ty).gradient / (2.0 * d);
+                for (a, &v) in ids.iter().enumerate() {
+                    for k in 0..3 {
+                        n[3 * v + k] += g[3 * a + k];
+                    }
+                }
+            }
+        };
+        for &[v, f] in &c.point_triangle {
+            let t = self.faces[f];
+            let pts = self.pt_points(x, v, f);
+            add([v, t[0], t[1], t[2]], pts, point_triangle_distance2(&pts));
+        }
+        for &[i, j] in &c.edge_edge {
+            let (a, b) = (self.edges[i], self.edges[j]);
+            let pts = self.ee_points(x, i, j);
+            add([a[0], a[1], b[0], b[1]], pts, edge_edge_distance2(&pts));
+        }
+        for o in &self.obstacles {
+            for (v, y) in x.iter().enumerate() {
+                let (gap, u) = self.obstacle_gap(o, y);
+                if gap < self.activation {
+                    active += 1;
+                    for k in 0..3 {
+                        n[3 * v + k] += u[k];
+                    }
+                }
+            }
+        }
+        (n, active)
+    }
+
+    /// Whether the shell is kept from passing through itself.
+    pub fn self_contact(&self) -> bool {
+        self.self_contact
+    }
+
+    /// Vertex pairs `[a, b]` (a < b) of every self pair that may come within `reach` (m) of
+    /// the offset over the straight motion `x` → `x_end` (bounding boxes of the swept
+    /// primitives; `x_end` `None`: at `x`). Empty without self-contact.
+    pub(crate) fn couplings(&self, x: &[V], x_end: Option<&[V]>, reach: f64) -> Vec<[usize; 2]> {
+        if !self.self_contact {
+            return Vec::new();
+        }
+        let dx: Option<Vec<V>> = x_end.map(|e| e.iter().zip(x).map(|(b, a)| b - a).collect());
+        let c = candidate_pairs(
+            x,
+            dx.as_deref(),
+            &self.faces,
+            &self.edges,
+            self.offset_self + reach,
+        );
+        let mut out = Vec::with_capacity(3 * c.point_triangle.len() + 4 * c.edge_edge.len());
+        let mut couple = |a: usize, b: usize| out.push([a.min(b), a.max(b)]);
+        for &[v, f] in &c.point_triangle {
+            self.faces[f].iter().for_each(|&t| couple(v, t));
+        }
+        for &[i, j] in &c.edge_edge {
+            for a in self.edges[i] {
+                self.edges[j].iter().for_each(|&b| couple(a, b));
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
     }
 
     /// The largest fraction α ∈ (0, 1] of the step from `x0` to `x1` that keeps every pair apart
     /// (additive CCD with gap fraction 0.1 and minimum separation offset + 10⁻³ d̂); an error
     /// when a pair already starts within the minimum separation.
     pub fn max_step(&self, x0: &[V], x1: &[V]) -> Result<f64, ContactError> {
+        first_non_finite(x0, "start of the step")?;
+        first_non_finite(x1, "end of the step")?;
         let dx: Vec<V> = x0.iter().zip(x1).map(|(a, b)| b - a).collect();
         let mut alpha = 1.0f64;
         if self.self_contact {
@@ -398,7 +578,13 @@ impl Contact {
                 min_separation: xi,
                 ..CcdSettings::default()
             };
-            let c = candidate_pairs(x0, Some(&dx), &self.faces, &self.edges, xi);
+            let step = dx.iter().map(V::norm).fold(0.0, f64::max);
+            // The same pairs either way (the cache holds them all when it qualifies), so the
+            // step does not depend on the cache's history.
+            let c = match self.cached_candidates_within(x0, self.separation + 2.0 * step) {
+                Some(c) => filter_candidate_pairs(&c, x0, Some(&dx), &self.faces, &self.edges, xi),
+                None => candidate_pairs(x0, Some(&dx), &self.faces, &self.edges, xi),
+            };
             for &[v, f] in &c.point_triangle {
                 let t = self.faces[f];
                 let d = [dx[v], dx[t[0]], dx[t[1]], dx[t[2]]];
@@ -480,6 +666,7 @@ impl Contact {
     /// gap above the minimum separation, and no edge crossing a face; the error names the first
     /// offending pair.
     pub fn check(&self, x: &[V]) -> Result<(), ContactError> {
+        first_non_finite(x, "state")?;
         let xi = self.separation;
         if self.self_contact {
             let c = candidate_pairs(x, None, &self.faces, &self.edges, self.offset_self + xi);
@@ -522,6 +709,18 @@ impl Contact {
             }
         }
         Ok(())
+    }
+}
+
+/// An error naming the first vertex of `x` with a non-finite coordinate (NaN bounding boxes
+/// would hide it from the broad phase).
+fn first_non_finite(x: &[V], what: &str) -> Result<(), ContactError> {
+    match x.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        Some(v) => Err(ContactError::Invalid(format!(
+            "vertex {v} of the {what} has a non-finite position {:?}",
+            x[v]
+        ))),
+        None => Ok(()),
     }
 }
 

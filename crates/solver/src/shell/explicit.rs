@@ -125,6 +125,8 @@ impl Integrator for ExplicitEuler {
             hessian: system.hessian_mode,
             energies,
             stable: None,
+            contact: system.contact_stats(&state.x),
+            stability: None,
         })
     }
 }

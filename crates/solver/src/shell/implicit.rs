@@ -38,6 +38,16 @@ pub struct ImplicitEuler {
     pub cache: NewtonCache,
 }
 
+/// Default [`NewtonSettings::relative_step_tolerance`] of implicit steps: a step's Newton
+/// solve has converged once its correction is 10⁻³ of how far the step moved from its start
+/// (the inertial prediction x̃ = x + Δt v; the move Δt²·a is of the order of the step's own
+/// time discretisation error). Measured on a falling flag (`tests/implicit_tolerance.rs`): the
+/// answer differs from a solve converged to round-off by 0.3 % of the time discretisation
+/// error, with 30 % fewer iterations; the seed scenes need as many iterations as before the
+/// scale-free convergence test (sphere_directed_heat, Δt = 10⁻³ s: 197, was 198; 10⁻⁴
+/// would take 251).
+const IMPLICIT_RELATIVE_STEP_TOLERANCE: f64 = 1e-3;
+
 impl ImplicitEuler {
     /// Fixed step `dt` (s) with default Newton settings, except that saddles of the
     /// incremental potential are kept ([`NewtonSettings::escape_saddles`] = `false`): a shell in
@@ -48,6 +58,7 @@ impl ImplicitEuler {
             dt,
             newton: NewtonSettings {
                 escape_saddles: false,
+                relative_step_tolerance: IMPLICIT_RELATIVE_STEP_TOLERANCE,
                 ..NewtonSettings::default()
             },
             force_scale: None,
@@ -162,6 +173,8 @@ impl Integrator for ImplicitEuler {
                         hessian,
                         energies,
                         stable: None,
+                        contact: system.contact_stats(&state.x),
+                        stability: None,
                     });
                 }
                 Err(e) if halvings < self.max_halvings && retryable(&e) => {

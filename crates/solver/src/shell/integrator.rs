@@ -30,11 +30,17 @@ pub struct StepReport {
     pub hessian: HessianMode,
     /// Energy terms (J) at the end of the step (implicit, static) or its start (explicit).
     pub energies: EnergyTerms,
-    /// Static steps: whether the equilibrium is a minimum, i.e. the exact Hessian there (with
-    /// the static solver's tiny `hessian_shift` against rigid motions) factorises without a
-    /// shift; `Some(false)` is a saddle or maximum (unstable: a perturbation leaves it).
-    /// `None` for dynamic steps.
+    /// Static steps: whether the equilibrium is a minimum, i.e. the smallest eigenvalue of the
+    /// exact, unshifted Hessian there (rigid motions the boundary leaves free left out) is
+    /// positive; `Some(false)` is a saddle or maximum (unstable: a perturbation leaves it).
+    /// `None` for dynamic steps, and where the Cholesky factor does not fit in memory.
     pub stable: Option<bool>,
+    /// With contact: the contact term at the end of the step (active pairs, smallest gap,
+    /// barrier energy, Hessian counters; [`ShellSystem::contact_stats`]). `None` without.
+    pub contact: Option<super::contact::ContactStats>,
+    /// Static steps: that smallest eigenvalue and its mode ([`crate::Stability`]); `None` as
+    /// for `stable`.
+    pub stability: Option<crate::Stability>,
 }
 
 /// What kind of step an [`Integrator`] takes: callers that treat equilibrium and dynamic steps
@@ -198,7 +204,7 @@ impl NewtonCache {
     ) -> Result<&mut NewtonWorkspace, SolverError> {
         if self.ws.as_ref().is_some_and(|ws| {
             ws.n_dofs() != objective.n_dofs()
-                || !objective.sys.assembler.has_pattern(ws.hessian())
+                || !objective.sys.has_hessian_pattern(ws.hessian())
                 || !ws.matches(settings)
         }) {
             self.ws = None;

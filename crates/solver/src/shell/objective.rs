@@ -32,11 +32,16 @@ pub(crate) struct ShellObjective<'a> {
     /// Static solves: shift κ·mean|H_dd| added to the Hessian diagonal only (the gradient is
     /// exact, so the minimiser is unchanged); it makes rigid-motion null spaces invertible.
     hessian_shift: f64,
+    /// The absolute shift the last Hessian assembly added ([`Objective::hessian_diagonal_shift`]).
+    last_shift: f64,
     /// Unit of the reported residuals (N).
     force_scale: f64,
     /// Whether `‖∇‖∞ ≤ tol · force_scale` may end a solve (the caller gave the scale).
     gradient_test: bool,
     pub(crate) last_terms: EnergyTerms,
+    /// Self-contact pairs of the last Hessian whose couplings were not in its pattern (added
+    /// block-diagonally, see [`Contact::add_hessian`](super::contact::Contact::add_hessian)).
+    pub(crate) approximated_pairs: usize,
 }
 
 impl<'a> ShellObjective<'a> {
@@ -52,8 +57,18 @@ impl<'a> ShellObjective<'a> {
         hessian_shift: f64,
         force_scale: Option<f64>,
     ) -> ShellObjective<'a> {
+        if sys.contact.as_ref().is_some_and(|c| c.self_contact()) {
+            // The pairs the solve can activate: those near the motion from the start to the
+            // inertial prediction (the start alone for a static solve).
+            let x_end = inertia.as_ref().map(|i| {
+                let (mut y, mut a) = (x.to_vec(), phi.to_vec());
+                sys.scatter(&i.x_tilde, &mut y, &mut a);
+                y
+            });
+            sys.refresh_contact_pattern(x, x_end.as_deref());
+        }
         let n_coords = sys.dofs.n_coordinates();
-        ShellObjective {
+        let mut objective = ShellObjective {
             force_scale: force_scale.unwrap_or_else(|| sys.force_scale()),
             gradient_test: force_scale.is_some(),
             sys,
@@ -63,7 +78,59 @@ impl<'a> ShellObjective<'a> {
             inertia,
             damping,
             hessian_shift,
+            last_shift: 0.0,
             last_terms: EnergyTerms::default(),
+            approximated_pairs: 0,
+        };
+        objective.adapt_contact_stiffness();
+        objective
+    }
+
+    /// The adaptive barrier stiffness at the start of a solve (`contact_stiffness.rs`): κ₀ from
+    /// the gradient of the objective without contact at the first start with active pairs
+    /// pressed together, then doubling while the smallest gap collapses.
+    fn adapt_contact_stiffness(&mut self) {
+        let Some((mut a, mut kappa, d_hat)) = self
+            .sys
+            .contact
+            .as_ref()
+            .and_then(|c| c.adaptive.map(|a| (a, c.stiffness, c.activation)))
+        else {
+            return;
+        };
+        let x = self.x_full.clone();
+        if !a.initialised {
+            let Some((n, active)) = self.sys.contact.as_ref().map(|c| c.gap_gradient_sum(&x))
+            else {
+                return;
+            };
+            if active > 0 {
+                let u = self.sys.gather(&x, &self.phi_full);
+                let mut g = vec![0.0; self.n_dofs()];
+                let contact = self.sys.contact.take();
+                let value = self.gradient(&u, &mut g);
+                self.sys.contact = contact;
+                if value.is_ok_and(f64::is_finite) {
+                    let coords = self.sys.dofs.free_coordinates();
+                    let n_pos = self.sys.dofs.n_free_positions();
+                    let (mut pressing, mut n2) = (0.0, 0.0);
+                    for (d, &c) in coords.iter().enumerate().take(n_pos) {
+                        pressing += g[d] * n[c];
+                        n2 += n[c] * n[c];
+                    }
+                    if let Some(k) = a.initial(pressing, n2, d_hat) {
+                        kappa = k;
+                        a.initialised = true;
+                    }
+                }
+            }
+        }
+        if let Some(c) = &mut self.sys.contact {
+            if a.initialised {
+                kappa = a.update(kappa, c.stats(&x).min_gap, d_hat);
+            }
+            c.stiffness = kappa;
+            c.adaptive = Some(a);
         }
     }
 
@@ -273,7 +340,7 @@ impl Objective for ShellObjective<'_> {
     }
 
     fn hessian_template(&self) -> SparseColMat<usize, f64> {
-        self.sys.assembler.hessian_template()
+        self.sys.hessian_template()
     }
 
     fn force_scale(&self) -> f64 {
@@ -286,6 +353,21 @@ impl Objective for ShellObjective<'_> {
 
     fn length_scale(&self) -> f64 {
         self.sys.length_scale()
+    }
+
+    fn hessian_diagonal_shift(&self) -> f64 {
+        self.last_shift
+    }
+
+    /// The rigid motions the boundary leaves free: translations unless an obstacle is in
+    /// contact, rotations also when no external load (whose work changes under rotation) acts
+    /// either.
+    fn rigid_modes(&mut self, u: &[f64]) -> Vec<Vec<f64>> {
+        let mut x = self.x_full.clone();
+        let mut phi = self.phi_full.clone();
+        self.sys.scatter(u, &mut x, &mut phi);
+        let rotations = self.sys.f_ext.iter().all(|&f| f == 0.0);
+        super::rigid::free_rigid_modes(&self.sys.dofs, &x, self.sys.contact.is_none(), rotations)
     }
 
     /// With contact on: the CCD step limit ([`super::contact::Contact::max_step`]).
@@ -327,8 +409,39 @@ impl Objective for ShellObjective<'_> {
 }
 
 impl ShellObjective<'_> {
-    /// The Hessian in `mode` plus pressure, angle scaling, inertia and the static shift.
+    /// The Hessian in `mode` plus pressure, angle scaling, inertia, the static shift and
+    /// contact. With self-contact the shell terms are assembled into the assembler-pattern
+    /// scratch and copied into `h`, whose pattern is widened by the contact couplings.
     fn hessian_in_mode(
+        &mut self,
+        u: &[f64],
+        h: &mut SparseColMat<usize, f64>,
+        mode: HessianMode,
+    ) -> Result<(), SolverError> {
+        let mut scratch = match &mut self.sys.contact_pattern {
+            Some(p) if p.has_pattern(h) => p.scratch.take(),
+            _ => None,
+        };
+        let result = self.shell_hessian(u, scratch.as_mut().unwrap_or(h), mode);
+        if let (Some(p), Some(s)) = (&mut self.sys.contact_pattern, scratch) {
+            if result.is_ok() {
+                p.widen(&s, h);
+            }
+            p.scratch = Some(s);
+        }
+        result?;
+        if let Some(c) = &self.sys.contact {
+            // The exact Hessian keeps each pair's own (indefinite) curvature; the PSD modes
+            // project it per pair, as they do per face.
+            let project = mode != HessianMode::Exact;
+            self.approximated_pairs = c.add_hessian(&self.x_full, &self.sys.dofs, h, project);
+            self.sys.contact_approximated = self.approximated_pairs;
+        }
+        Ok(())
+    }
+
+    /// The shell part of [`hessian_in_mode`](Self::hessian_in_mode), in the assembler's pattern.
+    fn shell_hessian(
         &mut self,
         u: &[f64],
         h: &mut SparseColMat<usize, f64>,
@@ -342,9 +455,6 @@ impl ShellObjective<'_> {
             self.sys.pressure(),
             h,
         )?;
-        if let Some(c) = &self.sys.contact {
-            c.add_hessian(&self.x_full, &self.sys.dofs, h);
-        }
         if self.sys.has_edge_unknowns() {
             // u = ℓ̄ φ for edge dofs: H_uu = D H_φφ D with D = diag(1, 1/ℓ̄).
             let n_pos = self.sys.dofs.n_free_positions();
@@ -371,10 +481,12 @@ impl ShellObjective<'_> {
                 val[o] += m;
             }
         }
+        self.last_shift = 0.0;
         if self.hessian_shift > 0.0 && !offsets.is_empty() {
             let mean = offsets.iter().map(|&o| val[o].abs()).sum::<f64>() / offsets.len() as f64;
+            self.last_shift = self.hessian_shift * mean;
             for &o in offsets {
-                val[o] += self.hessian_shift * mean;
+                val[o] += self.last_shift;
             }
         }
         Ok(())
@@ -481,5 +593,100 @@ mod tests {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod contact_tests {
+    use super::*;
+    use crate::shell::contact::ContactSettings;
+    use crate::{Boundary, Loads};
+    use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
+
+    /// Two sheets 2.5 mm apart (gap between surfaces 1.5 mm < d̂ = 4 mm): the exact Hessian of
+    /// the static potential, with the self-contact pairs' off-diagonal blocks in the widened
+    /// pattern, against central differences of the gradient, every column.
+    #[test]
+    fn self_contact_hessian_is_exact_in_the_widened_pattern() {
+        let mesh = thinshell_testkit::fixtures::stacked_sheets(0.1, 4, 0.0025, 0.3);
+        let sff = SffKind::MidEdgeAverage;
+        let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
+        let model = ShellModel {
+            material: Material::new(1e-3, 1e4, 0.3),
+            terms: Terms::ELASTIC,
+            sff,
+        };
+        let x: Vec<Vector3<f64>> = mesh
+            .positions()
+            .iter()
+            .enumerate()
+            .map(|(i, p)| p + Vector3::new(0.0, 0.0, 2e-4 * ((i as f64) * 0.9).sin()))
+            .collect();
+        let mut sys =
+            ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default()).unwrap();
+        let settings = ContactSettings {
+            distance: Some(0.004),
+            stiffness: Some(10.0),
+            ..ContactSettings::default()
+        };
+        sys.set_contact(&settings, &x).unwrap();
+        let active = sys.contact.as_ref().unwrap().stats(&x).active_pairs;
+        let n = sys.dofs.n_free();
+        let u0 = sys.gather(&x, &[]);
+        let mut obj = ShellObjective::statics(&mut sys, &x, &[], 0.0, Some(1.0));
+        let extra = obj.sys.contact_pattern.as_ref().unwrap().extra_entries();
+        assert!(
+            active > 50 && extra > 0,
+            "{active} active pairs, {extra} extra entries"
+        );
+        // The same Hessian in the shell's own pattern: the pairs fall back to their diagonal
+        // blocks (the approximation before the widened pattern), measurably off.
+        let mut narrow = obj.sys.assembler.hessian_template();
+        obj.hessian(&u0, &mut narrow).unwrap();
+        assert!(obj.approximated_pairs > 50, "{}", obj.approximated_pairs);
+        let mut h = obj.hessian_template();
+        obj.hessian(&u0, &mut h).unwrap();
+        assert_eq!(obj.approximated_pairs, 0);
+        let (mut gp, mut gm) = (vec![0.0; n], vec![0.0; n]);
+        let eps = 1e-7;
+        let mut worst = 0.0f64;
+        let mut worst_narrow = 0.0f64;
+        for d in 0..n {
+            let col = column(&h, d);
+            let mut up = u0.clone();
+            up[d] += eps;
+            let mut um = u0.clone();
+            um[d] -= eps;
+            obj.gradient(&up, &mut gp).unwrap();
+            obj.gradient(&um, &mut gm).unwrap();
+            let scale = col.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let narrow_col = column(&narrow, d);
+            for i in 0..n {
+                let fd = (gp[i] - gm[i]) / (2.0 * eps);
+                worst = worst.max((fd - col[i]).abs() / scale);
+                worst_narrow = worst_narrow.max((fd - narrow_col[i]).abs() / scale);
+            }
+        }
+        eprintln!("relative Hessian error: widened {worst:e}, shell pattern {worst_narrow:e}");
+        assert!(worst < 1e-5, "largest relative Hessian error {worst:e}");
+        assert!(worst_narrow > 1e-2, "{worst_narrow:e}");
+    }
+
+    /// Column `d` of the symmetric matrix stored as its lower triangle.
+    fn column(h: &SparseColMat<usize, f64>, d: usize) -> Vec<f64> {
+        let mut col = vec![0.0; h.ncols()];
+        for j in 0..h.ncols() {
+            for p in h.symbolic().col_range(j) {
+                let i = h.symbolic().row_idx()[p];
+                if j == d {
+                    col[i] += h.val()[p];
+                }
+                if i == d && i != j {
+                    col[j] += h.val()[p];
+                }
+            }
+        }
+        col
     }
 }

@@ -178,6 +178,9 @@ impl Objective for ShellLoaded<'_> {
     fn length_scale(&self) -> f64 {
         self.obj.length_scale()
     }
+    fn hessian_diagonal_shift(&self) -> f64 {
+        self.obj.hessian_diagonal_shift()
+    }
     fn dof_coordinates(&self) -> Option<Vec<[f64; 3]>> {
         self.obj.dof_coordinates()
     }

@@ -15,7 +15,7 @@ use super::integrator::{
 };
 use super::objective::ShellObjective;
 use super::system::{ShellSystem, State};
-use crate::{NewtonReport, NewtonSettings, NewtonWorkspace, SolverError, newton_solve};
+use crate::{NewtonReport, NewtonSettings, NewtonWorkspace, SolverError, Stability, newton_solve};
 
 /// Static equilibrium: minimise `E(x) − F_extᵀx` over the free dofs.
 #[derive(Debug)]
@@ -91,24 +91,36 @@ impl Static {
     }
 
     /// Whether positions `x` and edge angles `phi` (rad, one per edge; empty without edge
-    /// unknowns) are a stable equilibrium candidate: the **exact** Hessian of the static
-    /// potential there, plus the shift `hessian_shift · mean|H_dd|` that makes rigid motions of
-    /// an unheld shell invertible, factorises without further shift. Negative eigenvalues
-    /// smaller in magnitude than that shift (1e-10 of the mean diagonal by default, far below
-    /// bending stiffness) go unnoticed. Costs one Hessian assembly and factorisation.
+    /// unknowns) are a stable equilibrium candidate: the smallest eigenvalue of the **exact**
+    /// Hessian of the static potential there is positive ([`Static::stability`]).
     pub fn is_stable(
         &mut self,
         system: &mut ShellSystem,
         x: &[Vector3<f64>],
         phi: &[f64],
     ) -> Result<bool, SolverError> {
+        Ok(self.stability(system, x, phi)?.stable)
+    }
+
+    /// The smallest eigenvalue and mode of the **exact** Hessian of the static potential at
+    /// positions `x` and edge angles `phi` (no `hessian_shift`; the rigid motions the boundary
+    /// leaves free, and that no obstacle or load resists, left out): see [`Stability`]. Its
+    /// sign is the stability of an equilibrium; along a load path it crosses zero at a
+    /// critical load, where the mode is the buckling mode. Costs one Hessian assembly, one to
+    /// a few factorisations and up to 60 triangular solves.
+    pub fn stability(
+        &mut self,
+        system: &mut ShellSystem,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+    ) -> Result<Stability, SolverError> {
         let u = system.gather(x, phi);
         let own = std::mem::replace(&mut system.hessian_mode, HessianMode::Exact);
         let mut obj = self.objective(system, x, phi);
         let result = self
             .cache
             .fit(&obj, &self.newton)
-            .and_then(|ws| ws.is_positive_definite(&mut obj, &u));
+            .and_then(|ws| ws.stability(&mut obj, &u));
         system.hessian_mode = own;
         result
     }
@@ -190,8 +202,8 @@ impl Integrator for Static {
             .cache
             .get()
             .is_none_or(|ws| ws.linear_solver() == crate::LinearSolver::Direct);
-        let stable = if direct {
-            Some(self.is_stable(system, &x, &phi)?)
+        let stability = if direct {
+            Some(self.stability(system, &x, &phi)?)
         } else {
             None
         };
@@ -205,7 +217,9 @@ impl Integrator for Static {
             halvings: 0,
             hessian,
             energies,
-            stable,
+            stable: stability.as_ref().map(|s| s.stable),
+            stability,
+            contact: system.contact_stats(&state.x),
         })
     }
 }

@@ -10,7 +10,8 @@ use thinshell_mesh::Mesh;
 
 use super::angles::{AngleRelaxation, AngleReport, AngleSettings};
 use super::bc::Boundary;
-use super::contact::{Contact, ContactSettings};
+use super::contact::{Contact, ContactError, ContactRunState, ContactSettings, ContactStats};
+use super::contact_pattern::ContactPattern;
 use super::loads::{Loads, add_pressure_gradient};
 use crate::SolverError;
 
@@ -77,6 +78,13 @@ pub struct ShellSystem {
     pub(crate) clamp_reference: Vec<Vector3<f64>>,
     /// The contact term, when the scene names the `contact` effect ([`ShellSystem::set_contact`]).
     pub contact: Option<Contact>,
+    /// The Hessian pattern widened by self-contact couplings, when self-contact is on (built
+    /// and rebuilt by the objectives, see `contact_pattern.rs`).
+    pub(crate) contact_pattern: Option<ContactPattern>,
+    /// Self-contact pairs approximated in the last Hessian ([`ContactStats::approximated_pairs`]).
+    pub(crate) contact_approximated: usize,
+    /// Rebuilds of `contact_pattern` since contact was set.
+    pub(crate) contact_pattern_rebuilds: usize,
 }
 
 impl std::fmt::Debug for ShellSystem {
@@ -169,6 +177,9 @@ impl ShellSystem {
             angle_relaxation: None,
             clamp_reference: Vec::new(),
             contact: None,
+            contact_pattern: None,
+            contact_approximated: 0,
+            contact_pattern_rebuilds: 0,
         })
     }
 
@@ -196,6 +207,67 @@ impl ShellSystem {
         let contact = Contact::new(&self.mesh, m.thickness, m.young, settings)?;
         contact.check(x0)?;
         self.contact = Some(contact);
+        self.contact_pattern = None;
+        self.contact_approximated = 0;
+        self.contact_pattern_rebuilds = 0;
+        Ok(())
+    }
+
+    /// The contact term's statistics at positions `x` (m) with the Hessian counters of this
+    /// system; `None` without contact.
+    pub fn contact_stats(&self, x: &[Vector3<f64>]) -> Option<ContactStats> {
+        self.contact.as_ref().map(|c| ContactStats {
+            approximated_pairs: self.contact_approximated,
+            pattern_rebuilds: self.contact_pattern_rebuilds,
+            ..c.stats(x)
+        })
+    }
+
+    /// The contact term's run state (κ, the adaptive stiffness's memory, the counters and the
+    /// widened Hessian pattern's couplings); `None` without contact.
+    pub fn contact_run_state(&self) -> Option<ContactRunState> {
+        self.contact.as_ref().map(|c| ContactRunState {
+            stiffness: c.stiffness,
+            adaptive_initialised: c.adaptive.is_some_and(|a| a.initialised),
+            adaptive_last_gap: c.adaptive.map_or(f64::INFINITY, |a| a.last_gap),
+            approximated_pairs: self.contact_approximated,
+            pattern_rebuilds: self.contact_pattern_rebuilds,
+            pattern_couplings: self.contact_pattern.as_ref().map(|p| p.couplings.clone()),
+        })
+    }
+
+    /// Restores what [`ShellSystem::contact_run_state`] returned (on a system whose contact was
+    /// set with the same settings). Errors, leaving the system unchanged: no contact, a
+    /// stiffness that is not positive and finite, a coupling out of range.
+    pub fn restore_contact_run_state(&mut self, s: &ContactRunState) -> Result<(), SolverError> {
+        let n = self.mesh.n_vertices();
+        let bad = |what: String| SolverError::from(ContactError::Invalid(what));
+        if !(s.stiffness > 0.0 && s.stiffness.is_finite()) {
+            return Err(bad(format!("restored stiffness {}", s.stiffness)));
+        }
+        if let Some(&[a, b]) = s
+            .pattern_couplings
+            .iter()
+            .flatten()
+            .find(|&&[a, b]| !(a < b && b < n))
+        {
+            return Err(bad(format!(
+                "restored coupling [{a}, {b}] with {n} vertices"
+            )));
+        }
+        let Some(c) = &mut self.contact else {
+            return Err(bad("a contact state for a system without contact".into()));
+        };
+        c.stiffness = s.stiffness;
+        if let Some(a) = &mut c.adaptive {
+            a.initialised = s.adaptive_initialised;
+            a.last_gap = s.adaptive_last_gap;
+        }
+        self.contact_approximated = s.approximated_pairs;
+        self.contact_pattern_rebuilds = s.pattern_rebuilds;
+        self.contact_pattern = s.pattern_couplings.as_ref().map(|couplings| {
+            ContactPattern::new(&self.assembler.hessian_template(), &self.dofs, couplings)
+        });
         Ok(())
     }
 
@@ -403,9 +475,52 @@ impl ShellSystem {
     }
 
     /// The Hessian's sparsity pattern (lower triangle, all values 0), e.g. to size its
-    /// factorisation before a solve.
+    /// factorisation before a solve: the assembler's, widened by the couplings of nearby
+    /// self-contact pairs once a solve with self-contact has built them.
     pub fn hessian_template(&self) -> faer::sparse::SparseColMat<usize, f64> {
-        self.assembler.hessian_template()
+        match &self.contact_pattern {
+            Some(p) => p.template(),
+            None => self.assembler.hessian_template(),
+        }
+    }
+
+    /// Whether `h` has the pattern of [`ShellSystem::hessian_template`].
+    pub(crate) fn has_hessian_pattern(&self, h: &faer::sparse::SparseColMat<usize, f64>) -> bool {
+        match &self.contact_pattern {
+            Some(p) => p.has_pattern(h),
+            None => self.assembler.has_pattern(h),
+        }
+    }
+
+    /// Makes the Hessian pattern cover every self-contact pair that can become active on the
+    /// motion `x` → `x_end` (m; `None`: at `x`): kept when it already does, else rebuilt with
+    /// the reach [`PATTERN_REACH`](super::contact_pattern::PATTERN_REACH)·d̂ (model.md §7).
+    /// Returns whether it was rebuilt. Nothing to do without self-contact.
+    pub(crate) fn refresh_contact_pattern(
+        &mut self,
+        x: &[Vector3<f64>],
+        x_end: Option<&[Vector3<f64>]>,
+    ) -> bool {
+        let Some(c) = self.contact.as_ref().filter(|c| c.self_contact()) else {
+            return false;
+        };
+        let needed = c.couplings(x, x_end, c.activation);
+        if self
+            .contact_pattern
+            .as_ref()
+            .is_some_and(|p| p.covers(&self.dofs, &needed))
+        {
+            return false;
+        }
+        let reach = (1.0 + super::contact_pattern::PATTERN_REACH) * c.activation;
+        let couplings = c.couplings(x, x_end, reach);
+        self.contact_pattern = Some(ContactPattern::new(
+            &self.assembler.hessian_template(),
+            &self.dofs,
+            &couplings,
+        ));
+        self.contact_pattern_rebuilds += 1;
+        true
     }
 
     /// Free dofs (Newton's unknowns) of positions `x` (m) and edge angles `phi` (rad, one per

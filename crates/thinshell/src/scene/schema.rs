@@ -67,7 +67,7 @@ pub struct ContactSpec {
     /// Activation distance d̂ in m (default: 0.1 × the mesh's mean edge length).
     #[serde(default)]
     pub distance: Option<f64>,
-    /// Barrier stiffness κ in J/m² (default: E·h).
+    /// A fixed barrier stiffness κ in J/m² (default: adaptive, model.md §7).
     #[serde(default)]
     pub stiffness: Option<f64>,
     /// Keep the shell from passing through itself (default true).
@@ -87,11 +87,12 @@ fn default_true() -> bool {
 }
 
 /// One rigid obstacle: `kind = "plane"` with `point` and `normal` (the shell stays on the
-/// normal's side), or `kind = "sphere"` with `center` and `radius` (m; the shell stays outside).
+/// normal's side), `kind = "sphere"` with `center` and `radius`, or `kind = "box"` with the
+/// corners `min` and `max` of an axis-aligned box (m; the shell stays outside both).
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ObstacleSpec {
-    /// `plane` or `sphere`.
+    /// `plane`, `sphere` or `box`.
     pub kind: ObstacleKind,
     /// A point of the plane (m).
     #[serde(default)]
@@ -105,6 +106,12 @@ pub struct ObstacleSpec {
     /// The sphere's radius (m).
     #[serde(default)]
     pub radius: Option<f64>,
+    /// The box's lower corner (m).
+    #[serde(default)]
+    pub min: Option<[f64; 3]>,
+    /// The box's upper corner (m).
+    #[serde(default)]
+    pub max: Option<[f64; 3]>,
 }
 
 /// The shape of an obstacle.
@@ -115,6 +122,8 @@ pub enum ObstacleKind {
     Plane,
     /// A ball.
     Sphere,
+    /// An axis-aligned box.
+    Box,
 }
 
 /// A physical effect a scene can switch on.
@@ -717,6 +726,10 @@ pub enum HessianSpec {
     /// (`thinshell_solver::HessianPolicy::Adaptive`).
     #[default]
     Adaptive,
+    /// The adaptive policy as it was before issue #26: Gauss–Newton wherever the exact Hessian
+    /// is indefinite, no trust-region steps, no saddle escape
+    /// (`thinshell_solver::HessianPolicy::AdaptivePsd`; for comparisons).
+    AdaptivePsd,
     /// Exact second derivatives throughout (regularised when not positive definite).
     Exact,
     /// Gauss–Newton (positive semidefinite).
@@ -780,7 +793,7 @@ pub struct NewtonSpec {
     /// Add μI after a failed Cholesky (default true).
     #[serde(default)]
     pub regularization: Option<bool>,
-    /// `adaptive` (default), `exact`, `gauss_newton`, `projected`.
+    /// `adaptive` (default), `adaptive_psd`, `exact`, `gauss_newton`, `projected`.
     #[serde(default)]
     pub hessian: HessianSpec,
     /// Reuse the last Cholesky factor as the preconditioner of CG while it converges quickly

@@ -135,31 +135,26 @@ fn contact(s: &SceneFile, on: bool) -> Check {
     }
     for (i, o) in c.obstacles.iter().enumerate() {
         let key = format!("contact.obstacles[{i}]");
-        // (key, given) pairs that this kind needs and that it must not have.
-        type Keys<'a> = [(&'a str, bool); 2];
-        let (needed, forbidden): (Keys, Keys) = match o.kind {
-            ObstacleKind::Plane => (
-                [("point", o.point.is_some()), ("normal", o.normal.is_some())],
-                [
-                    ("center", o.center.is_some()),
-                    ("radius", o.radius.is_some()),
-                ],
-            ),
-            ObstacleKind::Sphere => (
-                [
-                    ("center", o.center.is_some()),
-                    ("radius", o.radius.is_some()),
-                ],
-                [("point", o.point.is_some()), ("normal", o.normal.is_some())],
-            ),
+        let given = [
+            ("point", o.point.is_some()),
+            ("normal", o.normal.is_some()),
+            ("center", o.center.is_some()),
+            ("radius", o.radius.is_some()),
+            ("min", o.min.is_some()),
+            ("max", o.max.is_some()),
+        ];
+        let needed: [&str; 2] = match o.kind {
+            ObstacleKind::Plane => ["point", "normal"],
+            ObstacleKind::Sphere => ["center", "radius"],
+            ObstacleKind::Box => ["min", "max"],
         };
-        for (name, given) in needed {
-            if !given {
+        for (name, g) in given {
+            if needed.contains(&name) && !g {
                 return Err(problem(&key, format!("this obstacle needs `{name}`")));
             }
         }
-        for (name, given) in forbidden {
-            if given {
+        for (name, g) in given {
+            if g && !needed.contains(&name) {
                 return Err(problem(
                     format!("{key}.{name}"),
                     "not a key of this obstacle kind",
@@ -170,6 +165,8 @@ fn contact(s: &SceneFile, on: bool) -> Check {
             ("point", o.point),
             ("normal", o.normal),
             ("center", o.center),
+            ("min", o.min),
+            ("max", o.max),
         ] {
             if let Some(v) = v {
                 finite_all(&format!("{key}.{name}"), &v)?;
@@ -182,6 +179,14 @@ fn contact(s: &SceneFile, on: bool) -> Check {
         }
         if let Some(r) = o.radius {
             positive(&format!("{key}.radius"), r)?;
+        }
+        if let (Some(lo), Some(hi)) = (o.min, o.max)
+            && (0..3).any(|k| lo[k] >= hi[k])
+        {
+            return Err(problem(
+                format!("{key}.max"),
+                format!("must exceed `min` on every axis (min {lo:?}, max {hi:?})"),
+            ));
         }
     }
     Ok(())

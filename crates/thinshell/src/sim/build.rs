@@ -329,6 +329,7 @@ impl Simulation {
         let nw = &it.newton;
         let (hessian_mode, policy) = match nw.hessian {
             HessianSpec::Adaptive => (HessianMode::Exact, HessianPolicy::Adaptive),
+            HessianSpec::AdaptivePsd => (HessianMode::Exact, HessianPolicy::AdaptivePsd),
             HessianSpec::Exact => (HessianMode::Exact, HessianPolicy::Fixed),
             HessianSpec::GaussNewton => (HessianMode::GaussNewton, HessianPolicy::Fixed),
             HessianSpec::Projected => (HessianMode::ProjectedPsd, HessianPolicy::Fixed),
@@ -480,6 +481,10 @@ fn contact_settings(spec: Option<&ContactSpec>) -> ContactSettings {
             ObstacleKind::Sphere => Obstacle::Sphere {
                 center: v3(&o.center.unwrap_or_default()),
                 radius: o.radius.unwrap_or(1.0),
+            },
+            ObstacleKind::Box => Obstacle::Box {
+                min: v3(&o.min.unwrap_or_default()),
+                max: v3(&o.max.unwrap_or([1.0; 3])),
             },
         })
         .collect();

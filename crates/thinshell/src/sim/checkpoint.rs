@@ -19,7 +19,12 @@
 //! edge angles, the energy terms of the current state, the rest forms ā and b̄ (4 entries per
 //! face each), the lumped masses, the growth state (stimulus field numbers, stale flags, rest
 //! updates; a presence byte first) and the regularisation memory of the integrator's Newton
-//! solves. The file is written with [`crate::atomic::write_atomic`].
+//! solves; then, only for a scene with the `contact` effect, its run state (a `u64` 1, κ, the
+//! adaptive stiffness's flag and last gap, the approximated-pair and pattern-rebuild counters,
+//! and the couplings of the widened Hessian pattern: a presence `u64`, then the vertex pairs
+//! as an f64 vector). A contact scene's checkpoint without that section (an earlier version)
+//! restores with a fresh contact state. The file is written with
+//! [`crate::atomic::write_atomic`].
 //!
 //! Everything else a simulation holds is rebuilt from the scene identically (mesh, energy
 //! terms, boundary conditions, settings, the symbolic factorisation), which is why a checkpoint
@@ -305,6 +310,7 @@ struct Saved {
     mass: Vec<f64>,
     growth: Option<GrowthState>,
     regularization_memory: f64,
+    contact: Option<thinshell_solver::ContactRunState>,
 }
 
 fn vectors(v: &[Vector3<f64>]) -> impl ExactSizeIterator<Item = f64> + '_ {
@@ -351,6 +357,22 @@ impl Simulation {
             }
         }
         w.f64(self.integrator.carried_state());
+        // Only with contact: the payload of a scene without it is as before.
+        if let Some(c) = self.system.contact_run_state() {
+            w.u64(1);
+            w.f64(c.stiffness);
+            w.u64(u64::from(c.adaptive_initialised));
+            w.f64(c.adaptive_last_gap);
+            w.u64(c.approximated_pairs as u64);
+            w.u64(c.pattern_rebuilds as u64);
+            match &c.pattern_couplings {
+                None => w.u64(0),
+                Some(p) => {
+                    w.u64(1);
+                    w.f64s((0..2 * p.len()).map(|i| p[i / 2][i % 2] as f64));
+                }
+            }
+        }
         let payload = w.0;
         let mut out = Vec::with_capacity(HEADER_LEN + payload.len());
         out.extend_from_slice(&MAGIC);
@@ -427,6 +449,13 @@ impl Simulation {
         if let Err(e) = self.system.set_load_factor(saved.system_load_factor) {
             let _ = self.system.set_mass(old_mass);
             return Err(mismatch(format!("load factor: {e}")));
+        }
+        if let Some(c) = &saved.contact
+            && let Err(e) = self.system.restore_contact_run_state(c)
+        {
+            let _ = self.system.set_load_factor(old_lf);
+            let _ = self.system.set_mass(old_mass);
+            return Err(mismatch(format!("contact: {e}")));
         }
         if let (Some(g), Some(s)) = (&mut self.growth, &saved.growth) {
             let before = g.save_state();
@@ -536,6 +565,41 @@ impl Simulation {
             }
         };
         let regularization_memory = r.f64()?;
+        // Absent from checkpoints of scenes without contact and of earlier versions (a
+        // contact scene then restarts its contact state).
+        let contact = if r.rest.is_empty() {
+            None
+        } else {
+            if r.u64()? != 1 || self.system.contact.is_none() {
+                return Err(r.mismatch("a contact state, the scene has no contact"));
+            }
+            let stiffness = r.f64()?;
+            let adaptive_initialised = r.u64()? != 0;
+            let adaptive_last_gap = r.f64()?;
+            let approximated_pairs = r.usize()?;
+            let pattern_rebuilds = r.usize()?;
+            let pattern_couplings = match r.u64()? {
+                0 => None,
+                _ => {
+                    let flat = r.f64s()?;
+                    // Written from vertex indices, so exact integers in f64.
+                    let idx = |v: f64| v as usize;
+                    Some(
+                        flat.chunks_exact(2)
+                            .map(|p| [idx(p[0]), idx(p[1])])
+                            .collect(),
+                    )
+                }
+            };
+            Some(thinshell_solver::ContactRunState {
+                stiffness,
+                adaptive_initialised,
+                adaptive_last_gap,
+                approximated_pairs,
+                pattern_rebuilds,
+                pattern_couplings,
+            })
+        };
         if !r.rest.is_empty() {
             return Err(r.mismatch(format!("{} unread payload bytes", r.rest.len())));
         }
@@ -560,6 +624,7 @@ impl Simulation {
             mass,
             growth,
             regularization_memory,
+            contact,
         })
     }
 }

@@ -32,7 +32,7 @@ pub use build::BuildError;
 pub use checkpoint::{
     CHECKPOINT_VERSION, CheckpointError, CheckpointInfo, read_checkpoint_info, scene_hash,
 };
-pub use path::{Monitor, PathRecord, csv_extra_header, csv_extra_row};
+pub use path::{Monitor, PathRecord};
 pub use rest_edit::RestEditError;
 
 use crate::scene::schema::{Effect, IntegratorKind, LoadRamp};
@@ -97,11 +97,18 @@ pub struct StepRecord {
     /// Newton steps tried and rejected (not in `newton_iterations`; they count against the
     /// iteration limit).
     pub rejected_steps: usize,
-    /// Static steps: whether the equilibrium is a minimum (exact Hessian positive definite);
-    /// `false` is a saddle or maximum. `None` for dynamic steps.
+    /// Static steps: whether the equilibrium is a minimum (smallest eigenvalue of the exact
+    /// Hessian positive); `false` is a saddle or maximum. `None` for dynamic steps.
     pub stable: Option<bool>,
+    /// Static steps: that smallest eigenvalue, relative to each unknown's own stiffness
+    /// (`thinshell_solver::Stability`); it crosses 0 at a critical load. `None` for dynamic
+    /// steps.
+    pub min_eigenvalue: Option<f64>,
     /// Path-following steps (`[path]`): the step's path quantities; `None` otherwise.
     pub path: Option<PathRecord>,
+    /// Scenes with the `contact` effect: the contact term at the end of the step; `None`
+    /// otherwise.
+    pub contact: Option<ContactRecord>,
     /// Numeric factorisations of the step's Newton solve (issue #17: fewer with
     /// `integrator.newton.reuse_factor`).
     pub factorizations: usize,
@@ -128,6 +135,86 @@ pub struct StepRecord {
     /// Of which: everything else (set-up, stability check, energies, vector work), s: the
     /// remainder, so that the parts sum to `wall_s`.
     pub other_s: f64,
+}
+
+/// The contact term at the end of a step (the `contact_*` columns of `steps.csv`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct ContactRecord {
+    /// Pairs with a gap below d̂ (self pairs and vertex–obstacle pairs).
+    pub active_pairs: usize,
+    /// The smallest gap between surfaces (m; thickness offsets subtracted) over the active
+    /// self pairs and every vertex–obstacle pair; `None` when there is neither.
+    pub min_gap: Option<f64>,
+    /// Barrier energy κ Σ b (J), not in `energy` (which holds the shell's terms).
+    pub energy: f64,
+    /// Self pairs of the step's last Newton Hessian that entered block-diagonally because
+    /// their couplings were outside the Hessian pattern (0: the Hessian was exact).
+    pub approximated_pairs: usize,
+    /// Rebuilds of the self-contact Hessian pattern so far.
+    pub pattern_rebuilds: usize,
+}
+
+impl From<thinshell_solver::ContactStats> for ContactRecord {
+    fn from(s: thinshell_solver::ContactStats) -> Self {
+        ContactRecord {
+            active_pairs: s.active_pairs,
+            min_gap: s.min_gap.is_finite().then_some(s.min_gap),
+            energy: s.energy,
+            approximated_pairs: s.approximated_pairs,
+            pattern_rebuilds: s.pattern_rebuilds,
+        }
+    }
+}
+
+/// The contact term over a run (`summary.json`'s `contact`; kept in checkpoints).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+pub struct ContactTotals {
+    /// The most active pairs of any step.
+    pub max_active_pairs: usize,
+    /// The smallest gap of any step's end state (m; `None` while no pair was a candidate).
+    pub min_gap_m: Option<f64>,
+    /// Steps whose last Newton Hessian approximated some self pairs.
+    pub approximated_steps: usize,
+    /// Rebuilds of the self-contact Hessian pattern (of the last step counted).
+    pub pattern_rebuilds: usize,
+}
+
+impl ContactTotals {
+    /// Counts one step.
+    pub fn add(&mut self, c: &ContactRecord) {
+        self.max_active_pairs = self.max_active_pairs.max(c.active_pairs);
+        self.min_gap_m = match (self.min_gap_m, c.min_gap) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+        self.approximated_steps += usize::from(c.approximated_pairs > 0);
+        self.pattern_rebuilds = c.pattern_rebuilds;
+    }
+}
+
+/// The `steps.csv` columns after the common ones: a path-following run's (see
+/// `path.rs`), then, with the `contact` effect, `contact_pairs`, `contact_min_gap_m` (empty
+/// without active self pairs and obstacles), `contact_energy_J`, `contact_approximated_pairs` and
+/// `contact_pattern_rebuilds`. Empty or starting with a comma.
+pub fn csv_extra_header(sim: &Simulation) -> String {
+    let mut h = path::path_csv_header(sim);
+    if sim.system().contact.is_some() {
+        h += ",contact_pairs,contact_min_gap_m,contact_energy_J,contact_approximated_pairs,contact_pattern_rebuilds";
+    }
+    h
+}
+
+/// The values of [`csv_extra_header`]'s columns for one step.
+pub fn csv_extra_row(r: &StepRecord) -> String {
+    let mut row = path::path_csv_row(r);
+    if let Some(c) = &r.contact {
+        let gap = c.min_gap.map(|g| format!("{g:e}")).unwrap_or_default();
+        row += &format!(
+            ",{},{gap},{:e},{},{}",
+            c.active_pairs, c.energy, c.approximated_pairs, c.pattern_rebuilds
+        );
+    }
+    row
 }
 
 impl StepRecord {
@@ -536,6 +623,8 @@ impl Simulation {
         }
         record.growth_s = secs(growth_time);
         record.stable = report.stable;
+        record.contact = report.contact.map(ContactRecord::from);
+        record.min_eigenvalue = report.stability.as_ref().map(|s| s.min_eigenvalue);
         record.wall_s = secs(start.elapsed());
         record.other_s = record.wall_s
             - (record.assembly_s

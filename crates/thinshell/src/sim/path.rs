@@ -238,7 +238,7 @@ impl Simulation {
 /// `negative_eigenvalues` (of the Hessian at fixed load; empty where singular),
 /// `load_increment`, `step_length`, `cutbacks`, `potential_J` and one `u_<vertex>_<axis>_m`
 /// per monitored coordinate. Empty or starting with a comma.
-pub fn csv_extra_header(sim: &Simulation) -> String {
+pub(crate) fn path_csv_header(sim: &Simulation) -> String {
     if !sim.is_path_following() {
         return String::new();
     }
@@ -252,9 +252,9 @@ pub fn csv_extra_header(sim: &Simulation) -> String {
     h
 }
 
-/// The values of [`csv_extra_header`]'s columns for one step (empty or starting with a
+/// The values of [`path_csv_header`]'s columns for one step (empty or starting with a
 /// comma).
-pub fn csv_extra_row(r: &StepRecord) -> String {
+pub(crate) fn path_csv_row(r: &StepRecord) -> String {
     let Some(p) = &r.path else {
         return String::new();
     };

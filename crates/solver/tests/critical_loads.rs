@@ -1,0 +1,165 @@
+//! Issue #26: critical loads from the stability report — the smallest eigenvalue of the exact,
+//! unshifted Hessian at the pre-buckling equilibrium ([`Static::stability`]) crosses zero at the
+//! critical load — with the default form and default settings, against analytic values.
+#![allow(clippy::unwrap_used)]
+
+use nalgebra::Vector3;
+use thinshell_energy::{Material, MaterialModel, RestState, SffKind, ShellModel, Terms};
+use thinshell_mesh::{VertexId, generators};
+use thinshell_solver::{Boundary, Integrator, Loads, ShellSystem, Stability, State, Static};
+
+const LENGTH: f64 = 1.0;
+const WIDTH: f64 = 0.05;
+const THICKNESS: f64 = 0.002;
+const YOUNG: f64 = 1e9;
+
+/// Euler's load of the pinned–pinned strut, π²EI/L² with I = b h³/12 (ν = 0, so that the
+/// strip's bending stiffness D·b equals EI whatever its width).
+fn euler_load() -> f64 {
+    std::f64::consts::PI.powi(2) * YOUNG * WIDTH * THICKNESS.powi(3) / 12.0 / LENGTH.powi(2)
+}
+
+/// A flat rectangle `length × width` along x (`nx × ny` cells) under the axial end load `p`
+/// (N, compressive, on the x = `length` edge), both ends held in z (free to rotate about
+/// them), the x = 0 end also in x, one corner in y; `sides`: the long edges held in z too
+/// (a plate simply supported on all four edges). Returns the stability of its flat
+/// equilibrium.
+fn compressed_stability(
+    length: f64,
+    width: f64,
+    nx: usize,
+    ny: usize,
+    poisson: f64,
+    sides: bool,
+    p: f64,
+) -> Stability {
+    let mesh = generators::rectangle(length, width, nx, ny).unwrap();
+    let x0 = mesh.positions().to_vec();
+    let sff = SffKind::default();
+    let rest = RestState::from_mesh(&mesh, &x0, sff).unwrap();
+    let vertex = |i: usize, j: usize| VertexId::new(j * (nx + 1) + i);
+    let mut pinned = vec![(vertex(0, 0), 1)];
+    let mut forces = Vec::new();
+    for j in 0..=ny {
+        pinned.push((vertex(0, j), 0));
+        pinned.push((vertex(0, j), 2));
+        pinned.push((vertex(nx, j), 2));
+        // The end load spread evenly over the end edge (half shares at its corners).
+        let share = if j == 0 || j == ny { 0.5 } else { 1.0 } / ny as f64;
+        forces.push((vertex(nx, j), Vector3::new(-p * share, 0.0, 0.0)));
+    }
+    if sides {
+        for i in 1..nx {
+            pinned.push((vertex(i, 0), 2));
+            pinned.push((vertex(i, ny), 2));
+        }
+    }
+    let boundary = Boundary {
+        pinned_coordinates: pinned,
+        ..Boundary::default()
+    };
+    let loads = Loads {
+        point_forces: forces,
+        ..Loads::default()
+    };
+    let material = Material {
+        thickness: THICKNESS,
+        young: YOUNG,
+        poisson,
+        density: 1000.0,
+        viscosity: 0.0,
+        model: MaterialModel::StVK,
+    };
+    let model = ShellModel {
+        material,
+        terms: Terms::ELASTIC,
+        sff,
+    };
+    let mut sys = ShellSystem::new(mesh, model, rest, boundary, loads).unwrap();
+    let mut state = State::at_rest(x0);
+    // The flat (fundamental) equilibrium also past the critical load: that is the state
+    // whose stability brackets the critical load, so it is kept even where it is a saddle.
+    let mut solver = Static::default();
+    solver.newton.escape_saddles = false;
+    let report = solver.step(&mut sys, &mut state).unwrap();
+    let lateral = state.x.iter().fold(0.0f64, |m, x| m.max(x.z.abs()));
+    assert!(lateral < 1e-9, "the plate left the flat state: {lateral} m");
+    let stability = report.stability.unwrap();
+    assert_eq!(
+        stability.rigid_modes, 0,
+        "the supports hold every rigid motion"
+    );
+    assert_eq!(report.stable, Some(stability.stable));
+    stability
+}
+
+/// The strut: a strip 1 m × 5 cm, ν = 0, pinned–pinned.
+fn strut_stability(nx: usize, ny: usize, p: f64) -> Stability {
+    compressed_stability(LENGTH, WIDTH, nx, ny, 0.0, false, p)
+}
+
+/// The load where the smallest eigenvalue crosses zero, interpolated between `lo` and `hi`
+/// times Euler's load.
+fn critical_load(stability: impl Fn(f64) -> Stability, p_ref: f64, lo: f64, hi: f64) -> f64 {
+    let a = stability(lo * p_ref).min_eigenvalue;
+    let b = stability(hi * p_ref).min_eigenvalue;
+    assert!(
+        a > 0.0 && b < 0.0,
+        "no sign change: {a:e} at {lo}, {b:e} at {hi}"
+    );
+    p_ref * (lo + (hi - lo) * a / (a - b))
+}
+
+#[test]
+fn euler_strut_critical_load_converges_under_refinement() {
+    let p_e = euler_load();
+    let mut errors = Vec::new();
+    for (nx, ny) in [(16, 1), (32, 2), (64, 4)] {
+        let p = critical_load(|p| strut_stability(nx, ny, p), p_e, 0.98, 1.02);
+        let err = p / p_e - 1.0;
+        println!("strut {nx} x {ny}: P_cr = {p:.6e} N (Euler {p_e:.6e} N), error {err:+.3e}");
+        errors.push(err.abs());
+    }
+    // Observed (2026-12-02): −6.3e-3, −1.4e-3, −3.3e-4: orders 2.2 and 2.05.
+    let orders: Vec<f64> = errors.windows(2).map(|e| (e[0] / e[1]).log2()).collect();
+    println!("observed orders {orders:.2?}");
+    assert!(errors[2] < 0.03 * 0.1, "{errors:?}");
+    assert!(orders.iter().all(|&q| q > 1.8), "{orders:?}");
+    // Bracketed within 1 %: stable just below Euler's load, unstable just above.
+    let below = strut_stability(32, 2, 0.99 * p_e);
+    let above = strut_stability(32, 2, 1.01 * p_e);
+    assert!(
+        below.stable && !above.stable,
+        "{} {}",
+        below.min_eigenvalue,
+        above.min_eigenvalue
+    );
+}
+
+#[test]
+fn simply_supported_plate_critical_compression_converges_under_refinement() {
+    // A square plate a = 0.2 m, h = 2 mm, ν = 0.3, simply supported on its four edges, the
+    // loaded edge free to move in x and the sides free in plane: uniaxial N_x = P/a until it
+    // buckles into one half wave each way at N_cr = 4π²D/a² (Timoshenko & Gere §9.2).
+    let a = 0.2;
+    let nu = 0.3;
+    let d = YOUNG * THICKNESS.powi(3) / (12.0 * (1.0 - nu * nu));
+    let p_ref = 4.0 * std::f64::consts::PI.powi(2) * d / (a * a) * a;
+    let mut errors = Vec::new();
+    for n in [8, 16, 32] {
+        let p = critical_load(
+            |p| compressed_stability(a, a, n, n, nu, true, p),
+            p_ref,
+            0.9,
+            1.1,
+        );
+        let err = p / p_ref - 1.0;
+        println!("plate {n} x {n}: P_cr = {p:.6e} N (4π²D/a²·a = {p_ref:.6e} N), error {err:+.3e}");
+        errors.push(err.abs());
+    }
+    // Observed (2026-12-02): −6.6e-2, −1.8e-2, −4.7e-3: orders 1.91 and 1.90.
+    let orders: Vec<f64> = errors.windows(2).map(|e| (e[0] / e[1]).log2()).collect();
+    println!("observed orders {orders:.2?}");
+    assert!(errors[2] < 0.01, "{errors:?}");
+    assert!(orders.iter().all(|&q| q > 1.8), "{orders:?}");
+}
