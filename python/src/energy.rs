@@ -311,6 +311,7 @@ where
     let with_angles = *n_angles > 0;
     let n_positions = 3 * mesh.n_vertices();
     let stencils = Stencils::new(mesh);
+    let director = N == thinshell_energy::DIRECTOR_DOFS;
     let want = Want {
         gradient: false,
         hessian: Some(HessianMode::Exact),
@@ -340,9 +341,13 @@ where
         let global = |l: usize| -> Option<usize> {
             if l < 18 {
                 let s = l / 3;
-                stencils
-                    .slot_present(f, s)
-                    .then(|| 3 * stencils.vertices(f)[s].idx() + l % 3)
+                // The edge-director forms also read the outer vertices of free-edge fits.
+                let present = if director {
+                    stencils.slot_present_director(f, s)
+                } else {
+                    stencils.slot_present(f, s)
+                };
+                present.then(|| 3 * stencils.vertices(f)[s].idx() + l % 3)
             } else {
                 with_angles.then(|| n_positions + stencils.edges(f)[l - 18].idx())
             }

@@ -25,6 +25,8 @@ fn stencil() -> FaceStencil {
             p(0.06, -0.09),
         ],
         flap: [true; 3],
+        ghost: [false; 3],
+        clamp: [None; 3],
         angles: EdgeAngles {
             phi: [0.05, -0.1, 0.02],
             sigma: [1.0, -1.0, 1.0],

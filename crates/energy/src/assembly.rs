@@ -517,6 +517,33 @@ impl Assembler {
         Ok(())
     }
 
+    /// Clamps the boundary edges `edges` for the edge-director forms (model.md §1.3): their
+    /// directors stay where they are at the reference positions `x_ref` (m); see
+    /// [`Stencils::set_clamped_edges`]. Without an edge-director form the clamp acts through
+    /// held vertices only and this is a no-op apart from the checks. Errors on an edge out of
+    /// range or a wrong length of `x_ref`.
+    pub fn clamp_edges(
+        &mut self,
+        edges: &[thinshell_mesh::EdgeId],
+        x_ref: &[Vector3<f64>],
+    ) -> Result<(), EnergyError> {
+        self.stencils.set_clamped_edges(edges, x_ref)
+    }
+
+    /// Kelvin–Voigt damping forms of the configuration (`x_prev` m, `phi_prev` rad or empty)
+    /// at the start of a step of `dt` s, as [`DampingState::from_configuration`] but through
+    /// this assembler's stencils, so that clamped edges (model.md §1.3) enter b^prev as they
+    /// enter b. Same errors.
+    pub fn damping_state(
+        &self,
+        x_prev: &[Vector3<f64>],
+        phi_prev: &[f64],
+        sff: SffKind,
+        dt: f64,
+    ) -> Result<DampingState, EnergyError> {
+        DampingState::with_stencils(&self.stencils, x_prev, phi_prev, sff, dt)
+    }
+
     /// Per-face energies (J) of the last evaluation, in face order.
     pub fn face_energies(&self) -> &[EnergyTerms] {
         &self.energies

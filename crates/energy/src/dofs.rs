@@ -74,7 +74,8 @@ impl DofMap {
     }
 
     /// Adds one angle unknown per edge (`n_edges` edges, coordinates `3·n_vertices + e`), free
-    /// except for the edges in `fixed` (e.g. clamped edges, whose angle stays 0). Replaces any
+    /// except for the edges in `fixed` (e.g. clamped edges, whose angle stays 0; a solver also
+    /// fixes [`crate::fitted_free_edges`], whose angles do not enter the energy). Replaces any
     /// edge unknowns the map had. Errors with [`EnergyError::InvalidEdge`] on an edge
     /// `≥ n_edges`.
     pub fn with_edges(

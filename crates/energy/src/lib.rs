@@ -112,7 +112,7 @@ pub use sff::{
 };
 pub use shell::ShellModel;
 pub use stencil::{EdgeAngles, FaceStencil, edge_signs};
-pub use stencils::Stencils;
+pub use stencils::{Stencils, fitted_free_edges};
 
 // The linear-algebra crates of the public types (nalgebra vectors and forms, faer sparse
 // matrices), re-exported so that a dependent crate uses the same versions and features.

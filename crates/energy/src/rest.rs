@@ -32,9 +32,19 @@ fn forms_of(
     phi: &[f64],
     sff: SffKind,
 ) -> Result<RestState, EnergyError> {
-    check_len("positions", mesh.n_vertices(), x.len())?;
+    forms_with(&Stencils::new(mesh), x, phi, sff)
+}
+
+/// [`forms_of`] with given stencils (which may carry clamps, model.md §1.3).
+fn forms_with(
+    stencils: &Stencils,
+    x: &[Vector3<f64>],
+    phi: &[f64],
+    sff: SffKind,
+) -> Result<RestState, EnergyError> {
+    check_len("positions", stencils.n_vertices(), x.len())?;
     if !phi.is_empty() {
-        check_len("edge angles", mesh.n_edges(), phi.len())?;
+        check_len("edge angles", stencils.n_edges(), phi.len())?;
         if let Some(e) = phi.iter().position(|p| !p.is_finite()) {
             return Err(EnergyError::InvalidParameter {
                 name: "edge angle",
@@ -48,10 +58,9 @@ fn forms_of(
             vertex: VertexId::new(v),
         });
     }
-    let stencils = Stencils::new(mesh);
-    let mut a = Vec::with_capacity(mesh.n_faces());
-    let mut b = Vec::with_capacity(mesh.n_faces());
-    for f in 0..mesh.n_faces() {
+    let mut a = Vec::with_capacity(stencils.n_faces());
+    let mut b = Vec::with_capacity(stencils.n_faces());
+    for f in 0..stencils.n_faces() {
         let st = stencils.stencil(f, x);
         a.push(first_fundamental_form(&[st.x[0], st.x[1], st.x[2]]));
         let st = if phi.is_empty() {
@@ -170,6 +179,18 @@ impl DampingState {
         sff: SffKind,
         dt: f64,
     ) -> Result<DampingState, EnergyError> {
+        Self::with_stencils(&Stencils::new(mesh), x_prev, phi_prev, sff, dt)
+    }
+
+    /// [`DampingState::from_configuration`] with given stencils: those of an assembler, whose
+    /// clamps (model.md §1.3) then enter b^prev as they enter b.
+    pub(crate) fn with_stencils(
+        stencils: &Stencils,
+        x_prev: &[Vector3<f64>],
+        phi_prev: &[f64],
+        sff: SffKind,
+        dt: f64,
+    ) -> Result<DampingState, EnergyError> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(EnergyError::InvalidParameter {
                 name: "dt",
@@ -180,7 +201,7 @@ impl DampingState {
         let RestState {
             a_bar: a_prev,
             b_bar: b_prev,
-        } = forms_of(mesh, x_prev, phi_prev, sff)?;
+        } = forms_with(stencils, x_prev, phi_prev, sff)?;
         for (f, a) in a_prev.iter().enumerate() {
             if let Err(reason) = form_problem(a, true) {
                 return Err(EnergyError::InvalidRestForm {

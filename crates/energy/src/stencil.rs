@@ -16,24 +16,37 @@ pub struct EdgeAngles {
 }
 
 /// One face's stencil. `x[0..3]`: face vertices in stored order; `x[3 + e]`: flap vertex across
-/// local edge e (the edge opposite local vertex e), ignored when `!flap[e]`; `angles`: the
-/// face's edge angles (read only by forms with edge unknowns, [`crate::EdgeDirector`]).
+/// local edge e (the edge opposite local vertex e), or on a free edge (`!flap[e]`) the vertex
+/// of the free-edge fit when `ghost[e]` (read only by [`crate::EdgeDirector`], model.md §1.2),
+/// else ignored; `angles`: the face's edge angles (read only by forms with edge unknowns).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FaceStencil {
     /// Stencil positions (m).
     pub x: [Vector3<f64>; 6],
     /// `flap[e]`: edge e is interior (has a flap vertex).
     pub flap: [bool; 3],
+    /// `ghost[e]` (only where `!flap[e]`): edge e is a free edge whose director is extrapolated
+    /// from the quadratic through the six stencil points, `x[3 + e]` being a nearby mesh
+    /// vertex; its edge angle is then not an unknown. All false: free edges keep a free
+    /// director angle (the previous, first-order treatment).
+    pub ghost: [bool; 3],
+    /// `clamp[e]` (only where `!flap[e]`): the prescribed unit director (dimensionless, fixed in
+    /// space) of clamped edge e, model.md §1.3; takes precedence over `ghost[e]`, whose outer
+    /// vertex then still serves the fit of the face's other free edges.
+    pub clamp: [Option<Vector3<f64>>; 3],
     /// Edge angles and orientation signs of the face's three edges.
     pub angles: EdgeAngles,
 }
 
 impl FaceStencil {
-    /// A stencil with all edge angles 0 (and signs 0: the angles are not unknowns).
+    /// A stencil with all edge angles 0 (and signs 0: the angles are not unknowns) and no
+    /// free-edge fit.
     pub fn new(x: [Vector3<f64>; 6], flap: [bool; 3]) -> FaceStencil {
         FaceStencil {
             x,
             flap,
+            ghost: [false; 3],
+            clamp: [None; 3],
             angles: EdgeAngles::default(),
         }
     }

@@ -1568,9 +1568,13 @@ pub fn newton_solve<O: Objective + ?Sized>(
     // it is not a saddle (leave it along negative curvature and go on if it is).
     // A step along the most negative curvature of the own Hessian, while escapes are allowed
     // (`escape_saddle`; `$known`: the Hessian in `ws` is the own one at x, known indefinite);
-    // when it moves, the loop goes on from the new point with the shift found there.
+    // when it moves, the Newton loop goes on from the new point with the shift found there:
+    // `continue 'newton` (the label is passed in: macro hygiene), not the innermost loop.
+    // From inside the line search a bare `continue` retried the stale direction and slope of
+    // the point before the escape, whose round-off test then passed at once: a false
+    // convergence far from equilibrium (robustness.md, issue #26 item 6).
     macro_rules! leave_saddle {
-        ($known:expr) => {
+        ($newton:lifetime, $known:expr) => {
             if escape && escapes < MAX_ESCAPES {
                 escapes += 1;
                 if let Some(fe) = escape_saddle(
@@ -1589,15 +1593,15 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     f = fe;
                     pd_floor = sigma;
                     try_own = true;
-                    continue;
+                    continue $newton;
                 }
             }
         };
     }
     macro_rules! converged {
-        ($c:expr) => {{
+        ($newton:lifetime, $c:expr) => {{
             if met_indefinite {
-                leave_saddle!(false);
+                leave_saddle!($newton, false);
             }
             return Ok(rec.report(iteration, $c));
         }};
@@ -1611,12 +1615,12 @@ pub fn newton_solve<O: Objective + ?Sized>(
     let mut watch: Option<Watch> = None;
     let mut watch_allowed = true;
 
-    loop {
+    'newton: loop {
         if watch.is_none()
             && gradient_test
             && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
         {
-            converged!(Convergence::Gradient);
+            converged!('newton, Convergence::Gradient);
         }
         if ws
             .cancel
@@ -1693,7 +1697,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 // set by the shift that keeps H + σS positive definite, not by the model:
                 // move along the negative curvature as far as f keeps decreasing.
                 want_escape = false;
-                leave_saddle!(true);
+                leave_saddle!('newton, true);
             }
             direction = shifted_direction(ws, Some(shift_start), &mut rec)?;
             if let Some((o, _)) = direction {
@@ -1721,7 +1725,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     met_indefinite = true;
                     // First leave along negative curvature (a saddle or an indefinite
                     // region is near: shifted steps would only creep along that direction).
-                    leave_saddle!(true);
+                    leave_saddle!('newton, true);
                     direction = shifted_direction(ws, None, &mut rec)?;
                     if let Some((o, _)) = direction {
                         kind = IterationHessian::Shifted;
@@ -1845,7 +1849,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             let dx_max = norm_inf(&ws.dx);
             rec.corrections.push(dx_max / length_scale);
             if dx_max <= step_limit {
-                converged!(Convergence::Step);
+                converged!('newton, Convergence::Step);
             }
             // Round-off: f cannot resolve the predicted decrease and the last step no longer
             // halved the gradient (while it does, Newton still makes progress on it).
@@ -1854,7 +1858,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 && n >= 2
                 && rec.residuals[n - 1] > 0.5 * rec.residuals[n - 2]
             {
-                converged!(Convergence::RoundOff);
+                converged!('newton, Convergence::RoundOff);
             }
         }
 
@@ -1875,12 +1879,12 @@ pub fn newton_solve<O: Objective + ?Sized>(
             if pred.is_nan() || pred <= WATCHDOG_MIN_DECREASE * rec.noise(f) {
                 // The shifted model promises nothing f can resolve: x is near a critical
                 // point of an indefinite Hessian. Leave it along negative curvature.
-                leave_saddle!(false);
+                leave_saddle!('newton, false);
                 // No lower point that way (or saddles are answers here): the unshifted Newton
                 // step, which converges to the critical point quadratically, and whose length
                 // is the convergence test.
                 match saddle_newton(objective, x, f, ws, &mut rec, step_limit)? {
-                    SaddleStep::Converged => converged!(Convergence::Step),
+                    SaddleStep::Converged => converged!('newton, Convergence::Step),
                     SaddleStep::Taken(f_t) => {
                         kind = IterationHessian::Own;
                         alpha = 1.0;
@@ -2008,7 +2012,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
                     // The unshifted Newton step predicts a decrease below the round-off of f and
                     // its full step is not distinguishable from x: x is at the round-off floor
                     // (typically a solve restarted at its own equilibrium), not stuck.
-                    converged!(Convergence::RoundOff);
+                    converged!('newton, Convergence::RoundOff);
                 }
                 if adaptive && kind == IterationHessian::Own {
                     // The own Hessian's quadratic model does not hold here (its full step fails
@@ -2187,7 +2191,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             if gradient_test
                 && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
             {
-                converged!(Convergence::Gradient);
+                converged!('newton, Convergence::Gradient);
             }
             let t = Instant::now();
             let solved = estimate_correction(ws, settings, &mut rec)?;
@@ -2209,7 +2213,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             };
             if est.is_finite() && est <= step_limit {
                 rec.corrections.push(est / length_scale);
-                converged!(Convergence::Step);
+                converged!('newton, Convergence::Step);
             }
         }
     }

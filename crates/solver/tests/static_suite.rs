@@ -264,8 +264,14 @@ fn disc_with_spherical_cap_rest_forms_becomes_the_cap() {
         let order = (c[k - 1] / c[k - 2]).ln() / (c[k - 2] / c[k - 3]).ln();
         println!("  corrections {c:?}, observed order {order:.2}");
         // c_{k+1} ≤ C c_k² with a moderate C for the last two pairs (the very last correction
-        // may sit at round-off, which caps the observed order).
+        // may sit at round-off, which caps the observed order: a correction below 1e-14, 100 ε
+        // of the O(1) shape, is round-off — the fitted free edges' dual-number derivatives
+        // leave the director forms' last correction at 1.7e-15 where the quadratic model
+        // predicts 6e-16).
         for j in [k - 2, k - 3] {
+            if c[j + 1] < 1e-14 {
+                continue;
+            }
             assert!(
                 c[j + 1] <= 1e4 * c[j] * c[j],
                 "{}: corrections {c:?}",

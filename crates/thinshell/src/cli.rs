@@ -81,7 +81,17 @@ pub fn describe(sim: &Simulation) -> String {
         n_coordinates,
         n_coordinates - sim.n_unknowns(),
         if n_angles > 0 {
-            format!(", including {n_angles} edge-director angles")
+            let dofs = sim.system().dofs();
+            let free_angles = dofs.n_free() - dofs.n_free_positions();
+            if free_angles == n_angles {
+                format!(", including {n_angles} edge-director angles")
+            } else {
+                // Free and clamped edges' directors are not unknowns (model.md §1.2-1.3).
+                format!(
+                    ", including {free_angles} edge-director angles (the other {} edges are free or clamped: their directors are not unknowns)",
+                    n_angles - free_angles
+                )
+            }
         } else {
             String::new()
         },

@@ -36,7 +36,9 @@ impl FaceEnergyDensity {
             },
             ..*sim.model()
         };
-        let assembler = Assembler::for_model(sim.mesh(), sim.system().dofs(), &model)
+        let assembler = sim
+            .system()
+            .assembler_for(&model)
             .map_err(|e| format!("energy densities: {e}"))?;
         Ok(FaceEnergyDensity { assembler, model })
     }

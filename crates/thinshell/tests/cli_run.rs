@@ -150,10 +150,11 @@ fn check_prints_what_would_be_simulated() {
     assert!(out.status.success());
     let s = String::from_utf8(out.stdout).unwrap();
     assert!(s.contains("effects: stretching, bending, inertia"), "{s}");
-    // The default bending form: 25 vertices, plus one director angle per edge (56).
+    // The default bending form: 25 vertices, plus one director angle per edge (56) except on
+    // the 16 free edges, whose directors are extrapolated (model.md §1.2).
     assert!(s.contains("bending (edge director tan)"), "{s}");
     assert!(
-        s.contains("unknowns: 131 (of 131 coordinates; 0 held), including 56 edge-director angles"),
+        s.contains("unknowns: 115 (of 131 coordinates; 16 held), including 40 edge-director angles (the other 16 edges are free or clamped"),
         "{s}"
     );
     // Damping is not listed, so it is not among the evaluated terms.

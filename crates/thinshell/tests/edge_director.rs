@@ -126,10 +126,21 @@ fn cylinder_patch_converges_with_edge_directors_on_irregular_meshes() {
 #[test]
 fn director_variants_start_with_zero_angles_and_keep_unknown_count() {
     let mesh = generators::irregular_rectangle(1.0, 1.0, 4, 3).unwrap();
-    for (sff, extra) in [
-        (SffKind::MidEdgeAverage, 0),
-        (SffKind::EdgeDirector(DirectorVariant::Sin), mesh.n_edges()),
-        (SffKind::EdgeDirector(DirectorVariant::Tan), mesh.n_edges()),
+    // Free edges with a fit have no angle unknown (model.md §1.2): one unknown per other edge.
+    let fitted = thinshell_energy::fitted_free_edges(&mesh).len();
+    assert!(fitted > 0);
+    for (sff, extra, angles) in [
+        (SffKind::MidEdgeAverage, 0, 0),
+        (
+            SffKind::EdgeDirector(DirectorVariant::Sin),
+            mesh.n_edges() - fitted,
+            mesh.n_edges(),
+        ),
+        (
+            SffKind::EdgeDirector(DirectorVariant::Tan),
+            mesh.n_edges() - fitted,
+            mesh.n_edges(),
+        ),
     ] {
         let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
         let model = elastic_model(sff);
@@ -142,13 +153,13 @@ fn director_variants_start_with_zero_angles_and_keep_unknown_count() {
         )
         .unwrap();
         assert_eq!(sys.dofs().n_free(), 3 * mesh.n_vertices() + extra);
-        assert_eq!(sys.n_edge_angles(), extra);
+        assert_eq!(sys.n_edge_angles(), angles);
         // Explicit Euler relaxes the massless angles at every step (at rest they stay 0).
         let mut state = State::at_rest(mesh.positions().to_vec());
         ExplicitEuler { dt: 1e-5 }
             .step(&mut sys, &mut state)
             .unwrap();
-        assert_eq!(state.phi.len(), extra);
+        assert_eq!(state.phi.len(), angles);
         assert!(state.phi.iter().all(|p| p.abs() < 1e-12), "{:?}", state.phi);
     }
 }
@@ -254,8 +265,9 @@ fn scene_errors_for_the_bending_form() {
     assert!(e.contains("bending"), "{e}");
 }
 
-/// A cantilever under gravity: the clamped edges' angles stay exactly 0 (a clamp fixes the
-/// director), pinned vertices leave their edges' angles free, and the free edges' angles move.
+/// A cantilever under gravity: the clamped edges' angles stay exactly 0 (a clamp holds the
+/// director, model.md §1.3); pinned boundary edges, like free ones, take their director from
+/// the fit (§1.2: angle not an unknown, the edge rotates with the sheet); interior angles move.
 #[test]
 fn clamps_fix_edge_angles_and_pins_do_not() {
     use thinshell_mesh::{EdgeId, VertexId};
@@ -289,9 +301,18 @@ fn clamps_fix_edge_angles_and_pins_do_not() {
         ..Loads::default()
     };
     let mut sys = ShellSystem::new(mesh.clone(), model, rest, boundary, loads).unwrap();
+    let fitted = thinshell_energy::fitted_free_edges(&mesh);
+    let fixed = (0..mesh.n_edges())
+        .filter(|&e| clamped.contains(&EdgeId::new(e)) || fitted.contains(&EdgeId::new(e)))
+        .count();
     assert_eq!(
         sys.dofs().n_free(),
-        sys.dofs().n_free_positions() + mesh.n_edges() - clamped.len()
+        sys.dofs().n_free_positions() + mesh.n_edges() - fixed
+    );
+    assert!(
+        pinned_edges
+            .iter()
+            .all(|&e| fitted.contains(&EdgeId::new(e)))
     );
     let mut x = p.to_vec();
     let mut phi = vec![0.0; mesh.n_edges()];
@@ -305,7 +326,7 @@ fn clamps_fix_edge_angles_and_pins_do_not() {
     }
     let largest = phi.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     assert!(largest > 1e-4, "the free angles moved: {largest}");
-    assert!(pinned_edges.iter().any(|&e| phi[e] != 0.0));
+    assert!(pinned_edges.iter().all(|&e| phi[e] == 0.0));
     // The sheet sags between the supports.
     assert!(x.iter().any(|q| q.z < -1e-4));
 }

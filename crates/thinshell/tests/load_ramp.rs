@@ -231,9 +231,10 @@ fn midspan(sim: &Simulation, nx: usize) -> f64 {
 
 /// Large end shortening of a pinned–pinned strip (Δ = 0.2 L, far past buckling). Applied at
 /// once, the moved end passes 3 cells of the strip: with the mid-edge average the start has
-/// inverted faces (the library's one-shot solve fails), with edge directors the one-shot solve
-/// converges to a crumpled state near the moved end (midspan deflection 0.0102 L). The default
-/// ramp of a static scene (linear over its 10 steps) follows the buckled path to the elastica.
+/// inverted faces (the library's one-shot solve fails), with the sin edge directors and fitted
+/// free edges the one-shot solve converges to a stable state with the last cell folded back
+/// (midspan deflection 0.155 L, checked to be a stable equilibrium below). The default ramp of
+/// a static scene (linear over its 10 steps) follows the buckled path to the elastica.
 #[test]
 fn ramp_reaches_the_elastica_and_a_one_shot_solve_fails_or_agrees() {
     let shortening = 0.2;
@@ -268,7 +269,8 @@ fn ramp_reaches_the_elastica_and_a_one_shot_solve_fails_or_agrees() {
             .unwrap();
         let mut solver = Static::default();
         solver.newton.max_iterations = 500;
-        match solver.solve(once.system_mut(), &mut x) {
+        let mut phi = vec![0.0; once.system().n_edge_angles()];
+        match solver.solve_with_angles(once.system_mut(), &mut x, &mut phi) {
             Err(e) => {
                 println!("{form}: one-shot solve failed: {e}");
                 // The scene runner retries a failed static step by continuation from λ = 0.
@@ -287,10 +289,51 @@ fn ramp_reaches_the_elastica_and_a_one_shot_solve_fails_or_agrees() {
                     "{form}: one-shot solve: {} iterations, midspan w/L {w1:.6}",
                     r.iterations
                 );
-                // With the default Newton (watchdog line search, scale-free convergence) a
-                // one-shot solve that does not fail must find the same elastica: a solve may
-                // not claim convergence elsewhere (before: sin "converged" at w/L 0.0102).
-                assert!((w1 / exact - 1.0).abs() < 5e-3, "{form}: {w1} vs {exact}");
+                if (w1 / exact - 1.0).abs() < 5e-3 {
+                    continue;
+                }
+                // Elsewhere, the solve may not claim convergence at a point that is not an
+                // equilibrium (before: sin "converged" at w/L 0.0102). With the fitted free
+                // edges (model.md §1.2) the sin one-shot solve ends with the last cell folded
+                // flat onto its neighbour (a 180° hinge, whose sin moment is bounded: the
+                // discrete sin energy has no cost growing with the fold) at w/L 0.155. Measured
+                // (2026-12-02): restarted there the solve stops at once (0 iterations),
+                // smallest eigenvalue +6.3e-6 (stable), elastic energy 0.1021 J against the
+                // ramp's elastica 0.2155 J: a genuine, stable and lower minimum of the
+                // discrete sin energy, not a false convergence. Not made by the fit: main
+                // (free angles on free edges), restarted from this fold, stays folded too
+                // (w/L 0.155, smallest eigenvalue +3.9e-5, 0.1008 J against its elastica's
+                // 0.2146 J); its one-shot path merely did not reach it.
+                assert_eq!(form, "edge_director_sin", "{form}: {w1} vs {exact}");
+                let mut x2 = x.clone();
+                let r2 = solver
+                    .solve_with_angles(once.system_mut(), &mut x2, &mut phi)
+                    .unwrap();
+                let moved = x2
+                    .iter()
+                    .zip(&x)
+                    .map(|(a, b)| (a - b).norm())
+                    .fold(0.0, f64::max);
+                assert!(
+                    moved < 1e-9 * LENGTH,
+                    "{form}: restarted solve moved {moved} m"
+                );
+                let stability = solver.stability(once.system_mut(), &x2, &phi).unwrap();
+                assert!(stability.stable, "{form}: {}", stability.min_eigenvalue);
+                let e_once = once.system_mut().energy_at(&x2, &phi).unwrap();
+                let e_ramp = once
+                    .system_mut()
+                    .energy_at(sim.positions(), sim.edge_angles())
+                    .unwrap();
+                let (e1, e0) = (e_once.stretch + e_once.bend, e_ramp.stretch + e_ramp.bend);
+                println!(
+                    "{form}: restarted {} iterations, one-shot {e1:.6e} J, elastica {e0:.6e} J",
+                    r2.iterations
+                );
+                // The fold's energy is below the elastica's (see above): the elastica is not
+                // the discrete sin energy's lowest state on 16 cells. Asserted, so that a
+                // change of the model that removes the fold shows here.
+                assert!(e1 < e0, "{form}: {e1} vs {e0}");
             }
         }
     }

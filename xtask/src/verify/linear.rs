@@ -3,11 +3,12 @@
 //!
 //! Boundary conditions. Simply supported = every boundary vertex pinned (w = 0 and the in-plane
 //! displacement held, which linear plate theory does not feel) with the rotation about the edge
-//! free: for the edge-director forms the boundary edges' angles are free unknowns, so the edge
-//! carries no moment; for the mid-edge average a boundary edge's normal is its face's normal
-//! (model.md §1), which is not a moment-free edge — its simply supported plates are expected to
-//! be off. Clamped = `Boundary::clamped_edges` on every boundary edge (two rows of vertices
-//! held, edge-director angles of the clamped edges fixed at 0).
+//! free: for the edge-director forms the boundary edges' directors are extrapolated from the
+//! interior (model.md §1.2), a consistent energy whose natural condition is a moment-free edge;
+//! for the mid-edge average a boundary edge's normal is its face's normal (model.md §1), which is
+//! not a moment-free edge — its simply supported plates are expected to be off. Clamped =
+//! `Boundary::clamped_edges` on every boundary edge: boundary vertices and the edges' directors
+//! held for the edge-director forms (model.md §1.3), two rows of vertices for the average.
 
 use anyhow::Result;
 use thinshell_energy::{Material, SffKind};
@@ -32,7 +33,7 @@ pub(crate) static SPECS: [Spec; 8] = [
         description: concat!(
             "Reference w_c = 4.06235e-3 q a⁴/D (Timoshenko & Woinowsky-Krieger). ",
             "Meshes: alternating-diagonal grids 8×8 … 128×128 (5 levels). ",
-            "Plate a = 1 (side or radius), h = 0.01, E = 1e7, ν = 0.3, D = E h³/(12(1 − ν²)); dead loads q = 1e-3 (nodal forces q·area/3 per face corner) or P = 1e-3 (centre vertex), w/h < 2e-3 (linear). Measured: the centre vertex's deflection. Simply supported: every boundary vertex pinned, rotation about the edge free (the edge-director angles of boundary edges are free unknowns, a moment-free edge); the mid-edge average has no such freedom (a boundary edge's normal is its face's normal), so its simply supported plates are not expected to converge to the reference. Clamped: `clamped_edges` on the whole boundary, which holds two rows of vertices (and fixes the edge angles): the first row of cells is rigid, an O(h) stiffening."
+            "Plate a = 1 (side or radius), h = 0.01, E = 1e7, ν = 0.3, D = E h³/(12(1 − ν²)); dead loads q = 1e-3 (nodal forces q·area/3 per face corner) or P = 1e-3 (centre vertex), w/h < 2e-3 (linear). Measured: the centre vertex's deflection. Simply supported: every boundary vertex pinned, rotation about the edge free (for the edge-director forms the boundary edges' directors are extrapolated from the interior, model.md §1.2, and the edge carries no moment in the limit); the mid-edge average has no such freedom (a boundary edge's normal is its face's normal), so its simply supported plates are not expected to converge to the reference. Clamped: `clamped_edges` on the whole boundary — for the edge-director forms the boundary vertices and the edges' directors held (model.md §1.3, second order); for the mid-edge average two rows of vertices held, the first row of cells rigid, an O(h) stiffening."
         ),
         tolerance: 0.02,
         quick_tolerance: 0.2,
@@ -46,7 +47,7 @@ pub(crate) static SPECS: [Spec; 8] = [
         description: concat!(
             "Reference w_c = 0.01160 P a²/D (Timoshenko & Woinowsky-Krieger). ",
             "Meshes: alternating-diagonal grids 8×8 … 128×128 (5 levels). ",
-            "Plate a = 1 (side or radius), h = 0.01, E = 1e7, ν = 0.3, D = E h³/(12(1 − ν²)); dead loads q = 1e-3 (nodal forces q·area/3 per face corner) or P = 1e-3 (centre vertex), w/h < 2e-3 (linear). Measured: the centre vertex's deflection. Simply supported: every boundary vertex pinned, rotation about the edge free (the edge-director angles of boundary edges are free unknowns, a moment-free edge); the mid-edge average has no such freedom (a boundary edge's normal is its face's normal), so its simply supported plates are not expected to converge to the reference. Clamped: `clamped_edges` on the whole boundary, which holds two rows of vertices (and fixes the edge angles): the first row of cells is rigid, an O(h) stiffening."
+            "Plate a = 1 (side or radius), h = 0.01, E = 1e7, ν = 0.3, D = E h³/(12(1 − ν²)); dead loads q = 1e-3 (nodal forces q·area/3 per face corner) or P = 1e-3 (centre vertex), w/h < 2e-3 (linear). Measured: the centre vertex's deflection. Simply supported: every boundary vertex pinned, rotation about the edge free (for the edge-director forms the boundary edges' directors are extrapolated from the interior, model.md §1.2, and the edge carries no moment in the limit); the mid-edge average has no such freedom (a boundary edge's normal is its face's normal), so its simply supported plates are not expected to converge to the reference. Clamped: `clamped_edges` on the whole boundary — for the edge-director forms the boundary vertices and the edges' directors held (model.md §1.3, second order); for the mid-edge average two rows of vertices held, the first row of cells rigid, an O(h) stiffening."
         ),
         tolerance: 0.02,
         quick_tolerance: 0.2,
@@ -60,7 +61,7 @@ pub(crate) static SPECS: [Spec; 8] = [
         description: concat!(
             "Reference w_c = 0.00560 P a²/D (Timoshenko & Woinowsky-Krieger). ",
             "Meshes: alternating-diagonal grids 8×8 … 128×128 (5 levels). ",
-            "Plate a = 1 (side or radius), h = 0.01, E = 1e7, ν = 0.3, D = E h³/(12(1 − ν²)); dead loads q = 1e-3 (nodal forces q·area/3 per face corner) or P = 1e-3 (centre vertex), w/h < 2e-3 (linear). Measured: the centre vertex's deflection. Simply supported: every boundary vertex pinned, rotation about the edge free (the edge-director angles of boundary edges are free unknowns, a moment-free edge); the mid-edge average has no such freedom (a boundary edge's normal is its face's normal), so its simply supported plates are not expected to converge to the reference. Clamped: `clamped_edges` on the whole boundary, which holds two rows of vertices (and fixes the edge angles): the first row of cells is rigid, an O(h) stiffening."
+            "Plate a = 1 (side or radius), h = 0.01, E = 1e7, ν = 0.3, D = E h³/(12(1 − ν²)); dead loads q = 1e-3 (nodal forces q·area/3 per face corner) or P = 1e-3 (centre vertex), w/h < 2e-3 (linear). Measured: the centre vertex's deflection. Simply supported: every boundary vertex pinned, rotation about the edge free (for the edge-director forms the boundary edges' directors are extrapolated from the interior, model.md §1.2, and the edge carries no moment in the limit); the mid-edge average has no such freedom (a boundary edge's normal is its face's normal), so its simply supported plates are not expected to converge to the reference. Clamped: `clamped_edges` on the whole boundary — for the edge-director forms the boundary vertices and the edges' directors held (model.md §1.3, second order); for the mid-edge average two rows of vertices held, the first row of cells rigid, an O(h) stiffening."
         ),
         tolerance: 0.02,
         quick_tolerance: 0.2,
@@ -74,7 +75,7 @@ pub(crate) static SPECS: [Spec; 8] = [
         description: concat!(
             "Reference w_c = q a⁴/(64 D). ",
             "Meshes: disc with 4 … 64 rings (5 levels). ",
-            "Plate a = 1 (side or radius), h = 0.01, E = 1e7, ν = 0.3, D = E h³/(12(1 − ν²)); dead loads q = 1e-3 (nodal forces q·area/3 per face corner) or P = 1e-3 (centre vertex), w/h < 2e-3 (linear). Measured: the centre vertex's deflection. Simply supported: every boundary vertex pinned, rotation about the edge free (the edge-director angles of boundary edges are free unknowns, a moment-free edge); the mid-edge average has no such freedom (a boundary edge's normal is its face's normal), so its simply supported plates are not expected to converge to the reference. Clamped: `clamped_edges` on the whole boundary, which holds two rows of vertices (and fixes the edge angles): the first row of cells is rigid, an O(h) stiffening."
+            "Plate a = 1 (side or radius), h = 0.01, E = 1e7, ν = 0.3, D = E h³/(12(1 − ν²)); dead loads q = 1e-3 (nodal forces q·area/3 per face corner) or P = 1e-3 (centre vertex), w/h < 2e-3 (linear). Measured: the centre vertex's deflection. Simply supported: every boundary vertex pinned, rotation about the edge free (for the edge-director forms the boundary edges' directors are extrapolated from the interior, model.md §1.2, and the edge carries no moment in the limit); the mid-edge average has no such freedom (a boundary edge's normal is its face's normal), so its simply supported plates are not expected to converge to the reference. Clamped: `clamped_edges` on the whole boundary — for the edge-director forms the boundary vertices and the edges' directors held (model.md §1.3, second order); for the mid-edge average two rows of vertices held, the first row of cells rigid, an O(h) stiffening."
         ),
         tolerance: 0.02,
         quick_tolerance: 0.2,
@@ -88,7 +89,7 @@ pub(crate) static SPECS: [Spec; 8] = [
         description: concat!(
             "Reference w_c = q a⁴ (5 + ν)/(64 D (1 + ν)). ",
             "Meshes: disc with 4 … 64 rings (5 levels). ",
-            "Plate a = 1 (side or radius), h = 0.01, E = 1e7, ν = 0.3, D = E h³/(12(1 − ν²)); dead loads q = 1e-3 (nodal forces q·area/3 per face corner) or P = 1e-3 (centre vertex), w/h < 2e-3 (linear). Measured: the centre vertex's deflection. Simply supported: every boundary vertex pinned, rotation about the edge free (the edge-director angles of boundary edges are free unknowns, a moment-free edge); the mid-edge average has no such freedom (a boundary edge's normal is its face's normal), so its simply supported plates are not expected to converge to the reference. Clamped: `clamped_edges` on the whole boundary, which holds two rows of vertices (and fixes the edge angles): the first row of cells is rigid, an O(h) stiffening."
+            "Plate a = 1 (side or radius), h = 0.01, E = 1e7, ν = 0.3, D = E h³/(12(1 − ν²)); dead loads q = 1e-3 (nodal forces q·area/3 per face corner) or P = 1e-3 (centre vertex), w/h < 2e-3 (linear). Measured: the centre vertex's deflection. Simply supported: every boundary vertex pinned, rotation about the edge free (for the edge-director forms the boundary edges' directors are extrapolated from the interior, model.md §1.2, and the edge carries no moment in the limit); the mid-edge average has no such freedom (a boundary edge's normal is its face's normal), so its simply supported plates are not expected to converge to the reference. Clamped: `clamped_edges` on the whole boundary — for the edge-director forms the boundary vertices and the edges' directors held (model.md §1.3, second order); for the mid-edge average two rows of vertices held, the first row of cells rigid, an O(h) stiffening."
         ),
         tolerance: 0.02,
         quick_tolerance: 0.2,

@@ -92,7 +92,14 @@ impl Pattern {
                 (n_vertices + stencils.edges(f)[s - n_slots].idx()) as u32
             }
         };
-        let present = |f: usize, s: usize| s >= n_slots || stencils.slot_present(f, s);
+        let present = |f: usize, s: usize| {
+            s >= n_slots
+                || if edge_slots {
+                    stencils.slot_present_director(f, s)
+                } else {
+                    stencils.slot_present(f, s)
+                }
+        };
         let too_large = |what, count| EnergyError::TooLarge { what, count };
         if n_faces.saturating_mul(hess_stride) >= TRANSPOSED as usize {
             return Err(too_large(

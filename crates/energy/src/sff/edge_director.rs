@@ -12,6 +12,12 @@
 //! and b = −[[II_0 + II_1, II_0], [II_0, II_0 + II_2]] (m) in the basis (e1, e2) =
 //! (x1 − x0, x2 − x0). With all φ = 0 the sin variant equals [`MidEdgeAverage`](super::MidEdgeAverage).
 //!
+//! On a free edge with a fit (`stencil.ghost[i]`, model.md §1.2) θ_i/2 is replaced by
+//! atan(II_i^fit / (2 d_i)), II_i^fit the second moment of the quadratic through the six stencil
+//! points ([`boundary::fitted_moments`]); on a clamped edge (`stencil.clamp[i]`, §1.3) by the
+//! angle from the face normal to the clamp's director about the edge. Their derivatives come
+//! from dual numbers over the 18 positions and φ_i.
+//!
 //! Derivatives are taken per edge over 13 local dofs — the hinge vertices (p0, p1, p2, q) =
 //! (x_i, x_{i+1}, x_{i+2}, x_{3+i}) and φ_i — and scattered into the 21 face dofs
 //! (18 positions in stencil order, then φ_0, φ_1, φ_2).
@@ -21,8 +27,12 @@
 
 use super::mid_edge_average::{cross_normal, normalize_hess, normalize_jac, skew};
 use super::{SecondFundamentalForm, SffDerivatives};
+use crate::material::dual::DualN;
 use crate::stencil::{EdgeAngles, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
+
+mod boundary;
+pub(crate) use boundary::{fit_quality, fitted_moments};
 
 /// Number of face dofs of the director form: 18 positions, then the three edge angles.
 pub const DIRECTOR_DOFS: usize = 21;
@@ -299,12 +309,44 @@ fn dihedral_derivatives(p: [&Vector3<f64>; 4], hess: bool) -> (f64, PVec, Option
     }
 }
 
+/// The prescribed director of clamped boundary edge i, if any.
+#[inline]
+fn clamp_of(s: &FaceStencil, i: usize) -> Option<[f64; 3]> {
+    s.clamp[i].filter(|_| !s.flap[i]).map(|n| [n.x, n.y, n.z])
+}
+
 impl EdgeDirector {
+    /// II_i (m) of fitted free edge or clamped edge i with its gradient and Hessian over the 18
+    /// stencil positions (dual variables 0..18) and φ_i (variable 18): 2 d_i f(α_i) with
+    /// α_i = atan(t) + σ_i φ_i, t = II_i^fit / (2 d_i) (fit) or the tangent of the angle from the
+    /// face normal to the clamp's director (clamp).
+    fn boundary_moment(&self, s: &FaceStencil, angles: &EdgeAngles, i: usize) -> DualN<19> {
+        type D = DualN<19>;
+        let p: [[D; 3]; 6] =
+            std::array::from_fn(|v| std::array::from_fn(|c| D::variable(s.x[v][c], 3 * v + c)));
+        let sigma_phi = D::variable(angles.phi[i], 18).scale(angles.sigma[i]);
+        let f = |a| self.variant.eval(a);
+        match clamp_of(s, i) {
+            Some(nc) => boundary::clamped_edge_moment(&p, i, nc, sigma_phi, f),
+            None => boundary::fitted_edge_moment(&p, i, sigma_phi, f),
+        }
+    }
+
     /// II_i (m) of the three local edges.
     fn second_moments(&self, s: &FaceStencil, angles: &EdgeAngles) -> [f64; 3] {
         let x = &s.x;
         let area2 = (x[1] - x[0]).cross(&(x[2] - x[0])).norm();
+        let p: [[f64; 3]; 6] = std::array::from_fn(|v| [x[v].x, x[v].y, x[v].z]);
         std::array::from_fn(|i| {
+            if let Some(nc) = clamp_of(s, i) {
+                let sigma_phi = angles.sigma[i] * angles.phi[i];
+                let f = |a| self.variant.eval(a);
+                return boundary::clamped_edge_moment(&p, i, nc, sigma_phi, f);
+            }
+            if !s.flap[i] && s.ghost[i] {
+                let sigma_phi = angles.sigma[i] * angles.phi[i];
+                return boundary::fitted_edge_moment(&p, i, sigma_phi, |a| self.variant.eval(a));
+            }
             let [a, b, c, q] = hinge_blocks(i);
             let d = area2 / (x[c] - x[b]).norm();
             let theta = if s.flap[i] {
@@ -352,6 +394,27 @@ impl EdgeDirector {
             let blk = hinge_blocks(i);
             let omega: f64 = w.map_or(0.0, |w| (0..3).map(|k| w[k] * C[k][i]).sum());
             let want_h = h.is_some() && omega != 0.0;
+            if !s.flap[i] && (s.ghost[i] || s.clamp[i].is_some()) {
+                let d = self.boundary_moment(s, angles, i);
+                ii[i] = d.v;
+                for k in 0..3 {
+                    if C[k][i] != 0.0 {
+                        for l in 0..18 {
+                            jac[(k, l)] -= C[k][i] * d.g[l];
+                        }
+                        jac[(k, 18 + i)] -= C[k][i] * d.g[18];
+                    }
+                }
+                if let Some(h) = h.as_deref_mut().filter(|_| want_h) {
+                    let dof = |l: usize| if l < 18 { l } else { 18 + i };
+                    for r in 0..19 {
+                        for c in 0..19 {
+                            h[(dof(r), dof(c))] -= omega * d.h[(r, c)];
+                        }
+                    }
+                }
+                continue;
+            }
             let (d, gd, hd) = altitude([&x[blk[0]], &x[blk[1]], &x[blk[2]]], want_h);
             let (theta, gt, ht) = if s.flap[i] {
                 dihedral_derivatives([&x[blk[0]], &x[blk[1]], &x[blk[2]], &x[blk[3]]], want_h)
@@ -498,7 +561,13 @@ mod tests {
                 phi: [next() * 0.3, next() * 0.3, next() * 0.3],
                 sigma: [1.0, -1.0, if case % 2 == 0 { 1.0 } else { -1.0 }],
             };
-            let s = FaceStencil { x, flap, angles };
+            let s = FaceStencil {
+                x,
+                flap,
+                ghost: [false; 3],
+                clamp: [None; 3],
+                angles,
+            };
             let w = Vector3::new(next(), next(), next());
             // Some cases with a zero weight per edge (ω_i = 0 skips its Hessian).
             let w = if case % 11 == 0 {

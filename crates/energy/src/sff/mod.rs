@@ -4,6 +4,7 @@ mod edge_director;
 mod mid_edge_average;
 
 pub use edge_director::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
+pub(crate) use edge_director::{fit_quality, fitted_moments};
 pub use mid_edge_average::MidEdgeAverage;
 
 use crate::stencil::FaceStencil;
@@ -84,7 +85,10 @@ pub enum SffKind {
     /// grids bent across the grid.
     MidEdgeAverage,
     /// Edge directors (model.md §1.1): one extra unknown per edge, the angle (rad) of the
-    /// edge's normal director about the edge; consistent under refinement on any mesh.
+    /// edge's normal director about the edge; consistent under refinement on any mesh. On free
+    /// edges the director is extrapolated from the interior and on clamped edges held (model.md
+    /// §1.2–1.3; no unknown there), which keeps the bending energy second order up to the
+    /// boundary.
     /// Default: `EdgeDirector(DirectorVariant::Tan)`.
     EdgeDirector(DirectorVariant),
 }

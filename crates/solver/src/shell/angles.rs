@@ -89,17 +89,23 @@ pub(crate) struct AngleRelaxation {
 }
 
 impl AngleRelaxation {
-    /// The angle-only problem of `model` on `mesh` with the angles of `clamped_edges` fixed.
+    /// The angle-only problem of `model` on `mesh` with the angles of `clamped_edges` fixed and
+    /// their directors held as at `clamp_reference` (model.md §1.3).
     pub(crate) fn new(
         mesh: &Mesh,
         model: &ShellModel,
         clamped_edges: &[EdgeId],
+        clamp_reference: &[Vector3<f64>],
     ) -> Result<AngleRelaxation, SolverError> {
         let n = mesh.n_vertices();
         let all_vertices = (0..n).map(VertexId::new);
+        // Fitted free edges have no angle unknown (model.md §1.2).
+        let fitted = thinshell_energy::fitted_free_edges(mesh);
+        let fixed = clamped_edges.iter().chain(&fitted).copied();
         let dofs = DofMap::with_pinned_vertices(n, all_vertices)
-            .and_then(|d| d.with_edges(mesh.n_edges(), clamped_edges.iter().copied()))?;
-        let assembler = Assembler::for_model(mesh, &dofs, model)?;
+            .and_then(|d| d.with_edges(mesh.n_edges(), fixed))?;
+        let mut assembler = Assembler::for_model(mesh, &dofs, model)?;
+        assembler.clamp_edges(clamped_edges, clamp_reference)?;
         let hessian = assembler.hessian_template();
         let cholesky = SparseCholesky::new(hessian.symbolic(), Ordering::Amd, None, Par::Seq)?;
         let n3 = 3 * n;

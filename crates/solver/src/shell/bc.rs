@@ -32,20 +32,29 @@ pub struct Boundary {
     /// Single coordinates `(vertex, axis)` fixed (axis 0, 1, 2 = x, y, z), e.g. a support that
     /// only blocks z.
     pub pinned_coordinates: Vec<(VertexId, usize)>,
-    /// Clamped edges (boundary edges): the clamp holds two rows of vertices, the edges' own
-    /// vertices and every vertex of every face that touches one of them (the one-ring of the
-    /// clamped vertices), which fixes the edges' positions and the tangent plane along them on
-    /// any triangulation (alternating diagonals, irregular). At the ends of a clamp that covers
-    /// only part of a boundary loop this also holds the next boundary vertex beyond each end.
-    /// With edge-director bending the angles of the clamped edges are fixed at 0.
+    /// Clamped edges (boundary edges). With edge-director bending (the default form) the clamp
+    /// holds the edges' own vertices and their directors, which stay where they are at the
+    /// mesh's positions (model.md §1.3): position and tangent plane fixed along the clamp line,
+    /// second order. Without edge directors (the mid-edge average, or bending off) it holds two
+    /// rows of vertices, the edges' own and every vertex of every face that touches one of them
+    /// (the one-ring of the clamped vertices), which fixes the tangent plane over the first row
+    /// of cells on any triangulation — first order, the clamp line sits half a cell in; at the
+    /// ends of a clamp that covers only part of a boundary loop this also holds the next
+    /// boundary vertex beyond each end. See [`Boundary::held_coordinates`].
     pub clamped_edges: Vec<EdgeId>,
     /// Vertices moved along a prescribed path.
     pub prescribed: Vec<Prescribed>,
 }
 
 impl Boundary {
-    /// All held `(vertex, axis)` pairs.
-    pub fn held_coordinates(&self, mesh: &Mesh) -> Result<Vec<(VertexId, usize)>, SolverError> {
+    /// All held `(vertex, axis)` pairs. `second_row`: clamps also hold the one-ring of the
+    /// clamped vertices — for a model without edge directors, whose clamp has no other hold on
+    /// the tangent plane (see [`Boundary::clamped_edges`]).
+    pub fn held_coordinates(
+        &self,
+        mesh: &Mesh,
+        second_row: bool,
+    ) -> Result<Vec<(VertexId, usize)>, SolverError> {
         let mut held: Vec<(VertexId, usize)> = self.pinned_coordinates.clone();
         let mut whole: Vec<VertexId> = self.pinned_vertices.clone();
         whole.extend(self.prescribed.iter().map(|p| p.vertex));
@@ -66,7 +75,11 @@ impl Boundary {
         // each clamped edge misses every other second-row vertex on a grid with alternating
         // diagonals, and the strip between the rows then hinges.
         let mut held_vertex = clamped.clone();
-        for (v, _) in clamped.iter().enumerate().filter(|(_, c)| **c) {
+        for (v, _) in clamped
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| **c && second_row)
+        {
             for &f in topo.vertex_faces(VertexId::new(v)) {
                 for w in mesh.faces()[f.idx()] {
                     held_vertex[w.idx()] = true;
@@ -169,8 +182,8 @@ impl Boundary {
     }
 
     /// The dof map of the free coordinates.
-    pub fn dof_map(&self, mesh: &Mesh) -> Result<DofMap, SolverError> {
-        DofMap::with_pinned(mesh.n_vertices(), self.held_coordinates(mesh)?)
+    pub fn dof_map(&self, mesh: &Mesh, second_row: bool) -> Result<DofMap, SolverError> {
+        DofMap::with_pinned(mesh.n_vertices(), self.held_coordinates(mesh, second_row)?)
             .map_err(SolverError::from)
     }
 

@@ -3,7 +3,7 @@
 //! ([`ShellSystem::relax_edge_angles`]).
 
 use nalgebra::Vector3;
-use thinshell_energy::{DampingState, EvalOutput};
+use thinshell_energy::EvalOutput;
 
 use super::angles::AngleSettings;
 use super::integrator::{Integrator, StepKind, StepReport, check_dt, check_state};
@@ -47,13 +47,12 @@ impl Integrator for ExplicitEuler {
                 .zip(&state.v)
                 .map(|(x, v)| x - dt * v)
                 .collect();
-            Some(DampingState::from_configuration(
-                &system.mesh,
-                &prev,
-                &state.phi,
-                system.model.sff,
-                dt,
-            )?)
+            // Through the system's assembler: its clamps enter b^prev as they enter b.
+            Some(
+                system
+                    .assembler
+                    .damping_state(&prev, &state.phi, system.model.sff, dt)?,
+            )
         } else {
             None
         };

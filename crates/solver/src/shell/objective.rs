@@ -158,13 +158,11 @@ impl<'a> ShellObjective<'a> {
         force_scale: Option<f64>,
     ) -> Result<ShellObjective<'a>, SolverError> {
         let damping = if sys.model.terms.damping {
-            Some(DampingState::from_configuration(
-                &sys.mesh,
-                &state.x,
-                &state.phi,
-                sys.model.sff,
-                dt,
-            )?)
+            // Through the system's assembler: its clamps enter b^prev as they enter b.
+            Some(
+                sys.assembler
+                    .damping_state(&state.x, &state.phi, sys.model.sff, dt)?,
+            )
         } else {
             None
         };

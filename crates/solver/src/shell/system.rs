@@ -3,8 +3,8 @@
 
 use nalgebra::Vector3;
 use thinshell_energy::{
-    Assembler, DampingState, DofMap, EnergyTerms, EvalOutput, HessianMode, RestState, ShellModel,
-    lumped_mass,
+    Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, HessianMode, RestState,
+    ShellModel, lumped_mass,
 };
 use thinshell_mesh::Mesh;
 
@@ -73,6 +73,9 @@ pub struct ShellSystem {
     pub(crate) angle_scale: f64,
     /// Angle-only sub-problem of [`ShellSystem::relax_edge_angles`], built on first use.
     pub(crate) angle_relaxation: Option<Box<AngleRelaxation>>,
+    /// Positions (m) at which clamped edges' directors are held (model.md §1.3); empty: the
+    /// mesh's positions.
+    pub(crate) clamp_reference: Vec<Vector3<f64>>,
     /// The contact term, when the scene names the `contact` effect ([`ShellSystem::set_contact`]).
     pub contact: Option<Contact>,
     /// The Hessian pattern widened by self-contact couplings, when self-contact is on (built
@@ -95,9 +98,45 @@ impl std::fmt::Debug for ShellSystem {
 }
 
 impl ShellSystem {
+    /// Holds the directors of the clamped edges as they are at `x_ref` (m, one position per
+    /// vertex) instead of at the mesh's positions (model.md §1.3): for a start state that is not
+    /// the mesh's own shape. No effect without edge-director unknowns. Errors on a wrong length
+    /// or a degenerate clamped face.
+    pub fn set_clamp_reference(&mut self, x_ref: &[Vector3<f64>]) -> Result<(), SolverError> {
+        if !self.has_edge_unknowns() {
+            return Ok(());
+        }
+        self.assembler
+            .clamp_edges(&self.boundary.clamped_edges, x_ref)?;
+        self.clamp_reference = x_ref.to_vec();
+        self.angle_relaxation = None;
+        Ok(())
+    }
+
+    /// An assembler over this system's unknowns for `model` (this system's mesh and form, e.g.
+    /// with damping off) that holds the system's clamped directors (model.md §1.3): per-face
+    /// diagnostics then match the system's energy.
+    pub fn assembler_for(&self, model: &ShellModel) -> Result<Assembler, EnergyError> {
+        let mut assembler = Assembler::for_model(&self.mesh, &self.dofs, model)?;
+        if self.has_edge_unknowns() {
+            assembler.clamp_edges(&self.boundary.clamped_edges, self.clamp_reference())?;
+        }
+        Ok(assembler)
+    }
+
+    /// Positions at which the clamped directors are held.
+    fn clamp_reference(&self) -> &[Vector3<f64>] {
+        if self.clamp_reference.is_empty() {
+            self.mesh.positions()
+        } else {
+            &self.clamp_reference
+        }
+    }
+
     /// Builds the dof map, lumped masses, external forces and the assembler. With an
     /// edge-director second fundamental form and bending on, the unknowns include one angle
-    /// per edge; the angles of clamped edges are fixed at 0 (pins leave them free).
+    /// per edge, except on clamped edges (fixed at 0; their directors are held, model.md §1.3)
+    /// and on fitted free edges (model.md §1.2); pins leave the angles free.
     pub fn new(
         mesh: Mesh,
         model: ShellModel,
@@ -106,13 +145,21 @@ impl ShellSystem {
         loads: Loads,
     ) -> Result<ShellSystem, SolverError> {
         rest.validate(&mesh)?;
-        let mut dofs = boundary.dof_map(&mesh)?;
-        if ShellSystem::has_edge_unknowns_for(&model) {
-            dofs = dofs.with_edges(mesh.n_edges(), boundary.clamped_edges.iter().copied())?;
+        let directors = ShellSystem::has_edge_unknowns_for(&model);
+        let mut dofs = boundary.dof_map(&mesh, !directors)?;
+        if directors {
+            // Fitted free edges have no angle unknown (model.md §1.2).
+            let fitted = thinshell_energy::fitted_free_edges(&mesh);
+            let fixed = boundary.clamped_edges.iter().chain(&fitted).copied();
+            dofs = dofs.with_edges(mesh.n_edges(), fixed)?;
         }
         let mass = lumped_mass(&mesh, &rest, &model.material)?;
         let f_ext = loads.forces(&mass)?;
-        let assembler = Assembler::for_model(&mesh, &dofs, &model)?;
+        let mut assembler = Assembler::for_model(&mesh, &dofs, &model)?;
+        if directors {
+            // The clamp holds the directors of the clamped edges (model.md §1.3).
+            assembler.clamp_edges(&boundary.clamped_edges, mesh.positions())?;
+        }
         let angle_scale = mean_edge_length(&mesh);
         Ok(ShellSystem {
             mesh,
@@ -128,6 +175,7 @@ impl ShellSystem {
             assembler,
             angle_scale,
             angle_relaxation: None,
+            clamp_reference: Vec::new(),
             contact: None,
             contact_pattern: None,
             contact_approximated: 0,
@@ -562,6 +610,7 @@ impl ShellSystem {
                 &self.mesh,
                 &self.model,
                 &self.boundary.clamped_edges,
+                self.clamp_reference(),
             )?),
         };
         let result = cache.relax(&self.model, &self.rest, x, phi, damping, settings);

@@ -269,7 +269,10 @@ impl Simulation {
                 });
             }
         }
-        let held = boundary.held_coordinates(&mesh).map_err(solver_err)?;
+        let second_row = !ShellSystem::has_edge_unknowns_for(&model);
+        let held = boundary
+            .held_coordinates(&mesh, second_row)
+            .map_err(solver_err)?;
         if held.len() >= 3 * n {
             return Err(invalid(
                 "boundary",
@@ -395,6 +398,10 @@ impl Simulation {
         };
         let mut system =
             ShellSystem::new(mesh, model, rest, boundary, loads).map_err(solver_err)?;
+        if x != x_ref {
+            // Clamps hold the directors of the start state (model.md §1.3).
+            system.set_clamp_reference(&x).map_err(solver_err)?;
+        }
         system.hessian_mode = hessian_mode;
         if on(Effect::Contact) {
             system

@@ -4,11 +4,8 @@
 //! `set_stimulus` / `face_energies` are these functions.
 
 use nalgebra::Vector3;
-use thinshell_energy::{
-    Assembler, DofMap, EnergyError, EnergyTerms, EvalOutput, RestState, ShellModel, Terms,
-};
+use thinshell_energy::{EnergyError, EnergyTerms, EvalOutput, RestState, ShellModel, Terms};
 use thinshell_growth::{FaceStimulus, GrowthError};
-use thinshell_mesh::Mesh;
 use thinshell_solver::ShellSystem;
 
 use super::Simulation;
@@ -55,13 +52,7 @@ impl Simulation {
     /// step; [`Simulation::set_stimulus`] is the way to drive those scenes).
     pub fn set_rest_forms(&mut self, rest: RestState) -> Result<(), RestEditError> {
         rest.validate(&self.system.mesh)?;
-        let (energy, _) = elastic_faces(
-            &self.system.mesh,
-            &self.system.model,
-            &rest,
-            &self.state.x,
-            &self.state.phi,
-        )?;
+        let (energy, _) = elastic_faces(&self.system, &rest, &self.state.x, &self.state.phi)?;
         if let Some(g) = &mut self.growth {
             let mut scratch = self.system.rest.clone();
             g.update_rest(&mut scratch)?;
@@ -89,13 +80,7 @@ impl Simulation {
     /// Errors on a wrong length or a non-finite value, leaving the simulation unchanged.
     pub fn set_positions(&mut self, x: Vec<Vector3<f64>>) -> Result<(), RestEditError> {
         check_vectors("positions", &x, self.system.mesh.n_vertices())?;
-        let (energy, _) = elastic_faces(
-            &self.system.mesh,
-            &self.system.model,
-            &self.system.rest,
-            &x,
-            &self.state.phi,
-        )?;
+        let (energy, _) = elastic_faces(&self.system, &self.system.rest, &x, &self.state.phi)?;
         self.state.x = x;
         self.energy = energy;
         Ok(())
@@ -119,8 +104,7 @@ impl Simulation {
     /// (stretch and bend; damping 0), in face order; they sum to the state's elastic energy.
     pub fn face_energies(&self) -> Result<Vec<EnergyTerms>, EnergyError> {
         let (_, faces) = elastic_faces(
-            &self.system.mesh,
-            &self.system.model,
+            &self.system,
             &self.system.rest,
             &self.state.x,
             &self.state.phi,
@@ -148,10 +132,10 @@ fn check_vectors(what: &'static str, v: &[Vector3<f64>], n: usize) -> Result<(),
 }
 
 /// Stretching and bending energy (J) of `x` and edge angles `phi` (empty = all 0) against
-/// `rest`, in total and per face, without damping (which needs a previous state).
+/// `rest` with `system`'s mesh, model and clamps, in total and per face, without damping (which
+/// needs a previous state).
 fn elastic_faces(
-    mesh: &Mesh,
-    model: &ShellModel,
+    system: &ShellSystem,
     rest: &RestState,
     x: &[Vector3<f64>],
     phi: &[f64],
@@ -159,12 +143,12 @@ fn elastic_faces(
     let model = ShellModel {
         terms: Terms {
             damping: false,
-            ..model.terms
+            ..system.model.terms
         },
-        ..*model
+        ..system.model
     };
     let n_angles = if ShellSystem::has_edge_unknowns_for(&model) {
-        mesh.n_edges()
+        system.mesh.n_edges()
     } else {
         0
     };
@@ -175,8 +159,7 @@ fn elastic_faces(
     } else {
         phi
     };
-    let dofs = DofMap::all_free(mesh.n_vertices()).with_edges(n_angles, [])?;
-    let mut assembler = Assembler::for_model(mesh, &dofs, &model)?;
+    let mut assembler = system.assembler_for(&model)?;
     let total =
         assembler.evaluate_with_angles(&model, x, phi, rest, None, EvalOutput::default())?;
     Ok((total, assembler.face_energies().to_vec()))
