@@ -1114,48 +1114,16 @@ fn try_reuse(
     if !settings.reuse_factor || ws.reusable != Some(kind) {
         return Ok(false);
     }
-    let NewtonWorkspace {
-        cholesky: Some(cholesky),
-        hessian,
-        g,
-        dx,
-        x_trial,
-        pcg: scratch,
-        diag_offsets,
-        ..
-    } = ws
-    else {
-        return Ok(false);
-    };
-    // x_trial is free until the line search: it holds the right-hand side.
-    for (b, g) in x_trial.iter_mut().zip(g.iter()) {
-        *b = -g;
-    }
     // The own Hessian's unshifted system (see `refine_direction`; PSD ones keep their shift).
     let obj_shift = if kind == IterationHessian::Own {
         obj_shift
     } else {
         0.0
     };
-    let shift_diagonal = |hessian: &mut SparseColMat<usize, f64>, by: f64| {
-        if by != 0.0 {
-            let val = hessian.val_mut();
-            diag_offsets.iter().for_each(|&o| val[o] += by);
-        }
-    };
-    shift_diagonal(hessian, -obj_shift);
     let t = Instant::now();
-    let o = pcg(
-        hessian.as_ref(),
-        x_trial,
-        dx,
-        eta,
-        settings.reuse_max_iterations,
-        scratch,
-        |r| cholesky.solve_in_place(r),
-    );
-    shift_diagonal(hessian, obj_shift);
-    let o = o?;
+    let Some(o) = pcg_with_factor(ws, obj_shift, eta, settings.reuse_max_iterations)? else {
+        return Ok(false);
+    };
     rec.timings.solve += t.elapsed();
     rec.cg_iterations += o.iterations;
     if o.converged && !o.negative_curvature {
@@ -1319,6 +1287,52 @@ fn solve_direction(
 /// [`estimate_correction`]).
 const ESTIMATE_TOLERANCE: f64 = 1e-6;
 
+/// `ws.dx` = the solution of `(H − obj_shift·I) dx = −∇f` by CG (at most `max_iterations`, to
+/// relative residual `eta`) preconditioned with the Cholesky factor the workspace holds, for
+/// the Hessian H in `ws` (its values are restored). `None` without a Cholesky factor.
+fn pcg_with_factor(
+    ws: &mut NewtonWorkspace,
+    obj_shift: f64,
+    eta: f64,
+    max_iterations: usize,
+) -> Result<Option<crate::iterative::PcgOutcome>, SolverError> {
+    let NewtonWorkspace {
+        cholesky: Some(cholesky),
+        hessian,
+        g,
+        dx,
+        x_trial,
+        pcg: scratch,
+        diag_offsets,
+        ..
+    } = ws
+    else {
+        return Ok(None);
+    };
+    // x_trial is free until the line search: it holds the right-hand side.
+    for (b, g) in x_trial.iter_mut().zip(g.iter()) {
+        *b = -g;
+    }
+    let shift_diagonal = |hessian: &mut SparseColMat<usize, f64>, by: f64| {
+        if by != 0.0 {
+            let val = hessian.val_mut();
+            diag_offsets.iter().for_each(|&o| val[o] += by);
+        }
+    };
+    shift_diagonal(hessian, -obj_shift);
+    let o = pcg(
+        hessian.as_ref(),
+        x_trial,
+        dx,
+        eta,
+        max_iterations,
+        scratch,
+        |r| cholesky.solve_in_place(r),
+    );
+    shift_diagonal(hessian, obj_shift);
+    Ok(Some(o?))
+}
+
 /// CG iterations [`refine_direction`] may take. The preconditioned matrix `(H + s)⁻¹ H` has
 /// its eigenvalues in (0, 1], all near 1 but those of the few soft modes whose curvature is
 /// near the shift s, so CG needs about as many iterations as there are such modes.
@@ -1348,52 +1362,19 @@ fn refine_direction(
     eta: f64,
     rec: &mut Record,
 ) -> Result<bool, SolverError> {
-    let NewtonWorkspace {
-        cholesky: Some(cholesky),
-        hessian,
-        g,
-        dx,
-        x_trial,
-        pcg: scratch,
-        diag_offsets,
-        ..
-    } = ws
-    else {
+    let t = Instant::now();
+    let Some(o) = pcg_with_factor(ws, obj_shift, eta, REFINE_MAX_ITERATIONS)? else {
         return Ok(false);
     };
-    if obj_shift > 0.0 {
-        let val = hessian.val_mut();
-        for &o in diag_offsets.iter() {
-            val[o] -= obj_shift;
-        }
-    }
-    for (b, g) in x_trial.iter_mut().zip(g.iter()) {
-        *b = -g;
-    }
-    let t = Instant::now();
-    let o = pcg(
-        hessian.as_ref(),
-        x_trial,
-        dx,
-        eta,
-        REFINE_MAX_ITERATIONS,
-        scratch,
-        |r| cholesky.solve_in_place(r),
-    );
-    if obj_shift > 0.0 {
-        let val = hessian.val_mut();
-        for &o in diag_offsets.iter() {
-            val[o] += obj_shift;
-        }
-    }
-    let o = o?;
     rec.cg_iterations += o.iterations;
     let solved = o.converged && !o.negative_curvature;
     if solved {
         rec.refined_steps += 1;
-    } else {
-        dx.copy_from_slice(x_trial);
-        cholesky.solve_in_place(dx)?;
+    } else if let Some(cholesky) = ws.cholesky.as_mut() {
+        for (d, g) in ws.dx.iter_mut().zip(&ws.g) {
+            *d = -g;
+        }
+        cholesky.solve_in_place(&mut ws.dx)?;
     }
     rec.timings.solve += t.elapsed();
     Ok(solved)
