@@ -10,6 +10,12 @@
 //!    (adaptive) Newton, and for comparison the exact Hessian (`HessianPolicy::Fixed`), a
 //!    smaller first regularisation shift, and the Gauss–Newton fallback.
 //!
+//! The solver-level parts (2–4) use the library's default bending form unless `--form` names
+//! another; every case of parts 1, 3 and 4 also runs with `HessianPolicy::AdaptivePsd` (scene
+//! key `hessian = "adaptive_psd"`), the policy before issue #26, for a before/after in one run.
+//! `--only PART` runs the parts whose name contains PART (scenes, flag, growth, strip);
+//! `VERBOSE=1` prints every Newton iteration of the strip.
+//!
 //! Every run checks that positions stay finite, and the solver-level runs that the potential
 //! never rises within a Newton solve. Failures of a run are outcomes (reported, with the error);
 //! a broken contract makes the task fail. Writes `target/xtask/hard-cases.json`.

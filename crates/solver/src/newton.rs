@@ -954,7 +954,7 @@ impl NewtonWorkspace {
     ) -> Result<bool, SolverError> {
         self.check_direct(objective, x, "the positive-definiteness test")?;
         let Some(cholesky) = self.cholesky.as_mut() else {
-            return Ok(false);
+            return Err(SolverError::Linear("no Cholesky factorisation".into()));
         };
         let mut timings = NewtonTimings::default();
         assemble(objective, x, &mut self.hessian, false, 0, &mut timings)?;
