@@ -142,6 +142,35 @@ impl RestState {
     pub fn n_faces(&self) -> usize {
         self.a_bar.len()
     }
+
+    /// `out = (1 − s)·from + s·to`, face by face, for continuation between two rest states
+    /// (`s ∈ [0, 1]`; a convex combination of positive definite ā stays positive definite).
+    /// Errors on mismatched lengths or `s` outside [0, 1].
+    pub fn blend(
+        from: &RestState,
+        to: &RestState,
+        s: f64,
+        out: &mut RestState,
+    ) -> Result<(), EnergyError> {
+        if !(0.0..=1.0).contains(&s) {
+            return Err(EnergyError::InvalidParameter {
+                name: "blend weight s",
+                value: s,
+                reason: "must lie in [0, 1]",
+            });
+        }
+        let n = from.n_faces();
+        check_len("rest a_bar", n, to.a_bar.len())?;
+        check_len("rest b_bar", n, to.b_bar.len())?;
+        check_len("rest b_bar", n, from.b_bar.len())?;
+        let mix = |a: &[Matrix2<f64>], b: &[Matrix2<f64>], out: &mut Vec<Matrix2<f64>>| {
+            out.clear();
+            out.extend(a.iter().zip(b).map(|(a, b)| a * (1.0 - s) + b * s));
+        };
+        mix(&from.a_bar, &to.a_bar, &mut out.a_bar);
+        mix(&from.b_bar, &to.b_bar, &mut out.b_bar);
+        Ok(())
+    }
 }
 
 /// Forms of the previous configuration for Kelvin–Voigt damping (model.md §2), with the time

@@ -352,32 +352,13 @@ impl GrowthModel for Swelling {
 }
 
 /// `out = (1 − s)·from + s·to` face by face, for continuation between two rest states
-/// (`s ∈ [0, 1]`; a convex combination of positive definite ā stays positive definite).
-/// Errors on mismatched lengths or `s` outside [0, 1].
+/// ([`RestState::blend`], re-exported here for growth loops). Errors on mismatched lengths or
+/// `s` outside [0, 1].
 pub fn blend_rest(
     from: &RestState,
     to: &RestState,
     s: f64,
     out: &mut RestState,
 ) -> Result<(), GrowthError> {
-    check("s", s, (0.0..=1.0).contains(&s), "must lie in [0, 1]")?;
-    let n = from.n_faces();
-    check_len("rest a_bar", n, to.a_bar.len())?;
-    check_len("rest b_bar", n, to.b_bar.len())?;
-    check_len("rest b_bar", n, from.b_bar.len())?;
-    out.a_bar.clear();
-    out.b_bar.clear();
-    out.a_bar.extend(
-        from.a_bar
-            .iter()
-            .zip(&to.a_bar)
-            .map(|(a, b)| a * (1.0 - s) + b * s),
-    );
-    out.b_bar.extend(
-        from.b_bar
-            .iter()
-            .zip(&to.b_bar)
-            .map(|(a, b)| a * (1.0 - s) + b * s),
-    );
-    Ok(())
+    Ok(RestState::blend(from, to, s, out)?)
 }

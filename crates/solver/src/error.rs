@@ -253,6 +253,20 @@ impl SolverError {
     pub fn objective(e: impl std::error::Error + Send + Sync + 'static) -> SolverError {
         SolverError::Objective(Box::new(e))
     }
+
+    /// Newton iterations the failed solve spent (the iteration it failed at, or the count it
+    /// ran out at); 0 for errors raised before iterating.
+    pub fn newton_iterations(&self) -> usize {
+        match self {
+            SolverError::NonFinite { iteration, .. }
+            | SolverError::NotPositiveDefinite { iteration, .. }
+            | SolverError::RegularizationFailed { iteration, .. }
+            | SolverError::LineSearchFailed { iteration, .. } => *iteration,
+            SolverError::NewtonDidNotConverge { iterations, .. }
+            | SolverError::Cancelled { iterations, .. } => *iterations,
+            _ => 0,
+        }
+    }
 }
 
 /// Structural equality; the wrapped errors of other crates ([`SolverError::Energy`],

@@ -783,7 +783,8 @@ fn crumpled_start_needs_regularisation() {
     // the first iteration.
     let (mut sys, x0) = crumpled();
     let e0 = sys.energy(&x0).unwrap().total();
-    // The former default: exact Hessian, first shift 1e-6, monotone line search.
+    // The former default: exact Hessian, first shift 1e-6, monotone line search, no
+    // rest-state continuation after a failure.
     let exact = |st: &mut Static| {
         st.newton.hessian = HessianPolicy::Fixed;
         st.newton.regularization = Some(RegularizationParams {
@@ -791,6 +792,7 @@ fn crumpled_start_needs_regularisation() {
             ..RegularizationParams::default()
         });
         st.newton.watchdog = 0;
+        st.continuation = false;
     };
     let mut st = Static::default();
     exact(&mut st);
@@ -1136,7 +1138,7 @@ fn thin_strip_with_aspect_16_triangles() {
     println!("strip, default (adaptive): {done} steps, iterations {its:?}");
     assert!(failure.is_none() && its.iter().all(|&i| i <= 20), "{its:?}");
     // The former default: exact Hessian, regularisation from μ = 1e-6 (relative to mean
-    // |H_dd|), monotone line search.
+    // |H_dd|), monotone line search, no rest-state continuation.
     let exact = |s: &mut Static| {
         s.newton.hessian = HessianPolicy::Fixed;
         s.newton.regularization = Some(RegularizationParams {
@@ -1144,6 +1146,7 @@ fn thin_strip_with_aspect_16_triangles() {
             ..RegularizationParams::default()
         });
         s.newton.watchdog = 0;
+        s.continuation = false;
     };
     let (done, its, failure) = swelling_strip(&exact);
     println!("strip, exact Hessian: {done} steps ({its:?} iterations), then {failure:?}");

@@ -212,3 +212,124 @@ pub fn fresh_temp_dir(name: &str) -> PathBuf {
     std::fs::create_dir_all(&d).expect("create the temporary directory");
     d
 }
+
+/// The conformal cone of issue #26: a flat annulus (radii 0.1 and 1 m, `rings × around` cells
+/// of [`generators::annulus`]) whose rest metric is grown isotropically by e^{2s}, s = c·ln r
+/// per face (r at the face centroid, m), b̄ = 0: its stretch-free shape is a round cone with
+/// sin(half-angle) = 1 + c (slant distance r^{1+c}/(1+c), radius r^{1+c}). E = 1 MPa, ν = 0.3,
+/// ρ = 1000 kg/m³, StVK, stretching and bending with form `sff`, free boundary, no loads.
+pub struct ConformalCone {
+    /// The system, rest forms grown.
+    pub system: ShellSystem,
+    /// Growth exponent c (the cone's sin(half-angle) is 1 + c).
+    pub c: f64,
+    /// The flat annulus (m).
+    pub flat: Vec<Vector3<f64>>,
+    /// The far start of the issue: the annulus lifted by 10⁻³·r² + 10⁻⁴·r·sin 3x (m).
+    pub start: Vec<Vector3<f64>>,
+    rings: usize,
+    around: usize,
+}
+
+/// [`ConformalCone`] with growth exponent `c` ∈ (−1, 0), thickness `h` (m) and form `sff`.
+pub fn conformal_cone(c: f64, h: f64, rings: usize, around: usize, sff: SffKind) -> ConformalCone {
+    let mesh = generators::annulus(0.1, 1.0, rings, around).expect("annulus");
+    let flat = mesh.positions().to_vec();
+    let mut rest = RestState::from_mesh(&mesh, &flat, sff).expect("rest forms of the annulus");
+    for (f, a) in rest.a_bar.iter_mut().enumerate() {
+        let [i, j, k] = mesh.faces()[f];
+        let centroid = (flat[i.idx()] + flat[j.idx()] + flat[k.idx()]) / 3.0;
+        *a *= (2.0 * c * centroid.xy().norm().ln()).exp();
+    }
+    rest.b_bar.iter_mut().for_each(|b| *b = Matrix2::zeros());
+    let material = Material {
+        thickness: h,
+        young: 1e6,
+        poisson: 0.3,
+        density: 1000.0,
+        viscosity: 0.0,
+        model: MaterialModel::StVK,
+    };
+    let model = ShellModel {
+        material,
+        terms: Terms::ELASTIC,
+        sff,
+    };
+    let system = ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default())
+        .expect("cone system");
+    let start = flat
+        .iter()
+        .map(|p| {
+            let r = p.xy().norm();
+            p + Vector3::new(0.0, 0.0, 1e-3 * r * r + 1e-4 * (3.0 * p.x).sin() * r)
+        })
+        .collect();
+    ConformalCone {
+        system,
+        c,
+        flat,
+        start,
+        rings,
+        around,
+    }
+}
+
+impl ConformalCone {
+    /// The stretch-free round cone (m): each flat point at radius r moved to slant distance
+    /// r^{1+c}/(1+c) on the cone of sin(half-angle) 1 + c.
+    pub fn round_cone(&self) -> Vec<Vector3<f64>> {
+        let sin_a = 1.0 + self.c;
+        let cos_a = (1.0 - sin_a * sin_a).max(0.0).sqrt();
+        self.flat
+            .iter()
+            .map(|p| {
+                let radius = p.xy().norm().powf(1.0 + self.c);
+                let theta = p.y.atan2(p.x);
+                Vector3::new(
+                    radius * theta.cos(),
+                    radius * theta.sin(),
+                    radius / sin_a * cos_a,
+                )
+            })
+            .collect()
+    }
+
+    /// Per ring (vertex circles of the annulus, inner to outer): centroid, mean distance from it
+    /// (m) and largest relative deviation from that mean (out of round).
+    fn rings_of(&self, x: &[Vector3<f64>]) -> Vec<(Vector3<f64>, f64, f64)> {
+        (0..=self.rings)
+            .map(|k| {
+                let ring = &x[k * self.around..(k + 1) * self.around];
+                let centroid = ring.iter().sum::<Vector3<f64>>() / self.around as f64;
+                let radii: Vec<f64> = ring.iter().map(|p| (p - centroid).norm()).collect();
+                let mean = radii.iter().sum::<f64>() / self.around as f64;
+                let oor = radii.iter().fold(0.0f64, |m, r| m.max((r - mean).abs())) / mean;
+                (centroid, mean, oor)
+            })
+            .collect()
+    }
+
+    /// Largest relative error of sin(half-angle) against 1 + c between neighbouring rings,
+    /// away from the rims (flat radii in [0.3, 0.8] m: the bending boundary layers are about
+    /// √(h·r) wide), from the rings' mean radii and centroids.
+    pub fn sin_error(&self, x: &[Vector3<f64>]) -> f64 {
+        let rings = self.rings_of(x);
+        let r_flat = |k: usize| self.flat[k * self.around].xy().norm();
+        (1..=self.rings)
+            .filter(|&k| r_flat(k - 1) >= 0.3 - 1e-12 && r_flat(k) <= 0.8 + 1e-12)
+            .map(|k| {
+                let (c0, r0, _) = rings[k - 1];
+                let (c1, r1, _) = rings[k];
+                let dr = r1 - r0;
+                let dc = (c1 - c0).norm();
+                let sin_a = dr / (dr * dr + dc * dc).sqrt();
+                ((sin_a - (1.0 + self.c)) / (1.0 + self.c)).abs()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Largest relative out-of-roundness of any ring.
+    pub fn out_of_round(&self, x: &[Vector3<f64>]) -> f64 {
+        self.rings_of(x).iter().map(|r| r.2).fold(0.0, f64::max)
+    }
+}

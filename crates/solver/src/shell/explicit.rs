@@ -126,6 +126,7 @@ impl Integrator for ExplicitEuler {
             energies,
             stable: None,
             contact: system.contact_stats(&state.x),
+            continuation_stages: 0,
             stability: None,
         })
     }

@@ -174,6 +174,7 @@ impl Integrator for ImplicitEuler {
                         energies,
                         stable: None,
                         contact: system.contact_stats(&state.x),
+                        continuation_stages: 0,
                         stability: None,
                     });
                 }

@@ -41,6 +41,10 @@ pub struct StepReport {
     /// Static steps: that smallest eigenvalue and its mode ([`crate::Stability`]); `None` as
     /// for `stable`.
     pub stability: Option<crate::Stability>,
+    /// Static steps: sub-steps of the rest-state continuation that solved the step after the
+    /// one-shot solve failed ([`crate::Static::continuation`]); 0 when the one-shot solve
+    /// succeeded, and for dynamic steps.
+    pub continuation_stages: usize,
 }
 
 /// What kind of step an [`Integrator`] takes: callers that treat equilibrium and dynamic steps

@@ -2,7 +2,7 @@
 //! on top of the energy crate's [`Assembler`](thinshell_energy::Assembler).
 //!
 //! Module dependencies point one way (no circles): `bc`, `loads`, `angles`, `contact_pattern`,
-//! `contact_stiffness`, `obstacle` → `contact` → `system` → `objective` → `integrator` → `statics`, `implicit`, `explicit`; `objective` → `path` (with
+//! `contact_stiffness`, `obstacle` → `contact` → `system` → `objective` → `integrator` → `statics` (with `homotopy`), `implicit`, `explicit`; `objective` → `path` (with
 //! the crate's [`path`](crate::path) tracer).
 
 pub mod angles;
@@ -11,6 +11,7 @@ pub mod contact;
 mod contact_pattern;
 pub mod contact_stiffness;
 pub mod explicit;
+mod homotopy;
 pub mod implicit;
 pub mod integrator;
 pub mod loads;

@@ -9,6 +9,7 @@
 use nalgebra::Vector3;
 use thinshell_energy::HessianMode;
 
+use super::homotopy;
 use super::integrator::{
     Integrator, NewtonCache, StepKind, StepReport, check_state, fallback_mode, retry_start,
     retryable,
@@ -32,6 +33,13 @@ pub struct Static {
     /// Hessian mode [`Integrator::step`] retries with, from the last good iterate, when the
     /// solve with the system's mode fails (`None`: no retry).
     pub fallback_hessian: Option<HessianMode>,
+    /// Whether [`Integrator::step`] retries a failed solve by rest-state continuation from
+    /// the start (default `true`): rest forms from the start's own forms to the system's, loads
+    /// from 0 to the system's load factor, in sub-steps (`shell/homotopy.rs`). A far start
+    /// (a flat sheet grown into a cone) otherwise ends at the iteration limit or in the basin
+    /// of a higher-energy minimum. Off for callers with a continuation of their own (a scene's
+    /// run loop continues from the previous step's rest forms instead).
+    pub continuation: bool,
     /// The cached Newton workspace ([`Default`]: empty).
     pub cache: NewtonCache,
 }
@@ -43,6 +51,7 @@ impl Default for Static {
             hessian_shift: 1e-10,
             force_scale: None,
             fallback_hessian: None,
+            continuation: true,
             cache: NewtonCache::default(),
         }
     }
@@ -168,8 +177,9 @@ impl Integrator for Static {
         let mut hessian = system.hessian_mode;
         // `solve_with_angles` leaves its last iterate in `x`, `phi`, failed or not.
         let (start_x, start_phi) = (x.clone(), phi.clone());
-        let report = match self.solve_with_angles(system, &mut x, &mut phi) {
-            Ok(r) => r,
+        let mut continuation_stages = 0;
+        let direct = match self.solve_with_angles(system, &mut x, &mut phi) {
+            Ok(r) => Ok(r),
             Err(e) => match fallback_mode(system, self.fallback_hessian) {
                 Some(mode) if retryable(&e) => {
                     let own = std::mem::replace(&mut system.hessian_mode, mode);
@@ -190,10 +200,32 @@ impl Integrator for Static {
                         retry = self.solve_with_angles(system, &mut x, &mut phi);
                     }
                     system.hessian_mode = own;
-                    retry?
+                    retry
                 }
-                _ => return Err(e),
+                _ => Err(e),
             },
+        };
+        let report = match direct {
+            Ok(r) => r,
+            Err(e) if self.continuation && retryable(&e) => {
+                x.copy_from_slice(&start_x);
+                phi.copy_from_slice(&start_phi);
+                let mut solve = |sys: &mut ShellSystem, x: &mut [Vector3<f64>], phi: &mut [f64]| {
+                    self.solve_with_angles(sys, x, phi)
+                };
+                // The first error says what the one-shot solve missed; the continuation's own
+                // failure adds nothing a user can act on.
+                let Ok(mut c) =
+                    homotopy::solve_by_continuation(&mut solve, system, &mut x, &mut phi)
+                else {
+                    return Err(e);
+                };
+                continuation_stages = c.stages;
+                // One count for the step: the failed one-shot solve's iterations too.
+                c.report.iterations += e.newton_iterations();
+                c.report
+            }
+            Err(e) => return Err(e),
         };
         let energies = system.energy_at(&x, &phi)?;
         // The stability test factorises the exact Hessian: not possible when the solve fell
@@ -220,6 +252,7 @@ impl Integrator for Static {
             stable: stability.as_ref().map(|s| s.stable),
             stability,
             contact: system.contact_stats(&state.x),
+            continuation_stages,
         })
     }
 }

@@ -421,6 +421,9 @@ impl Simulation {
                     newton: newton(defaults.newton)?,
                     force_scale,
                     fallback_hessian: fallback,
+                    // `Simulation::step` continues from the previous step's rest forms and load
+                    // factor, a better origin than the start's own forms.
+                    continuation: false,
                     ..defaults
                 })
             }
