@@ -9,11 +9,21 @@
 //! 4. The swelling strip whose static Newton crawled, at 4 to 32 cells across, with the default
 //!    (adaptive) Newton, and for comparison the exact Hessian (`HessianPolicy::Fixed`), a
 //!    smaller first regularisation shift, and the Gauss–Newton fallback.
+//! 5. The conformal cones of issue #26 (c = −0.3, −0.5; h = 10⁻², 10⁻³; 16 × 64 annulus from
+//!    flat, `thinshell_testkit::fixtures::conformal_cone`): the default static step, the same
+//!    without its rest-state continuation, and the pre-#26 policy without it; each against the
+//!    round cone's equilibrium energy and the half-angle 1 + c.
+//! 6. Just past a critical load at 20 000 faces (issue #26): the pinned–pinned strut
+//!    (1 m × 5 cm × 2 mm, 1000 × 10) and the simply supported square plate (0.2 m, 2 mm,
+//!    100 × 100) of `crates/solver/tests/critical_loads.rs` at 1.05 of the analytic critical
+//!    load, a lateral centre force of 10⁻⁶ of the end load as imperfection, one default static
+//!    step from flat: iterations, wall time, stability, centre deflection.
 //!
 //! The solver-level parts (2–4) use the library's default bending form unless `--form` names
 //! another; every case of parts 1, 3 and 4 also runs with `HessianPolicy::AdaptivePsd` (scene
 //! key `hessian = "adaptive_psd"`), the policy before issue #26, for a before/after in one run.
-//! `--only PART` runs the parts whose name contains PART (scenes, flag, growth, strip);
+//! `--only PART` runs the parts whose name contains PART (scenes, flag, growth, strip, cone,
+//! critical);
 //! `VERBOSE=1` prints every Newton iteration of the strip.
 //!
 //! Every run checks that positions stay finite, and the solver-level runs that the potential
@@ -474,6 +484,159 @@ fn strip(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
     Ok(())
 }
 
+/// Part 5: the conformal cones from flat (module docs).
+fn cones(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
+    use thinshell_testkit::fixtures::conformal_cone;
+    for c in [-0.3, -0.5] {
+        for h in [1e-2, 1e-3] {
+            let mut round = conformal_cone(c, h, 16, 64, form);
+            let mut at_round = State::at_rest(round.round_cone());
+            let e_round = Static::default()
+                .step(&mut round.system, &mut at_round)?
+                .energies
+                .total();
+            for variant in [
+                "default",
+                "no continuation",
+                "adaptive_psd (before #26), no continuation",
+            ] {
+                let mut cone = conformal_cone(c, h, 16, 64, form);
+                let mut st = Static::default();
+                st.continuation = variant == "default";
+                if variant.starts_with("adaptive_psd") {
+                    st.newton.hessian = HessianPolicy::AdaptivePsd;
+                }
+                let mut state = State::at_rest(cone.start.clone());
+                let t0 = Instant::now();
+                let result = st.step(&mut cone.system, &mut state);
+                let wall = t0.elapsed().as_secs_f64();
+                let case = format!("conformal cone c = {c}, h = {h}, 16x64, {variant}");
+                let (outcome, detail) = match result {
+                    Ok(r) => {
+                        let n = r
+                            .newton
+                            .as_ref()
+                            .context("a static step has a Newton report")?;
+                        check_newton(n, "cone")?;
+                        let e = r.energies.total();
+                        let sin_error = cone.sin_error(&state.x);
+                        (
+                            format!(
+                                "{} iterations ({} continuation stages), stable {:?}, E/E_round \
+                                 - 1 = {:+.2e}, sin error {:.2} %, {wall:.1} s",
+                                n.iterations,
+                                r.continuation_stages,
+                                r.stable,
+                                e / e_round - 1.0,
+                                100.0 * sin_error
+                            ),
+                            json!({
+                                "newton_iterations": n.iterations,
+                                "continuation_stages": r.continuation_stages,
+                                "stable": r.stable, "energy": e, "round_cone_energy": e_round,
+                                "sin_error": sin_error, "wall_s": wall,
+                            }),
+                        )
+                    }
+                    Err(e) => (
+                        format!("fails after {wall:.1} s: {e}{}", residual_tail(&e)),
+                        json!({ "failure": e.to_string(), "wall_s": wall }),
+                    ),
+                };
+                row(rows, case, &outcome, detail);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Part 6: just past a critical load at 20 000 faces (module docs). The default form: the
+/// fixture's.
+fn past_critical(rows: &mut Vec<Value>) -> Result<()> {
+    use std::f64::consts::PI;
+    use thinshell_testkit::fixtures::compressed_plate;
+    let (h, young): (f64, f64) = (0.002, 1e9);
+    // (name, length, width, nx, ny, ν, sides held, analytic critical end load in N)
+    let strut_ei = young * 0.05 * h.powi(3) / 12.0;
+    let plate_d = young * h.powi(3) / (12.0 * (1.0 - 0.3f64.powi(2)));
+    let cases = [
+        (
+            "pinned-pinned strut",
+            1.0,
+            0.05,
+            1000,
+            10,
+            0.0,
+            false,
+            PI * PI * strut_ei,
+        ),
+        (
+            "simply supported plate",
+            0.2,
+            0.2,
+            100,
+            100,
+            0.3,
+            true,
+            4.0 * PI * PI * plate_d / 0.2,
+        ),
+    ];
+    // CRITICAL_SCALE=k divides the cells per side by k (a quicker look at the same cases).
+    let k: usize = std::env::var("CRITICAL_SCALE")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1);
+    for (name, length, width, nx, ny, nu, sides, p_cr) in cases {
+        let (nx, ny) = (nx / k, (ny / k).max(1));
+        let p = 1.05 * p_cr;
+        let (mut sys, x0) =
+            compressed_plate(length, width, nx, ny, h, young, nu, sides, p, 1e-6 * p);
+        let faces = sys.mesh.n_faces();
+        let mut state = State::at_rest(x0);
+        let mut st = Static::default();
+        if std::env::var("VERBOSE").is_ok() {
+            st.set_progress(Some(std::sync::Arc::new(
+                |p: &thinshell_solver::NewtonProgress| {
+                    println!(
+                        "  it {:3} {:?} residual {:.3e} step {:.3e}",
+                        p.iteration, p.hessian, p.residual, p.step_length
+                    );
+                },
+            )));
+        }
+        let t0 = Instant::now();
+        let result = st.step(&mut sys, &mut state);
+        let wall = t0.elapsed().as_secs_f64();
+        let case = format!("{name}, {faces} faces, 1.05 P_cr, from flat");
+        let (outcome, detail) = match result {
+            Ok(r) => {
+                let n = r
+                    .newton
+                    .as_ref()
+                    .context("a static step has a Newton report")?;
+                check_newton(n, "past critical")?;
+                let w = state.x.iter().fold(0.0f64, |m, x| m.max(x.z.abs()));
+                (
+                    format!(
+                        "{} iterations, stable {:?}, largest deflection {w:.3e} m, {wall:.1} s",
+                        n.iterations, r.stable
+                    ),
+                    json!({
+                        "newton_iterations": n.iterations, "stable": r.stable,
+                        "deflection": w, "wall_s": wall, "faces": faces,
+                    }),
+                )
+            }
+            Err(e) => (
+                format!("fails after {wall:.1} s: {e}{}", residual_tail(&e)),
+                json!({ "failure": e.to_string(), "wall_s": wall, "faces": faces }),
+            ),
+        };
+        row(rows, case, &outcome, detail);
+    }
+    Ok(())
+}
+
 /// Runs the task; `quick` skips the 10⁴-step run.
 pub fn run(opts: &Options) -> Result<()> {
     let out = crate::out_dir();
@@ -493,6 +656,12 @@ pub fn run(opts: &Options) -> Result<()> {
     }
     if wanted("strip") {
         strip(&mut rows, opts.form)?;
+    }
+    if wanted("cone") {
+        cones(&mut rows, opts.form)?;
+    }
+    if wanted("critical") {
+        past_critical(&mut rows)?;
     }
     println!("hard cases: {:.1} s", t0.elapsed().as_secs_f64());
     let path = out.join("hard-cases.json");

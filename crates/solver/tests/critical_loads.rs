@@ -4,9 +4,8 @@
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::Vector3;
-use thinshell_energy::{Material, MaterialModel, RestState, SffKind, ShellModel, Terms};
-use thinshell_mesh::{VertexId, generators};
-use thinshell_solver::{Boundary, Integrator, Loads, ShellSystem, Stability, State, Static};
+use thinshell_solver::{Integrator, ShellSystem, Stability, State, Static};
+use thinshell_testkit::fixtures::compressed_plate;
 
 const LENGTH: f64 = 1.0;
 const WIDTH: f64 = 0.05;
@@ -33,72 +32,10 @@ fn compressed_stability(
     sides: bool,
     p: f64,
 ) -> Stability {
-    let (sys, x0) = compressed(length, width, nx, ny, poisson, sides, p, 0.0);
+    let (sys, x0) = compressed_plate(
+        length, width, nx, ny, THICKNESS, YOUNG, poisson, sides, p, 0.0,
+    );
     flat_stability(sys, x0)
-}
-
-/// The system of [`compressed_stability`] with a lateral force `f` (N, +z) at the vertex
-/// nearest the centre, and its flat start.
-#[allow(clippy::too_many_arguments)]
-fn compressed(
-    length: f64,
-    width: f64,
-    nx: usize,
-    ny: usize,
-    poisson: f64,
-    sides: bool,
-    p: f64,
-    f: f64,
-) -> (ShellSystem, Vec<Vector3<f64>>) {
-    let mesh = generators::rectangle(length, width, nx, ny).unwrap();
-    let x0 = mesh.positions().to_vec();
-    let sff = SffKind::default();
-    let rest = RestState::from_mesh(&mesh, &x0, sff).unwrap();
-    let vertex = |i: usize, j: usize| VertexId::new(j * (nx + 1) + i);
-    let mut pinned = vec![(vertex(0, 0), 1)];
-    let mut forces = Vec::new();
-    for j in 0..=ny {
-        pinned.push((vertex(0, j), 0));
-        pinned.push((vertex(0, j), 2));
-        pinned.push((vertex(nx, j), 2));
-        // The end load spread evenly over the end edge (half shares at its corners).
-        let share = if j == 0 || j == ny { 0.5 } else { 1.0 } / ny as f64;
-        forces.push((vertex(nx, j), Vector3::new(-p * share, 0.0, 0.0)));
-    }
-    if f != 0.0 {
-        forces.push((vertex(nx / 2, ny / 2), Vector3::new(0.0, 0.0, f)));
-    }
-    if sides {
-        for i in 1..nx {
-            pinned.push((vertex(i, 0), 2));
-            pinned.push((vertex(i, ny), 2));
-        }
-    }
-    let boundary = Boundary {
-        pinned_coordinates: pinned,
-        ..Boundary::default()
-    };
-    let loads = Loads {
-        point_forces: forces,
-        ..Loads::default()
-    };
-    let material = Material {
-        thickness: THICKNESS,
-        young: YOUNG,
-        poisson,
-        density: 1000.0,
-        viscosity: 0.0,
-        model: MaterialModel::StVK,
-    };
-    let model = ShellModel {
-        material,
-        terms: Terms::ELASTIC,
-        sff,
-    };
-    (
-        ShellSystem::new(mesh, model, rest, boundary, loads).unwrap(),
-        x0,
-    )
 }
 
 /// The stability of the flat equilibrium of `sys` (asserted flat and fully supported).
@@ -216,7 +153,8 @@ fn deflection_near_the_critical_load_is_linear_in_a_tiny_imperfection() {
     let p_cr = 4.0 * std::f64::consts::PI.powi(2) * d / (a * a) * a;
     for ratio in [0.9, 0.96] {
         let deflection = |f: f64| {
-            let (mut sys, x0) = compressed(a, a, n, n, nu, true, ratio * p_cr, f);
+            let (mut sys, x0) =
+                compressed_plate(a, a, n, n, THICKNESS, YOUNG, nu, true, ratio * p_cr, f);
             let mut state = State::at_rest(x0);
             let report = Static::default().step(&mut sys, &mut state).unwrap();
             assert_eq!(report.stable, Some(true));

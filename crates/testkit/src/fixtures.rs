@@ -333,3 +333,73 @@ impl ConformalCone {
         self.rings_of(x).iter().map(|r| r.2).fold(0.0, f64::max)
     }
 }
+
+/// A flat rectangle `length × width` (m) along x, `nx × ny` cells, thickness `h` (m), Young's
+/// modulus `young` (Pa), Poisson ratio `poisson`, StVK, default bending form, under an axial
+/// end load `p` (N, compressive, spread over the x = `length` edge with half shares at its
+/// corners): both ends held in z (free to rotate about them), the x = 0 end also in x, one
+/// corner in y; `sides`: the long edges held in z too (a plate simply supported on all four
+/// edges). `f` (N, +z) is a lateral force at the vertex nearest the centre (an imperfection;
+/// 0: none). Returns the system and the flat start. Euler's strut (`sides = false`, ν = 0):
+/// P_cr = π²EI/L²; the square plate (`sides = true`): N_cr = 4π²D/a².
+#[allow(clippy::too_many_arguments)]
+pub fn compressed_plate(
+    length: f64,
+    width: f64,
+    nx: usize,
+    ny: usize,
+    h: f64,
+    young: f64,
+    poisson: f64,
+    sides: bool,
+    p: f64,
+    f: f64,
+) -> (ShellSystem, Vec<Vector3<f64>>) {
+    use thinshell_mesh::VertexId;
+    let mesh = generators::rectangle(length, width, nx, ny).expect("rectangle");
+    let x0 = mesh.positions().to_vec();
+    let sff = SffKind::default();
+    let rest = RestState::from_mesh(&mesh, &x0, sff).expect("rest forms of the plate");
+    let vertex = |i: usize, j: usize| VertexId::new(j * (nx + 1) + i);
+    let mut pinned = vec![(vertex(0, 0), 1)];
+    let mut forces = Vec::new();
+    for j in 0..=ny {
+        pinned.push((vertex(0, j), 0));
+        pinned.push((vertex(0, j), 2));
+        pinned.push((vertex(nx, j), 2));
+        let share = if j == 0 || j == ny { 0.5 } else { 1.0 } / ny as f64;
+        forces.push((vertex(nx, j), Vector3::new(-p * share, 0.0, 0.0)));
+    }
+    if f != 0.0 {
+        forces.push((vertex(nx / 2, ny / 2), Vector3::new(0.0, 0.0, f)));
+    }
+    if sides {
+        for i in 1..nx {
+            pinned.push((vertex(i, 0), 2));
+            pinned.push((vertex(i, ny), 2));
+        }
+    }
+    let boundary = Boundary {
+        pinned_coordinates: pinned,
+        ..Boundary::default()
+    };
+    let loads = Loads {
+        point_forces: forces,
+        ..Loads::default()
+    };
+    let material = Material {
+        thickness: h,
+        young,
+        poisson,
+        density: 1000.0,
+        viscosity: 0.0,
+        model: MaterialModel::StVK,
+    };
+    let model = ShellModel {
+        material,
+        terms: Terms::ELASTIC,
+        sff,
+    };
+    let system = ShellSystem::new(mesh, model, rest, boundary, loads).expect("plate system");
+    (system, x0)
+}
