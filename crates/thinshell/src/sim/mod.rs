@@ -15,6 +15,7 @@
 
 mod build;
 mod checkpoint;
+mod describe;
 mod path;
 mod rest_edit;
 
