@@ -29,7 +29,7 @@ use thinshell_growth::{Growth, GrowthError, blend_rest};
 use thinshell_mesh::Mesh;
 use thinshell_solver::{Integrator, IterationHessian, ShellSystem, SolverError, State, StepKind};
 
-pub use build::BuildError;
+pub use build::{BuildError, SimulationBuilder};
 pub use checkpoint::{
     CHECKPOINT_VERSION, CheckpointError, CheckpointInfo, read_checkpoint_info, scene_hash,
 };
