@@ -7,7 +7,6 @@ use std::sync::atomic::{AtomicBool, AtomicUsize};
 use indicatif::{ProgressBar, ProgressStyle};
 use thinshell::mesh_info::mesh_info;
 use thinshell::output::{CheckpointEvery, Failure, OutputWriter, RunRecord, RunStatus};
-use thinshell::scene::Scene;
 use thinshell::sim::{Observer, Simulation, StepRecord};
 
 /// `thinshell info MESH`: prints statistics and problems of an OBJ mesh.
@@ -21,17 +20,9 @@ pub fn info(path: &Path) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Loads a scene with overrides and builds it; any problem is bad input.
-pub(crate) fn load(scene: &Path, overrides: &[String]) -> Result<(Scene, Simulation), Failure> {
-    let scene = Scene::load_with_overrides(scene, overrides)
-        .map_err(|e| Failure::BadInput(e.to_string()))?;
-    let sim = Simulation::build(&scene).map_err(|e| Failure::BadInput(e.to_string()))?;
-    Ok((scene, sim))
-}
-
 /// `thinshell check SCENE`: validates a scene and prints what would be simulated.
 pub fn check(scene: &Path, overrides: &[String]) -> Result<(), Failure> {
-    let (_, sim) = load(scene, overrides)?;
+    let (_, sim) = crate::load::load(scene, overrides)?;
     print!("{}", sim.describe());
     Ok(())
 }
@@ -98,7 +89,7 @@ pub fn run_with(
     options: &RunOptions,
     stop: &Arc<AtomicBool>,
 ) -> Result<(), Failure> {
-    let (scene, sim) = load(scene_path, overrides)?;
+    let (scene, sim) = crate::load::load(scene_path, overrides)?;
     if options.checkpoint_every.is_some() && sim.is_path_following() {
         return Err(Failure::BadInput(format!(
             "--checkpoint-every: {}",

@@ -7,6 +7,7 @@
 //! the viewer.
 
 pub mod commands;
+mod load;
 pub mod resume;
 pub mod view;
 

@@ -18,6 +18,7 @@
 //! ```
 
 pub mod path;
+mod problem;
 pub mod schema;
 pub mod validate;
 

@@ -9,21 +9,8 @@ use thinshell_mesh::generators::Generator;
 
 use super::schema::*;
 
-/// One problem found in a scene: the key it concerns and what is wrong.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Problem {
-    /// Dotted key path, e.g. `material.poisson` or `boundary.pins[0].axes`.
-    pub key: String,
-    /// What is wrong, in one sentence.
-    pub message: String,
-}
-
-fn problem(key: impl Into<String>, message: impl Into<String>) -> Problem {
-    Problem {
-        key: key.into(),
-        message: message.into(),
-    }
-}
+pub use super::problem::Problem;
+use super::problem::problem;
 
 type Check = Result<(), Problem>;
 
@@ -93,7 +80,19 @@ pub fn validate(s: &SceneFile) -> Result<(), Problem> {
     boundary(&s.boundary)?;
     integrator(&s.integrator, &on)?;
     static_only(s, &on)?;
-    super::path::validate(s, &on)?;
+    if let Some(p) = &s.path {
+        let context = super::path::PathContext {
+            static_integrator: s.integrator.kind == IntegratorKind::Static,
+            load_ramp: s.integrator.load_ramp.is_some(),
+            end_time: s.integrator.end_time.is_some(),
+            growth: on(Effect::Growth),
+            prescribed: !s.boundary.prescribed.is_empty(),
+            loads: [Effect::Gravity, Effect::Pressure, Effect::PointLoads]
+                .into_iter()
+                .any(&on),
+        };
+        super::path::validate(p, &context)?;
+    }
     contact(s, on(Effect::Contact))?;
     output(&s.output)
 }

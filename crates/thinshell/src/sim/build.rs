@@ -9,7 +9,7 @@ use thinshell_mesh::generators::Generator;
 use thinshell_mesh::{Mesh, MeshError, VertexId, io};
 use thinshell_solver::{
     Boundary, ContactSettings, ExplicitEuler, HessianPolicy, ImplicitEuler, Integrator, Loads,
-    NewtonSettings, Obstacle, Prescribed, ShellSystem, SolverError, State, Static,
+    NewtonSettings, Obstacle, Prescribed, ShellSystem, State, Static,
 };
 
 use thinshell_growth::{
@@ -27,64 +27,7 @@ use crate::scene::schema::{
     RegionSpec, RestSource, StimulusKind, Surface as SceneSurface,
 };
 
-/// Why a scene could not be turned into a simulation.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum BuildError {
-    /// The mesh could not be loaded or generated.
-    #[error("{origin}: mesh: {source}")]
-    Mesh {
-        /// The scene.
-        origin: String,
-        /// Why.
-        source: MeshError,
-    },
-    /// The scene's OBJ file could not be read or is not a valid mesh.
-    #[error("{origin}: mesh file {}: {source}", .path.display())]
-    MeshFile {
-        /// The scene.
-        origin: String,
-        /// The OBJ file, resolved against the scene's directory.
-        path: std::path::PathBuf,
-        /// Why.
-        source: MeshError,
-    },
-    /// Rest state, material or assembly set-up failed.
-    #[error("{origin}: {source}")]
-    Energy {
-        /// The scene.
-        origin: String,
-        /// Why.
-        source: EnergyError,
-    },
-    /// Growth model or stimulus set-up failed.
-    #[error("{origin}: growth: {source}")]
-    Growth {
-        /// The scene.
-        origin: String,
-        /// Why.
-        source: GrowthError,
-    },
-    /// Solver settings rejected.
-    #[error("{origin}: solver: {source}")]
-    Solver {
-        /// The scene.
-        origin: String,
-        /// Why.
-        source: SolverError,
-    },
-    /// A value that only the built mesh can check (a vertex index out of range, no free
-    /// unknowns, …), or an effect this version cannot simulate yet.
-    #[error("{origin}: `{key}` {message}")]
-    Invalid {
-        /// The scene.
-        origin: String,
-        /// Dotted key.
-        key: String,
-        /// What is wrong.
-        message: String,
-    },
-}
+use super::error::BuildError;
 
 fn m2(m: &[[f64; 2]; 2]) -> Matrix2<f64> {
     Matrix2::new(m[0][0], m[0][1], m[1][0], m[1][1])
