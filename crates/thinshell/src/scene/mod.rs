@@ -17,8 +17,10 @@
 //! assert_eq!(scene.file.material.young(), 2e9); // paper by default
 //! ```
 
+pub mod material;
 pub mod path;
 mod problem;
+pub mod region;
 pub mod schema;
 pub mod validate;
 

@@ -7,6 +7,9 @@
 use serde::{Deserialize, Serialize};
 use thinshell_mesh::generators::Value;
 
+pub use super::material::{LayerSpec, MaterialModelName, MaterialSpec};
+pub use super::region::{BoxSpec, HalfSpaceSpec, RegionSpec, SphereSpec};
+
 /// A whole scene file.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -314,118 +317,6 @@ pub struct WrapCylinder {
     pub center_x: Option<f64>,
 }
 
-/// Material parameters, SI units (`docs/scenes.md`, `[material]`).
-///
-/// `thickness`, `young` and `poisson` belong to the single-layer models (`stvk`,
-/// `neo_hookean`); `bottom` and `top` to `bilayer`, which takes its thickness and moduli from
-/// its layers. Keys of one model are refused for another (`validate`).
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct MaterialSpec {
-    /// Elastic model (default `stvk`).
-    #[serde(default)]
-    pub model: MaterialModelName,
-    /// Thickness h, m (default 1e-4; single-layer models).
-    #[serde(default)]
-    pub thickness: Option<f64>,
-    /// Young's modulus E, Pa (default 2e9; single-layer models).
-    #[serde(default)]
-    pub young: Option<f64>,
-    /// Poisson ratio ν (default 0.3; single-layer models).
-    #[serde(default)]
-    pub poisson: Option<f64>,
-    /// Density ρ, kg/m³ (default 250).
-    #[serde(default = "default_density")]
-    pub density: f64,
-    /// Viscosity η, Pa·s (default 5e-13, the seed's value: practically no damping).
-    #[serde(default = "default_viscosity")]
-    pub viscosity: f64,
-    /// `bilayer`: the layer on the −z side (z ∈ [−h/2, −h/2 + h₁]).
-    #[serde(default)]
-    pub bottom: Option<LayerSpec>,
-    /// `bilayer`: the layer on the +z side (the side the unit normal points to).
-    #[serde(default)]
-    pub top: Option<LayerSpec>,
-}
-
-impl Default for MaterialSpec {
-    fn default() -> Self {
-        MaterialSpec {
-            model: MaterialModelName::default(),
-            thickness: None,
-            young: None,
-            poisson: None,
-            density: default_density(),
-            viscosity: default_viscosity(),
-            bottom: None,
-            top: None,
-        }
-    }
-}
-
-impl MaterialSpec {
-    /// Thickness h (m) of a single-layer model, default 1e-4.
-    pub fn thickness(&self) -> f64 {
-        self.thickness.unwrap_or(1e-4)
-    }
-
-    /// Young's modulus E (Pa) of a single-layer model, default 2e9.
-    pub fn young(&self) -> f64 {
-        self.young.unwrap_or(2e9)
-    }
-
-    /// Poisson ratio ν of a single-layer model, default 0.3.
-    pub fn poisson(&self) -> f64 {
-        self.poisson.unwrap_or(0.3)
-    }
-}
-
-/// Elastic model of `[material]` (`thinshell_energy::MaterialModel`).
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum MaterialModelName {
-    /// St. Venant–Kirchhoff, the paper's quadratic energies (`docs/model.md` §2). Default.
-    #[default]
-    Stvk,
-    /// Compressible neo-Hookean stretching, bending in the current metric (§2.1).
-    NeoHookean,
-    /// Two bonded layers with their own moduli and eigenstrains (§2.2): keys `bottom`, `top`.
-    Bilayer,
-}
-
-impl MaterialModelName {
-    /// The name as written in scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            MaterialModelName::Stvk => "stvk",
-            MaterialModelName::NeoHookean => "neo_hookean",
-            MaterialModelName::Bilayer => "bilayer",
-        }
-    }
-}
-
-/// One layer of a `bilayer` material; every key is required.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct LayerSpec {
-    /// Layer thickness, m (> 0).
-    pub thickness: f64,
-    /// Young's modulus, Pa (> 0).
-    pub young: f64,
-    /// Poisson ratio, in [0, 0.5).
-    pub poisson: f64,
-    /// Isotropic eigenstrain ε (> −1): the layer is stress-free at (1 + ε)² times the rest
-    /// metric (thermal α ΔT, swelling).
-    pub eigenstrain: f64,
-}
-
-fn default_density() -> f64 {
-    250.0
-}
-fn default_viscosity() -> f64 {
-    5e-13
-}
-
 /// Where the rest forms (ā, b̄) come from before any growth.
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
@@ -501,54 +392,6 @@ pub enum StimulusKind {
     DirectedHeat,
     /// Diffusion through the thickness from `sources` (effect `diffusion`).
     Diffusion,
-}
-
-/// A region of space (exactly one key).
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq, Default)]
-#[serde(deny_unknown_fields)]
-pub struct RegionSpec {
-    /// Points with `(x − point)·normal > 0`.
-    #[serde(default)]
-    pub half_space: Option<HalfSpaceSpec>,
-    /// Points inside a sphere.
-    #[serde(default)]
-    pub sphere: Option<SphereSpec>,
-    /// Points inside an axis-aligned box.
-    #[serde(default, rename = "box")]
-    pub aabb: Option<BoxSpec>,
-    /// Explicit vertex indices (0-based, as in the mesh).
-    #[serde(default)]
-    pub vertices: Option<Vec<usize>>,
-}
-
-/// Half-space `(x − point)·normal > 0`.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct HalfSpaceSpec {
-    /// A point on the plane, m.
-    pub point: [f64; 3],
-    /// Outward normal (need not be unit).
-    pub normal: [f64; 3],
-}
-
-/// Ball `|x − center| < radius`.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct SphereSpec {
-    /// Centre, m.
-    pub center: [f64; 3],
-    /// Radius, m.
-    pub radius: f64,
-}
-
-/// Axis-aligned box `min ≤ x ≤ max`.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct BoxSpec {
-    /// Lower corner, m.
-    pub min: [f64; 3],
-    /// Upper corner, m.
-    pub max: [f64; 3],
 }
 
 /// Stimulus source. A face belongs to a region when all three of its vertices do.

@@ -12,59 +12,7 @@ use super::schema::*;
 pub use super::problem::Problem;
 use super::problem::problem;
 
-type Check = Result<(), Problem>;
-
-fn finite(key: &str, v: f64) -> Check {
-    if v.is_finite() {
-        Ok(())
-    } else {
-        Err(problem(key, format!("must be a finite number, got {v}")))
-    }
-}
-
-fn positive(key: &str, v: f64) -> Check {
-    finite(key, v)?;
-    if v > 0.0 {
-        Ok(())
-    } else {
-        Err(problem(key, format!("must be > 0, got {v}")))
-    }
-}
-
-fn finite_all(key: &str, v: &[f64]) -> Check {
-    for (i, &x) in v.iter().enumerate() {
-        if !x.is_finite() {
-            return Err(problem(
-                format!("{key}[{i}]"),
-                format!("must be a finite number, got {x}"),
-            ));
-        }
-    }
-    Ok(())
-}
-
-fn matrix(key: &str, m: &[[f64; 2]; 2], spd: bool) -> Check {
-    finite_all(key, &[m[0][0], m[0][1], m[1][0], m[1][1]])?;
-    let scale = m[0][0]
-        .abs()
-        .max(m[1][1].abs())
-        .max(m[0][1].abs())
-        .max(1e-300);
-    if (m[0][1] - m[1][0]).abs() > 1e-12 * scale {
-        return Err(problem(key, "must be symmetric"));
-    }
-    if spd && !(m[0][0] > 0.0 && m[0][0] * m[1][1] - m[0][1] * m[1][0] > 0.0) {
-        return Err(problem(key, "must be positive definite"));
-    }
-    Ok(())
-}
-
-fn absent<T>(key: &str, v: &Option<T>, why: &str) -> Check {
-    match v {
-        Some(_) => Err(problem(key, format!("does not apply {why}"))),
-        None => Ok(()),
-    }
-}
+use super::problem::{Check, absent, finite, finite_all, matrix, positive};
 
 /// Checks the whole scene; returns the first problem found.
 pub fn validate(s: &SceneFile) -> Result<(), Problem> {
@@ -72,7 +20,7 @@ pub fn validate(s: &SceneFile) -> Result<(), Problem> {
     let on = |e: Effect| effects.contains(&e);
     mesh(&s.mesh)?;
     initial(&s.initial)?;
-    material(&s.material)?;
+    super::material::validate(&s.material)?;
     rest(&s.rest)?;
     bending(s, &on)?;
     growth(s, on(Effect::Growth), on(Effect::Diffusion))?;
@@ -343,61 +291,6 @@ fn initial(i: &InitialSpec) -> Check {
     Ok(())
 }
 
-fn material(m: &MaterialSpec) -> Check {
-    let model = m.model.name();
-    let single = |key: &str, v: &Option<f64>| match v {
-        Some(_) if m.model == MaterialModelName::Bilayer => Err(problem(
-            key,
-            "does not apply to model = \"bilayer\" (set it per layer in `bottom` and `top`)",
-        )),
-        _ => Ok(()),
-    };
-    single("material.thickness", &m.thickness)?;
-    single("material.young", &m.young)?;
-    single("material.poisson", &m.poisson)?;
-    if m.model == MaterialModelName::Bilayer {
-        for (key, layer) in [("material.bottom", &m.bottom), ("material.top", &m.top)] {
-            let Some(l) = layer else {
-                return Err(problem(key, "is required with model = \"bilayer\""));
-            };
-            positive(&format!("{key}.thickness"), l.thickness)?;
-            positive(&format!("{key}.young"), l.young)?;
-            poisson(&format!("{key}.poisson"), l.poisson)?;
-            finite(&format!("{key}.eigenstrain"), l.eigenstrain)?;
-            if l.eigenstrain <= -1.0 {
-                return Err(problem(
-                    format!("{key}.eigenstrain"),
-                    format!("must be > -1, got {}", l.eigenstrain),
-                ));
-            }
-        }
-    } else {
-        let why = format!("to model = \"{model}\" (only to \"bilayer\")");
-        absent("material.bottom", &m.bottom, &why)?;
-        absent("material.top", &m.top, &why)?;
-        positive("material.thickness", m.thickness())?;
-        positive("material.young", m.young())?;
-        poisson("material.poisson", m.poisson())?;
-    }
-    positive("material.density", m.density)?;
-    finite("material.viscosity", m.viscosity)?;
-    if m.viscosity < 0.0 {
-        return Err(problem(
-            "material.viscosity",
-            format!("must be ≥ 0, got {}", m.viscosity),
-        ));
-    }
-    Ok(())
-}
-
-fn poisson(key: &str, v: f64) -> Check {
-    finite(key, v)?;
-    if !(0.0..0.5).contains(&v) {
-        return Err(problem(key, format!("must be in [0, 0.5), got {v}")));
-    }
-    Ok(())
-}
-
 fn rest(r: &RestSpec) -> Check {
     match r.from {
         RestSource::Mesh => {
@@ -416,54 +309,6 @@ fn rest(r: &RestSpec) -> Check {
             Ok(())
         }
     }
-}
-
-fn region(key: &str, r: &RegionSpec) -> Check {
-    let n = [
-        r.half_space.is_some(),
-        r.sphere.is_some(),
-        r.aabb.is_some(),
-        r.vertices.is_some(),
-    ]
-    .iter()
-    .filter(|&&b| b)
-    .count();
-    if n != 1 {
-        return Err(problem(
-            key,
-            "needs exactly one of `half_space`, `sphere`, `box`, `vertices`",
-        ));
-    }
-    if let Some(h) = &r.half_space {
-        finite_all(&format!("{key}.half_space.point"), &h.point)?;
-        finite_all(&format!("{key}.half_space.normal"), &h.normal)?;
-        if h.normal.iter().all(|&c| c == 0.0) {
-            return Err(problem(
-                format!("{key}.half_space.normal"),
-                "must not be zero",
-            ));
-        }
-    }
-    if let Some(s) = &r.sphere {
-        finite_all(&format!("{key}.sphere.center"), &s.center)?;
-        positive(&format!("{key}.sphere.radius"), s.radius)?;
-    }
-    if let Some(b) = &r.aabb {
-        finite_all(&format!("{key}.box.min"), &b.min)?;
-        finite_all(&format!("{key}.box.max"), &b.max)?;
-        if (0..3).any(|i| b.min[i] > b.max[i]) {
-            return Err(problem(
-                format!("{key}.box"),
-                "needs min ≤ max in every coordinate",
-            ));
-        }
-    }
-    if let Some(v) = &r.vertices {
-        if v.is_empty() {
-            return Err(problem(format!("{key}.vertices"), "is empty"));
-        }
-    }
-    Ok(())
 }
 
 fn bending(s: &SceneFile, on: &dyn Fn(Effect) -> bool) -> Check {
@@ -632,9 +477,9 @@ fn growth(s: &SceneFile, growth_on: bool, diffusion_on: bool) -> Check {
                 .hot
                 .as_ref()
                 .ok_or_else(|| problem(format!("{k}.hot"), "is required by directed heat"))?;
-            region(&format!("{k}.hot"), hot)?;
+            super::region::validate(&format!("{k}.hot"), hot)?;
             if let Some(held) = &st.held {
-                region(&format!("{k}.held"), held)?;
+                super::region::validate(&format!("{k}.held"), held)?;
             }
             Ok(())
         }
@@ -676,7 +521,7 @@ fn growth(s: &SceneFile, growth_on: bool, diffusion_on: bool) -> Check {
                     }
                 }
                 if let Some(r) = &src.region {
-                    region(&format!("{sk}.region"), r)?;
+                    super::region::validate(&format!("{sk}.region"), r)?;
                 }
             }
             Ok(())
@@ -734,7 +579,7 @@ fn loads(s: &SceneFile, on: &dyn Fn(Effect) -> bool) -> Check {
 
 fn boundary(b: &BoundarySpec) -> Check {
     for (i, p) in b.pins.iter().enumerate() {
-        region(&format!("boundary.pins[{i}].region"), &p.region)?;
+        super::region::validate(&format!("boundary.pins[{i}].region"), &p.region)?;
         if let Some(axes) = &p.axes {
             let key = format!("boundary.pins[{i}].axes");
             if axes.is_empty() || axes.len() > 3 {
@@ -752,10 +597,10 @@ fn boundary(b: &BoundarySpec) -> Check {
         }
     }
     for (i, c) in b.clamps.iter().enumerate() {
-        region(&format!("boundary.clamps[{i}].region"), &c.region)?;
+        super::region::validate(&format!("boundary.clamps[{i}].region"), &c.region)?;
     }
     for (i, p) in b.prescribed.iter().enumerate() {
-        region(&format!("boundary.prescribed[{i}].region"), &p.region)?;
+        super::region::validate(&format!("boundary.prescribed[{i}].region"), &p.region)?;
         finite_all(&format!("boundary.prescribed[{i}].velocity"), &p.velocity)?;
     }
     Ok(())

@@ -2,8 +2,7 @@
 
 use nalgebra::{Matrix2, Vector3};
 use thinshell_energy::{
-    DirectorVariant, EnergyError, HessianMode, Layer, Material, MaterialModel, RestState, SffKind,
-    ShellModel, Terms,
+    DirectorVariant, EnergyError, HessianMode, RestState, SffKind, ShellModel, Terms,
 };
 use thinshell_mesh::generators::Generator;
 use thinshell_mesh::{Mesh, MeshError, VertexId, io};
@@ -23,8 +22,8 @@ use crate::reference::{map_xy, wrap_cylinder};
 use crate::scene::Scene;
 use crate::scene::schema::{
     BendingForm, ContactSpec, Effect, FallbackSpec, GrowthModelKind, GrowthSpec, HessianSpec,
-    IntegratorKind, LayerSpec, LoadRamp, MaterialModelName, MaterialSpec, MeshSpec, ObstacleKind,
-    RegionSpec, RestSource, StimulusKind, Surface as SceneSurface,
+    IntegratorKind, LoadRamp, MeshSpec, ObstacleKind, RegionSpec, RestSource, StimulusKind,
+    Surface as SceneSurface,
 };
 
 use super::error::BuildError;
@@ -68,7 +67,7 @@ fn region_vertices(
         list.clone()
     } else {
         // The same geometric predicates as the growth crate's regions (half-space, ball, box).
-        let r = region_of(region);
+        let r = crate::scene::region::build(region);
         (0..x.len()).filter(|&i| r.contains(&x[i])).collect()
     };
     if inside.is_empty() {
@@ -371,7 +370,7 @@ impl Simulation {
         let mesh = scene_mesh(scene)?;
         let x_ref = mesh.positions().to_vec();
         let (x, v) = start_state(scene, &mesh, &x_ref)?;
-        let material = material_of(&s.material).map_err(energy_err)?;
+        let material = crate::scene::material::build(&s.material).map_err(energy_err)?;
         let model = ShellModel {
             material,
             terms: Terms {
@@ -826,30 +825,6 @@ fn v3(a: &[f64; 3]) -> Vector3<f64> {
     Vector3::new(a[0], a[1], a[2])
 }
 
-/// The scene's region as a growth-crate region (validation guarantees exactly one key).
-fn region_of(spec: &RegionSpec) -> Region {
-    if let Some(h) = &spec.half_space {
-        Region::HalfSpace {
-            point: v3(&h.point),
-            normal: v3(&h.normal),
-        }
-    } else if let Some(b) = &spec.sphere {
-        Region::Ball {
-            center: v3(&b.center),
-            radius: b.radius,
-        }
-    } else if let Some(b) = &spec.aabb {
-        Region::Box {
-            min: v3(&b.min),
-            max: v3(&b.max),
-        }
-    } else if let Some(v) = &spec.vertices {
-        Region::Vertices(v.clone())
-    } else {
-        Region::All
-    }
-}
-
 /// Growth model and stimulus field of a validated `[growth]` section (the builder derives the
 /// grown rest forms and the mass uptake from them).
 type GrowthParts = (Box<dyn GrowthModel>, Box<dyn StimulusField>);
@@ -892,11 +867,14 @@ fn growth_parts(
             Box::new(PrescribedStimulus::uniform(mesh.n_faces(), m)?)
         }
         StimulusKind::DirectedHeat => {
-            let hot = st.hot.as_ref().map_or(Region::Faces(Vec::new()), region_of);
+            let hot = st
+                .hot
+                .as_ref()
+                .map_or(Region::Faces(Vec::new()), crate::scene::region::build);
             let held = st
                 .held
                 .as_ref()
-                .map_or(Region::Faces(Vec::new()), region_of);
+                .map_or(Region::Faces(Vec::new()), crate::scene::region::build);
             Box::new(DirectedHeat::new(
                 mesh,
                 x_ref,
@@ -911,7 +889,7 @@ fn growth_parts(
                 let faces = src
                     .region
                     .as_ref()
-                    .map_or(Region::All, region_of)
+                    .map_or(Region::All, crate::scene::region::build)
                     .faces(mesh, x_ref)?;
                 if !faces.iter().any(|&f| f) {
                     return Err(GrowthError::EmptyRegion {
@@ -974,44 +952,4 @@ fn elastic_energy(
             hessian: None,
         },
     )
-}
-
-/// The energy crate's material of a `[material]` table, validated.
-fn material_of(mat: &MaterialSpec) -> Result<Material, EnergyError> {
-    let single = |model| Material {
-        thickness: mat.thickness(),
-        young: mat.young(),
-        poisson: mat.poisson(),
-        density: mat.density,
-        viscosity: mat.viscosity,
-        model,
-    };
-    let material = match mat.model {
-        MaterialModelName::Stvk => single(MaterialModel::StVK),
-        MaterialModelName::NeoHookean => single(MaterialModel::NeoHookean),
-        MaterialModelName::Bilayer => {
-            // Scene validation requires both layers; a missing one is still a typed error.
-            let layer = |name: &'static str, l: &Option<LayerSpec>| {
-                l.map(|l| Layer {
-                    thickness: l.thickness,
-                    young: l.young,
-                    poisson: l.poisson,
-                    eigenstrain: l.eigenstrain,
-                })
-                .ok_or(EnergyError::InvalidParameter {
-                    name,
-                    value: f64::NAN,
-                    reason: "is required with model = \"bilayer\"",
-                })
-            };
-            Material::bilayer(
-                layer("material.bottom", &mat.bottom)?,
-                layer("material.top", &mat.top)?,
-                mat.density,
-                mat.viscosity,
-            )
-        }
-    };
-    material.validate()?;
-    Ok(material)
 }
