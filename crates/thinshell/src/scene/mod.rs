@@ -17,6 +17,7 @@
 //! assert_eq!(scene.file.material.young(), 2e9); // paper by default
 //! ```
 
+pub mod growth;
 pub mod material;
 pub mod path;
 mod problem;

@@ -7,6 +7,9 @@
 use serde::{Deserialize, Serialize};
 use thinshell_mesh::generators::Value;
 
+pub use super::growth::{
+    GrowthModelKind, GrowthSpec, SourceSpec, StimulusKind, StimulusSpec, Surface,
+};
 pub use super::material::{LayerSpec, MaterialModelName, MaterialSpec};
 pub use super::region::{BoxSpec, HalfSpaceSpec, RegionSpec, SphereSpec};
 
@@ -341,116 +344,6 @@ pub struct RestSpec {
     /// b̄^{xy} (row-major 2×2, symmetric), for `from = "planar"`; default 0.
     #[serde(default)]
     pub b_xy: Option<[[f64; 2]; 2]>,
-}
-
-/// Growth model name.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum GrowthModelKind {
-    /// ā = e^{2s} a⁰, b̄ = e^{p s} b⁰ with s the stimulus.
-    Isotropic,
-    /// Stimulus linear through the thickness (model.md §4).
-    Linear,
-    /// Piecewise-constant (bilayer) stimulus (model.md §4).
-    Bilayer,
-}
-
-/// Growth model and stimulus.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct GrowthSpec {
-    /// The model.
-    pub model: GrowthModelKind,
-    /// b̄ exponent p of isotropic growth (default 0, the seed's).
-    #[serde(default)]
-    pub p: Option<f64>,
-    /// Swelling coefficient c per unit stimulus (linear, bilayer; along `direction` if given).
-    #[serde(default)]
-    pub coefficient: Option<f64>,
-    /// Material direction (swelling models): the stretch is `1 + c·m` along it (projected onto
-    /// each face) and `1 + cross_coefficient·m` across it.
-    #[serde(default)]
-    pub direction: Option<[f64; 3]>,
-    /// Swelling coefficient across `direction` (required with it).
-    #[serde(default)]
-    pub cross_coefficient: Option<f64>,
-    /// Mass added per unit volume and unit stimulus, kg/m³ (moisture soaking in); default none.
-    #[serde(default)]
-    pub mass_uptake: Option<f64>,
-    /// Where the stimulus comes from.
-    pub stimulus: StimulusSpec,
-}
-
-/// Stimulus kind.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum StimulusKind {
-    /// The same value everywhere (`value`, or `top`/`bottom`).
-    Uniform,
-    /// The seed's directed heat: `hot` region set to `value`, others averaged with neighbours each
-    /// step, `held` region fixed at 0.
-    DirectedHeat,
-    /// Diffusion through the thickness from `sources` (effect `diffusion`).
-    Diffusion,
-}
-
-/// Stimulus source. A face belongs to a region when all three of its vertices do.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct StimulusSpec {
-    /// `uniform`, `directed_heat` or `diffusion`.
-    pub kind: StimulusKind,
-    /// Uniform value (both surfaces) or the hot value of `directed_heat`.
-    #[serde(default)]
-    pub value: Option<f64>,
-    /// Uniform value at the top surface (z = +h/2).
-    #[serde(default)]
-    pub top: Option<f64>,
-    /// Uniform value at the bottom surface (z = −h/2).
-    #[serde(default)]
-    pub bottom: Option<f64>,
-    /// `directed_heat`: region held at `value`.
-    #[serde(default)]
-    pub hot: Option<RegionSpec>,
-    /// `directed_heat`: region held at 0.
-    #[serde(default)]
-    pub held: Option<RegionSpec>,
-    /// `diffusion`: diffusivity D, m²/s.
-    #[serde(default)]
-    pub diffusivity: Option<f64>,
-    /// `diffusion`: prism layers through the thickness (default 2).
-    #[serde(default)]
-    pub layers: Option<usize>,
-    /// `diffusion`: boundary sources.
-    #[serde(default)]
-    pub sources: Vec<SourceSpec>,
-}
-
-/// Which surface of the shell.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum Surface {
-    /// z = +h/2, the side the face normals point to.
-    Top,
-    /// z = −h/2.
-    Bottom,
-}
-
-/// A diffusion boundary source on a region of one surface: exactly one of `value` or `flux`.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct SourceSpec {
-    /// Surface it acts on.
-    pub surface: Surface,
-    /// Where (default: the whole surface).
-    #[serde(default)]
-    pub region: Option<RegionSpec>,
-    /// Fixed stimulus value.
-    #[serde(default)]
-    pub value: Option<f64>,
-    /// Inflow per unit area and time (stimulus·m/s).
-    #[serde(default)]
-    pub flux: Option<f64>,
 }
 
 /// Gravity.

@@ -11,19 +11,15 @@ use thinshell_solver::{
     NewtonSettings, Obstacle, Prescribed, ShellSystem, State, Static,
 };
 
-use thinshell_growth::{
-    Anisotropy, Diffusion, DiffusionSettings, DiffusionSource, DirectedHeat, FaceStimulus, Growth,
-    GrowthError, GrowthModel, Isotropic, Prescribed as PrescribedStimulus, Region, SourceKind,
-    StimulusField, Surface, Swelling, apply_growth,
-};
+use thinshell_growth::{Growth, GrowthModel, StimulusField, apply_growth};
 
 use super::Simulation;
 use crate::reference::{map_xy, wrap_cylinder};
 use crate::scene::Scene;
+use crate::scene::growth::GrowthParts;
 use crate::scene::schema::{
-    BendingForm, ContactSpec, Effect, FallbackSpec, GrowthModelKind, GrowthSpec, HessianSpec,
-    IntegratorKind, LoadRamp, MeshSpec, ObstacleKind, RegionSpec, RestSource, StimulusKind,
-    Surface as SceneSurface,
+    BendingForm, ContactSpec, Effect, FallbackSpec, HessianSpec, IntegratorKind, LoadRamp,
+    MeshSpec, ObstacleKind, RegionSpec, RestSource,
 };
 
 use super::error::BuildError;
@@ -425,7 +421,7 @@ impl Simulation {
         builder.effects = Some(s.effects.clone());
         builder.dt = dt;
         if let Some(g) = s.growth.as_ref().filter(|_| on(Effect::Growth)) {
-            let parts = growth_parts(
+            let parts = crate::scene::growth::build(
                 g,
                 &builder.mesh,
                 &x_ref,
@@ -823,101 +819,6 @@ fn contact_settings(spec: Option<&ContactSpec>) -> ContactSettings {
 
 fn v3(a: &[f64; 3]) -> Vector3<f64> {
     Vector3::new(a[0], a[1], a[2])
-}
-
-/// Growth model and stimulus field of a validated `[growth]` section (the builder derives the
-/// grown rest forms and the mass uptake from them).
-type GrowthParts = (Box<dyn GrowthModel>, Box<dyn StimulusField>);
-fn growth_parts(
-    g: &GrowthSpec,
-    mesh: &Mesh,
-    x_ref: &[Vector3<f64>],
-    rest: &RestState,
-    thickness: f64,
-) -> Result<GrowthParts, GrowthError> {
-    let model: Box<dyn GrowthModel> = match g.model {
-        GrowthModelKind::Isotropic => Box::new(Isotropic {
-            p: g.p.unwrap_or(0.0),
-            coefficient: 1.0,
-        }),
-        GrowthModelKind::Linear | GrowthModelKind::Bilayer => {
-            let c = g.coefficient.unwrap_or(0.0);
-            let mut sw = if g.model == GrowthModelKind::Linear {
-                Swelling::linear(c)
-            } else {
-                Swelling::bilayer(c)
-            };
-            if let Some(d) = &g.direction {
-                let cross = g.cross_coefficient.unwrap_or(c);
-                sw.anisotropy = Some(Anisotropy::along(mesh, x_ref, v3(d), cross)?);
-            }
-            Box::new(sw)
-        }
-    };
-    let st = &g.stimulus;
-    let field: Box<dyn StimulusField> = match st.kind {
-        StimulusKind::Uniform => {
-            let m = match (st.value, st.top, st.bottom) {
-                (Some(v), _, _) => FaceStimulus::uniform(v),
-                (None, t, b) => FaceStimulus {
-                    top: t.unwrap_or(0.0),
-                    bottom: b.unwrap_or(0.0),
-                },
-            };
-            Box::new(PrescribedStimulus::uniform(mesh.n_faces(), m)?)
-        }
-        StimulusKind::DirectedHeat => {
-            let hot = st
-                .hot
-                .as_ref()
-                .map_or(Region::Faces(Vec::new()), crate::scene::region::build);
-            let held = st
-                .held
-                .as_ref()
-                .map_or(Region::Faces(Vec::new()), crate::scene::region::build);
-            Box::new(DirectedHeat::new(
-                mesh,
-                x_ref,
-                &hot,
-                &held,
-                st.value.unwrap_or(0.0),
-            )?)
-        }
-        StimulusKind::Diffusion => {
-            let mut sources = Vec::with_capacity(st.sources.len());
-            for (i, src) in st.sources.iter().enumerate() {
-                let faces = src
-                    .region
-                    .as_ref()
-                    .map_or(Region::All, crate::scene::region::build)
-                    .faces(mesh, x_ref)?;
-                if !faces.iter().any(|&f| f) {
-                    return Err(GrowthError::EmptyRegion {
-                        name: format!("growth.stimulus.sources[{i}].region"),
-                    });
-                }
-                sources.push(DiffusionSource {
-                    surface: match src.surface {
-                        SceneSurface::Top => Surface::Top,
-                        SceneSurface::Bottom => Surface::Bottom,
-                    },
-                    faces,
-                    kind: match (src.value, src.flux) {
-                        (Some(v), _) => SourceKind::Value(v),
-                        (None, f) => SourceKind::Flux(f.unwrap_or(0.0)),
-                    },
-                });
-            }
-            let settings = DiffusionSettings {
-                diffusivity: st.diffusivity.unwrap_or(0.0),
-                thickness,
-                layers: st.layers.unwrap_or(2),
-                initial: 0.0,
-            };
-            Box::new(Diffusion::new(mesh, rest, settings, &sources)?)
-        }
-    };
-    Ok((model, field))
 }
 
 /// Stretching and bending energy of `x` (J), without the damping term (which needs a previous
