@@ -19,6 +19,7 @@
 
 pub mod growth;
 pub mod material;
+pub mod mesh;
 pub mod path;
 mod problem;
 pub mod region;

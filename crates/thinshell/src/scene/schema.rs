@@ -5,12 +5,12 @@
 //! [`super::validate`].
 
 use serde::{Deserialize, Serialize};
-use thinshell_mesh::generators::Value;
 
 pub use super::growth::{
     GrowthModelKind, GrowthSpec, SourceSpec, StimulusKind, StimulusSpec, Surface,
 };
 pub use super::material::{LayerSpec, MaterialModelName, MaterialSpec};
+pub use super::mesh::MeshSpec;
 pub use super::region::{BoxSpec, HalfSpaceSpec, RegionSpec, SphereSpec};
 
 /// A whole scene file.
@@ -199,96 +199,6 @@ pub enum BendingForm {
     /// folding a hinge flat onto itself. The default (`thinshell_energy::SffKind::default`).
     #[default]
     EdgeDirectorTan,
-}
-
-/// Mesh source: exactly one of `obj` or `generator`.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq, Default)]
-#[serde(deny_unknown_fields)]
-pub struct MeshSpec {
-    /// OBJ file, relative to the scene file.
-    #[serde(default)]
-    pub obj: Option<String>,
-    /// Generator name: one of [`thinshell_mesh::generators::Generator::ALL`] (`seed_square`,
-    /// `rectangle`, `irregular_rectangle`, `icosphere`, `icosphere_recursive`,
-    /// `cylinder_patch`, `disc`, `annulus`); its keys and defaults are listed there.
-    #[serde(default)]
-    pub generator: Option<String>,
-    /// Width in m (`rectangle`, `irregular_rectangle`; default 1).
-    #[serde(default)]
-    pub width: Option<f64>,
-    /// Height in m (`rectangle`, `irregular_rectangle`; default 1).
-    #[serde(default)]
-    pub height: Option<f64>,
-    /// Cells along x (`rectangle`).
-    #[serde(default)]
-    pub nx: Option<usize>,
-    /// Cells along y (`rectangle`).
-    #[serde(default)]
-    pub ny: Option<usize>,
-    /// Resolution (`irregular_rectangle`: points per side).
-    #[serde(default)]
-    pub n: Option<usize>,
-    /// Seed of the jitter (`irregular_rectangle`; default 1).
-    #[serde(default)]
-    pub seed: Option<u64>,
-    /// Radius in m (`icosphere`, `icosphere_recursive`, `cylinder_patch`, `disc`; default 1).
-    #[serde(default)]
-    pub radius: Option<f64>,
-    /// Subdivision level (`icosphere`, `icosphere_recursive`; default 2 = 320 faces).
-    #[serde(default)]
-    pub level: Option<u32>,
-    /// Opening angle in rad (`cylinder_patch`).
-    #[serde(default)]
-    pub angle: Option<f64>,
-    /// Length along the axis in m (`cylinder_patch`).
-    #[serde(default)]
-    pub length: Option<f64>,
-    /// Divisions around (`cylinder_patch`, `annulus`).
-    #[serde(default)]
-    pub n_around: Option<usize>,
-    /// Divisions along the axis (`cylinder_patch`).
-    #[serde(default)]
-    pub n_along: Option<usize>,
-    /// Rings (`disc`, `annulus`).
-    #[serde(default)]
-    pub n_rings: Option<usize>,
-    /// Inner radius in m (`annulus`).
-    #[serde(default)]
-    pub inner_radius: Option<f64>,
-    /// Outer radius in m (`annulus`).
-    #[serde(default)]
-    pub outer_radius: Option<f64>,
-}
-
-impl MeshSpec {
-    /// The generator keys this spec sets, with their values, in a fixed order (the order
-    /// validation reports keys that do not apply in).
-    pub fn given(&self) -> Vec<(&'static str, Value)> {
-        let real = |key, v: Option<f64>| v.map(|v| (key, Value::Real(v)));
-        let int = |key, v: Option<u64>| v.map(|v| (key, Value::Int(v)));
-        // usize and u32 always fit in u64 on supported targets (64-bit usize at most).
-        let count = |key, v: Option<usize>| int(key, v.map(|v| v as u64));
-        [
-            real("width", self.width),
-            real("height", self.height),
-            count("nx", self.nx),
-            count("ny", self.ny),
-            count("n", self.n),
-            int("seed", self.seed),
-            real("radius", self.radius),
-            int("level", self.level.map(u64::from)),
-            real("angle", self.angle),
-            real("length", self.length),
-            count("n_around", self.n_around),
-            count("n_along", self.n_along),
-            count("n_rings", self.n_rings),
-            real("inner_radius", self.inner_radius),
-            real("outer_radius", self.outer_radius),
-        ]
-        .into_iter()
-        .flatten()
-        .collect()
-    }
 }
 
 /// Maps the mesh to the start state. Applied in the order: `linear_xy`, `scale`, `wrap_cylinder`.

@@ -5,8 +5,6 @@
 
 use std::collections::BTreeSet;
 
-use thinshell_mesh::generators::Generator;
-
 use super::schema::*;
 
 pub use super::problem::Problem;
@@ -18,7 +16,7 @@ use super::problem::{Check, absent, finite, finite_all, matrix, positive};
 pub fn validate(s: &SceneFile) -> Result<(), Problem> {
     let effects = effects(s)?;
     let on = |e: Effect| effects.contains(&e);
-    mesh(&s.mesh)?;
+    super::mesh::validate(&s.mesh)?;
     initial(&s.initial)?;
     super::material::validate(&s.material)?;
     rest(&s.rest)?;
@@ -156,113 +154,6 @@ fn effects(s: &SceneFile) -> Result<BTreeSet<Effect>, Problem> {
         ));
     }
     Ok(set)
-}
-
-fn mesh(m: &MeshSpec) -> Check {
-    let allowed: Vec<&str> = match (&m.obj, &m.generator) {
-        (Some(_), Some(_)) => {
-            return Err(problem(
-                "mesh",
-                "give either `obj` or `generator`, not both",
-            ));
-        }
-        (None, None) => return Err(problem("mesh", "needs `obj` or `generator`")),
-        (Some(path), None) => {
-            if path.trim().is_empty() {
-                return Err(problem("mesh.obj", "is an empty path"));
-            }
-            Vec::new()
-        }
-        (None, Some(g)) => match Generator::from_name(g) {
-            Some(generator) => generator.params().iter().map(|p| p.name).collect(),
-            None => {
-                let names: Vec<&str> = Generator::ALL.iter().map(|g| g.name()).collect();
-                return Err(problem(
-                    "mesh.generator",
-                    format!("unknown generator `{g}`; known: {}", names.join(", ")),
-                ));
-            }
-        },
-    };
-    let what = match &m.generator {
-        Some(g) => format!("to generator `{g}`"),
-        None => "to an OBJ mesh".to_string(),
-    };
-    for (key, _) in m.given() {
-        if !allowed.contains(&key) {
-            return Err(problem(
-                format!("mesh.{key}"),
-                format!("does not apply {what}"),
-            ));
-        }
-    }
-    for (key, v) in [
-        ("width", m.width),
-        ("height", m.height),
-        ("radius", m.radius),
-        ("angle", m.angle),
-        ("length", m.length),
-        ("inner_radius", m.inner_radius),
-        ("outer_radius", m.outer_radius),
-    ] {
-        if let Some(v) = v {
-            positive(&format!("mesh.{key}"), v)?;
-        }
-    }
-    for (key, v, min) in [
-        ("nx", m.nx, 1),
-        ("ny", m.ny, 1),
-        ("n", m.n, 2),
-        ("n_around", m.n_around, 1),
-        ("n_along", m.n_along, 1),
-        ("n_rings", m.n_rings, 1),
-    ] {
-        if let Some(v) = v {
-            if v < min {
-                return Err(problem(
-                    format!("mesh.{key}"),
-                    format!("must be ≥ {min}, got {v}"),
-                ));
-            }
-            if v > 4096 {
-                return Err(problem(
-                    format!("mesh.{key}"),
-                    format!("must be ≤ 4096, got {v}"),
-                ));
-            }
-        }
-    }
-    if let Some(level) = m.level {
-        if level > 8 {
-            return Err(problem(
-                "mesh.level",
-                format!("must be ≤ 8 (level 8 has 1.3 million faces), got {level}"),
-            ));
-        }
-    }
-    // The generator's defaults take part too: `inner_radius = 2` alone is as wrong as with an
-    // explicit `outer_radius = 1`.
-    if m.inner_radius.is_some() || m.outer_radius.is_some() {
-        let default = |key| {
-            Generator::Annulus
-                .default_of(key)
-                .map_or(f64::NAN, |v| v.as_real())
-        };
-        let a = m.inner_radius.unwrap_or_else(|| default("inner_radius"));
-        let b = m.outer_radius.unwrap_or_else(|| default("outer_radius"));
-        if a >= b {
-            return Err(problem(
-                "mesh.inner_radius",
-                format!("must be smaller than outer_radius = {b}, got {a}"),
-            ));
-        }
-    }
-    if let Some(angle) = m.angle {
-        if angle >= 2.0 * std::f64::consts::PI {
-            return Err(problem("mesh.angle", format!("must be < 2π, got {angle}")));
-        }
-    }
-    Ok(())
 }
 
 fn initial(i: &InitialSpec) -> Check {

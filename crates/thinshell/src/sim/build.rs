@@ -4,8 +4,7 @@ use nalgebra::{Matrix2, Vector3};
 use thinshell_energy::{
     DirectorVariant, EnergyError, HessianMode, RestState, SffKind, ShellModel, Terms,
 };
-use thinshell_mesh::generators::Generator;
-use thinshell_mesh::{Mesh, MeshError, VertexId, io};
+use thinshell_mesh::{Mesh, VertexId};
 use thinshell_solver::{
     Boundary, ContactSettings, ExplicitEuler, HessianPolicy, ImplicitEuler, Integrator, Loads,
     NewtonSettings, Obstacle, Prescribed, ShellSystem, State, Static,
@@ -19,30 +18,13 @@ use crate::scene::Scene;
 use crate::scene::growth::GrowthParts;
 use crate::scene::schema::{
     BendingForm, ContactSpec, Effect, FallbackSpec, HessianSpec, IntegratorKind, LoadRamp,
-    MeshSpec, ObstacleKind, RegionSpec, RestSource,
+    ObstacleKind, RegionSpec, RestSource,
 };
 
 use super::error::BuildError;
 
 fn m2(m: &[[f64; 2]; 2]) -> Matrix2<f64> {
     Matrix2::new(m[0][0], m[0][1], m[1][0], m[1][1])
-}
-
-fn make_mesh(scene: &Scene, spec: &MeshSpec) -> Result<Mesh, MeshError> {
-    if let Some(path) = &spec.obj {
-        return io::load_obj(scene.base_dir.join(path));
-    }
-    let generator = spec.generator.as_deref().and_then(Generator::from_name);
-    // Unknown names are rejected by scene validation already.
-    let Some(generator) = generator else {
-        return Err(MeshError::InvalidParameter {
-            name: "generator",
-            value: f64::NAN,
-            reason: "unknown generator",
-        });
-    };
-    let given = spec.given();
-    generator.build(|key| given.iter().find(|(k, _)| *k == key).map(|&(_, v)| v))
 }
 
 /// Vertices of the reference mesh inside a region.
@@ -93,7 +75,7 @@ fn scene_mesh(scene: &Scene) -> Result<Mesh, BuildError> {
             source,
         },
     };
-    let mesh = make_mesh(scene, &s.mesh).map_err(mesh_err)?;
+    let mesh = crate::scene::mesh::build(&s.mesh, &scene.base_dir).map_err(mesh_err)?;
     // Mesh::new judges shape only; forms of faces too small or too large for f64 would be
     // inf/NaN and surface later as an obscure energy error.
     thinshell_mesh::check_scale(&mesh, mesh.positions()).map_err(mesh_err)?;
