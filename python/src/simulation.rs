@@ -35,8 +35,9 @@ type Forms<'py> = (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>);
 const SIGNAL_POLL: Duration = Duration::from_millis(20);
 
 // What the wrapper adds up over the steps taken through it (kept in checkpoints as their
-// attachment, so a restored simulation reports the totals of the whole run): the CLI's totals.
-use thinshell::resume::Totals;
+// attachment, so a restored simulation reports the totals of the whole run): the run output's
+// totals, as `thinshell run` counts them.
+use thinshell::output::{Failure, OutputWriter, RunStatus, Totals};
 
 /// The simulation and what the wrapper adds up over the steps taken through it.
 struct Inner {
@@ -46,15 +47,13 @@ struct Inner {
     totals: Totals,
     status: &'static str,
     error: Option<String>,
-    /// The scene's `[output]`, written by the CLI's writer (`Simulation(..., output=DIR)`).
-    output: Option<thinshell::cli::OutputWriter>,
+    /// The scene's `[output]`, written by the run-output writer `thinshell run` uses (`Simulation(..., output=DIR)`).
+    output: Option<OutputWriter>,
 }
 
-/// The message of a CLI failure (output writing).
-fn failure_message(f: thinshell::cli::Failure) -> String {
-    match f {
-        thinshell::cli::Failure::BadInput(m) | thinshell::cli::Failure::Simulation(m) => m,
-    }
+/// The message of a run-output failure.
+fn failure_message(f: Failure) -> String {
+    f.to_string()
 }
 
 impl Inner {
@@ -231,13 +230,15 @@ impl PySimulation {
             (Some(w), Ok(r)) => {
                 w.step(&inner.sim, r);
                 if inner.sim.steps_done() >= inner.sim.steps_total() {
-                    w.finish(&inner.sim, "completed", None)
+                    w.finish(&inner.sim, RunStatus::Completed, None)
                 } else {
                     Ok(())
                 }
             }
-            (Some(w), Err(e)) if e.is_cancelled() => w.finish(&inner.sim, "interrupted", None),
-            (Some(w), Err(e)) => w.finish(&inner.sim, "failed", Some(e)),
+            (Some(w), Err(e)) if e.is_cancelled() => {
+                w.finish(&inner.sim, RunStatus::Interrupted, None)
+            }
+            (Some(w), Err(e)) => w.finish(&inner.sim, RunStatus::Failed, Some(e)),
         };
         if let Err(f) = written {
             if let Ok(r) = &result {
@@ -274,7 +275,7 @@ impl PySimulation {
         scene: PyScene,
         threads: Option<usize>,
         sim: Simulation,
-        output: Option<thinshell::cli::OutputWriter>,
+        output: Option<OutputWriter>,
     ) -> PyResult<Self> {
         let pool = match threads {
             Some(0) => return Err(PyValueError::new_err("threads must be at least 1")),
@@ -372,7 +373,7 @@ impl PySimulation {
             .map_err(build_error)?;
         let writer = match &output {
             Some(dir) => Some(
-                thinshell::cli::OutputWriter::create(built, &sim, dir, &scene.origin_text())
+                OutputWriter::create(built, &sim, dir, &scene.origin_text())
                     .map_err(|f| errors::scene(failure_message(f)))?,
             ),
             None => None,
@@ -547,7 +548,7 @@ impl PySimulation {
 
     /// What will be simulated (the text `thinshell check` prints).
     fn describe(&self) -> PyResult<String> {
-        Ok(thinshell::cli::describe(&self.lock()?.sim))
+        Ok(self.lock()?.sim.describe())
     }
 
     /// The scene's name.

@@ -1,5 +1,5 @@
 //! The browser stage of `cargo xtask test`: the end-to-end tests of `thinshell view` in headless
-//! Chromium (`crates/thinshell/tests/view_browser.rs`, `#[ignore]`d in plain `cargo test`).
+//! Chromium (`crates/cli/tests/view_browser.rs`, `#[ignore]`d in plain `cargo test`).
 //!
 //! Debian's `chromium` is installed with apt-get when it is missing (as root; `apt-get update`
 //! first; about 30 s on the project's machine); without root and without a browser the stage

@@ -17,7 +17,12 @@
 //! assert_eq!(scene.file.material.young(), 2e9); // paper by default
 //! ```
 
+pub mod growth;
+pub mod material;
+pub mod mesh;
 pub mod path;
+mod problem;
+pub mod region;
 pub mod schema;
 pub mod validate;
 

@@ -3,8 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::schema::{Effect, IntegratorKind, SceneFile};
-use super::validate::Problem;
+use super::problem::{Problem, problem};
 
 /// Path following settings; every key but `control` is optional with the default stated
 /// (the solver's, `thinshell_solver::PathSettings::default`).
@@ -104,54 +103,59 @@ pub struct MonitorSpec {
     pub coordinate: Axis,
 }
 
-fn problem(key: impl Into<String>, message: impl Into<String>) -> Problem {
-    Problem {
-        key: key.into(),
-        message: message.into(),
-    }
+/// What `[path]` must agree with in the rest of the scene (filled in by the scene's validation,
+/// so that this section needs no other section's types).
+#[derive(Clone, Copy, Debug)]
+pub struct PathContext {
+    /// `integrator.kind = "static"`.
+    pub static_integrator: bool,
+    /// `integrator.load_ramp` is given.
+    pub load_ramp: bool,
+    /// `integrator.end_time` is given.
+    pub end_time: bool,
+    /// Effect `growth` is on.
+    pub growth: bool,
+    /// `[[boundary.prescribed]]` is given.
+    pub prescribed: bool,
+    /// Effect `gravity`, `pressure` or `point_loads` is on.
+    pub loads: bool,
 }
 
 /// Checks `[path]` against the rest of the scene (ranges; vertex indices are checked when the
 /// mesh is built).
-pub fn validate(s: &SceneFile, on: &dyn Fn(Effect) -> bool) -> Result<(), Problem> {
-    let Some(p) = &s.path else {
-        return Ok(());
-    };
-    if s.integrator.kind != IntegratorKind::Static {
+pub fn validate(p: &PathSpec, s: &PathContext) -> Result<(), Problem> {
+    if !s.static_integrator {
         return Err(problem(
             "path",
             "needs `integrator.kind = \"static\"` (path following traces static equilibria)",
         ));
     }
-    if s.integrator.load_ramp.is_some() {
+    if s.load_ramp {
         return Err(problem(
             "integrator.load_ramp",
             "does not apply with `[path]`: path following sets the load factor itself",
         ));
     }
-    if s.integrator.end_time.is_some() {
+    if s.end_time {
         return Err(problem(
             "integrator.end_time",
             "does not apply with `[path]`: give the number of path steps as `integrator.steps`",
         ));
     }
-    if on(Effect::Growth) {
+    if s.growth {
         return Err(problem(
             "path",
             "cannot be combined with effect `growth` (the rest forms would change along the path)",
         ));
     }
-    if !s.boundary.prescribed.is_empty() {
+    if s.prescribed {
         return Err(problem(
             "boundary.prescribed",
             "does not apply with `[path]`: only loads are scaled by the load factor (pin the \
              vertices instead, or use displacement control)",
         ));
     }
-    if ![Effect::Gravity, Effect::Pressure, Effect::PointLoads]
-        .into_iter()
-        .any(on)
-    {
+    if !s.loads {
         return Err(problem(
             "path",
             "has no load to follow: it needs effect `gravity`, `pressure` or `point_loads`",

@@ -15,6 +15,8 @@
 
 mod build;
 mod checkpoint;
+mod describe;
+mod error;
 mod path;
 mod rest_edit;
 
@@ -28,10 +30,11 @@ use thinshell_growth::{Growth, GrowthError, blend_rest};
 use thinshell_mesh::Mesh;
 use thinshell_solver::{Integrator, IterationHessian, ShellSystem, SolverError, State, StepKind};
 
-pub use build::BuildError;
+pub use build::SimulationBuilder;
 pub use checkpoint::{
     CHECKPOINT_VERSION, CheckpointError, CheckpointInfo, read_checkpoint_info, scene_hash,
 };
+pub use error::BuildError;
 pub use path::{Monitor, PathRecord};
 pub use rest_edit::RestEditError;
 

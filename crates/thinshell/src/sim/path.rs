@@ -9,7 +9,7 @@ use serde::Serialize;
 use thinshell_mesh::VertexId;
 use thinshell_solver::{PathControl, PathSettings, ShellPath, ShellSystem, SolverError};
 
-use super::build::BuildError;
+use super::error::BuildError;
 use super::{Simulation, StepError, StepFailure, StepRecord};
 use crate::scene::path::{PathControlName, PathSpec};
 

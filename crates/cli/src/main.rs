@@ -9,7 +9,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::{Parser, Subcommand};
-use thinshell::cli::{self, Failure};
+use thinshell_cli::{self as cli, Failure};
 
 #[derive(Parser)]
 #[command(
@@ -150,7 +150,7 @@ fn main() -> ExitCode {
             let dirs: Vec<&std::path::Path> = std::iter::once(dir.as_path())
                 .chain(dir2.as_deref())
                 .collect();
-            thinshell::view::view(&dirs, port, html.as_deref())
+            thinshell_cli::view::view(&dirs, port, html.as_deref())
         }
     };
     match result {

@@ -1,4 +1,4 @@
-//! Reading one frame file (`.vtu` as written by [`crate::vtk`], or `.obj`) and the discrete
+//! Reading one frame file (`.vtu` as written by `thinshell::vtk`, or `.obj`) and the discrete
 //! curvatures the viewer colours by.
 //!
 //! Curvatures are per vertex, with the mixed (Voronoi, or for obtuse faces barycentric-like) vertex

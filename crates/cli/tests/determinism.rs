@@ -113,12 +113,12 @@ fn bin_run(scene: &Path, out: &Path, threads: &str) {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
-/// `steps.csv` without the timing columns (`thinshell::cli::STEPS_CSV_TIMING_COLUMNS`).
+/// `steps.csv` without the timing columns (`thinshell_cli::steps_csv_timing_columns`).
 fn csv_without_timings(path: &Path) -> Vec<String> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let columns = thinshell::cli::STEPS_CSV_TIMING_COLUMNS;
+    let columns = thinshell_cli::steps_csv_timing_columns();
     let timing: Vec<bool> = header.iter().map(|h| columns.contains(h)).collect();
     assert_eq!(
         timing.iter().filter(|&&t| t).count(),

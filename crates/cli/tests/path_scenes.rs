@@ -98,7 +98,8 @@ fn a_path_scene_without_optional_keys_runs_through_the_cli() {
     let (header, rows) = run(&p, "minimal", &[]);
     assert_eq!(rows.len(), 4);
     // The columns of every run keep their place; path following adds its own after them.
-    let common: Vec<&str> = thinshell::cli::STEPS_CSV_HEADER.split(',').collect();
+    let common_header = thinshell_cli::steps_csv_header();
+    let common: Vec<&str> = common_header.split(',').collect();
     assert_eq!(header[..common.len()], common[..]);
     assert_eq!(
         header[common.len()..],

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
-use thinshell::cli::{STEPS_CSV_HEADER, STEPS_CSV_TIMING_COLUMNS};
+use thinshell_cli::{steps_csv_header, steps_csv_timing_columns};
 use thinshell_testkit::fixtures::temp_dir;
 use thinshell_testkit::rng::SplitMix64;
 
@@ -76,11 +76,10 @@ fn ok(o: &Output) {
 
 /// `steps.csv` without its wall-time columns.
 fn deterministic_columns(text: &str) -> String {
-    let header: Vec<&str> = STEPS_CSV_HEADER.split(',').collect();
-    let keep: Vec<bool> = header
-        .iter()
-        .map(|h| !STEPS_CSV_TIMING_COLUMNS.contains(h))
-        .collect();
+    let common = steps_csv_header();
+    let timing_columns = steps_csv_timing_columns();
+    let header: Vec<&str> = common.split(',').collect();
+    let keep: Vec<bool> = header.iter().map(|h| !timing_columns.contains(h)).collect();
     text.lines()
         .map(|l| {
             l.split(',')

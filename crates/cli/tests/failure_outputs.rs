@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use thinshell::cli::STEPS_CSV_HEADER;
+use thinshell_cli::steps_csv_header;
 use thinshell_testkit::fixtures::temp_dir;
 
 /// A flat strip, clamped at x = 0, whose top swells: step 1 must curl it. With 10 Newton
@@ -144,7 +144,7 @@ fn steps_csv_timing_columns_sum_to_the_wall_time_of_each_step() {
     let text = std::fs::read_to_string(out.join("steps.csv")).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    assert_eq!(header.join(","), STEPS_CSV_HEADER);
+    assert_eq!(header.join(","), steps_csv_header());
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
     let parts = [
         "assembly_s",

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, OnceLock};
 
-use thinshell::view::Viewer;
-use thinshell::view::run::Location;
+use thinshell_cli::view::Viewer;
+use thinshell_cli::view::run::Location;
 
 const SCENE: &str = r#"
 name = "small strip"
@@ -49,7 +49,7 @@ fn root() -> &'static PathBuf {
             ("vtk", vec![]),
             ("obj", vec!["output.formats=[\"obj\"]".to_string()]),
         ] {
-            thinshell::cli::run(
+            thinshell_cli::run(
                 &root.join("strip.toml"),
                 Some(&root.join(name)),
                 &set,
@@ -297,7 +297,7 @@ fn served_over_http_on_loopback() {
     let viewer = Arc::new(Viewer::load(&[&root().join("vtk")]).expect("load"));
     let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
     let addr = listener.local_addr().expect("addr");
-    std::thread::spawn(move || thinshell::view::server::serve(listener, viewer));
+    std::thread::spawn(move || thinshell_cli::view::server::serve(listener, viewer));
     let get = |path: &str| {
         let mut s = std::net::TcpStream::connect(addr).expect("connect");
         write!(s, "GET {path} HTTP/1.1\r\nHost: x\r\n\r\n").expect("send");
@@ -328,7 +328,7 @@ fn served_over_http_on_loopback() {
 fn html_embeds_every_frame() {
     use base64::Engine as _;
     let viewer = Viewer::load(&[&root().join("vtk")]).expect("load");
-    let page = thinshell::view::html::page(&viewer);
+    let page = thinshell_cli::view::html::page(&viewer);
     let start =
         page.find("type=\"application/json\">").expect("data") + "type=\"application/json\">".len();
     let end = start + page[start..].find("</script>").expect("end");

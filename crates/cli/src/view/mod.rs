@@ -23,8 +23,8 @@ use std::collections::VecDeque;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
-use crate::cli::Failure;
 use run::Run;
+use thinshell::output::Failure;
 
 /// The page template; `/*__VIEWER_JS__*/` is replaced by the script and `__DATA__` by the
 /// embedded data (empty when served).

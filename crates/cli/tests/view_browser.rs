@@ -4,7 +4,7 @@
 //! `#[ignore]`d: they need a browser, so plain `cargo test` skips them; the browser stage of
 //! `cargo xtask test` installs chromium when missing and runs them with `--ignored`, and there a
 //! missing browser is a failure, never a pass. `bench_playback_20k_faces` is the playback
-//! benchmark (`cargo test --release -p thinshell --test view_browser -- --ignored bench_ --nocapture`),
+//! benchmark (`cargo test --release -p thinshell-cli --test view_browser -- --ignored bench_ --nocapture`),
 //! skipped by the stage.
 //!
 //! Every screenshot is taken with `lighting=0` (unlit colours), so a pixel's colour is exactly
@@ -17,7 +17,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, OnceLock};
 
 use browser::{Browser, Image};
-use thinshell::view::Viewer;
+use thinshell_cli::view::Viewer;
 
 const WIDTH: u32 = 1000;
 const HEIGHT: u32 = 700;
@@ -76,7 +76,7 @@ fn runs() -> &'static Runs {
         let run = |name: &str, set: &[&str]| {
             let out = root.join(name);
             let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
-            thinshell::cli::run(&scene, Some(&out), &set, true, &stop)
+            thinshell_cli::run(&scene, Some(&out), &set, true, &stop)
                 .unwrap_or_else(|e| panic!("run {name}: {e:?}"));
             out
         };
@@ -98,7 +98,7 @@ fn serve(dirs: &[&Path]) -> String {
     let viewer = Viewer::load(dirs).expect("runs load");
     let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
     let addr = listener.local_addr().expect("addr");
-    std::thread::spawn(move || thinshell::view::server::serve(listener, Arc::new(viewer)));
+    std::thread::spawn(move || thinshell_cli::view::server::serve(listener, Arc::new(viewer)));
     format!("http://{addr}/")
 }
 
@@ -464,7 +464,7 @@ fn browser_self_contained_html_works_offline_from_file_url() {
     let r = runs();
     let viewer = Viewer::load(&[&r.droop]).expect("load");
     let file = r.root.join("droop.html");
-    std::fs::write(&file, thinshell::view::html::page(&viewer)).expect("write html");
+    std::fs::write(&file, thinshell_cli::view::html::page(&viewer)).expect("write html");
     let mut b = Browser::start(WIDTH, HEIGHT);
     b.call("Network.enable", serde_json::json!({}));
     b.call(
@@ -495,7 +495,7 @@ fn browser_self_contained_html_works_offline_from_file_url() {
 /// 500-frame VTK run served lazily, played for 10 s at a requested 30 frames/s; prints the
 /// frames per second shown and the stalls (ticks that waited for a frame).
 #[test]
-#[ignore = "benchmark: cargo test --release -p thinshell --test view_browser -- --ignored bench_ --nocapture"]
+#[ignore = "benchmark: cargo test --release -p thinshell-cli --test view_browser -- --ignored bench_ --nocapture"]
 fn bench_playback_20k_faces() {
     let dir = std::env::temp_dir().join(format!("thinshell-view-bench-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);

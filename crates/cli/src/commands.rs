@@ -1,0 +1,198 @@
+//! The command implementations behind the `thinshell` binary.
+
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize};
+
+use indicatif::{ProgressBar, ProgressStyle};
+use thinshell::mesh_info::mesh_info;
+use thinshell::output::{CheckpointEvery, Failure, OutputWriter, RunRecord, RunStatus};
+use thinshell::sim::{Observer, Simulation, StepRecord};
+
+/// `thinshell info MESH`: prints statistics and problems of an OBJ mesh.
+pub fn info(path: &Path) -> Result<(), Failure> {
+    let bad = |e: thinshell_mesh::MeshError| Failure::BadInput(format!("{}: {e}", path.display()));
+    let mesh = thinshell_mesh::io::load_obj(path).map_err(bad)?;
+    // Statistics of a mesh whose areas overflow would print inf/NaN; say why instead.
+    thinshell_mesh::check_scale(&mesh, mesh.positions()).map_err(bad)?;
+    println!("{}", path.display());
+    println!("{}", mesh_info(&mesh));
+    Ok(())
+}
+
+/// `thinshell check SCENE`: validates a scene and prints what would be simulated.
+pub fn check(scene: &Path, overrides: &[String]) -> Result<(), Failure> {
+    let (_, sim) = crate::load::load(scene, overrides)?;
+    print!("{}", sim.describe());
+    Ok(())
+}
+
+/// Options of `thinshell run` and `thinshell resume`.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// No progress bar and no final line.
+    pub quiet: bool,
+    /// Print every Newton iteration (residual, step length, Hessian, time) to stderr.
+    pub verbose: bool,
+    /// Write `checkpoint.bin` every N steps or seconds (and at the start).
+    pub checkpoint_every: Option<CheckpointEvery>,
+}
+
+/// The library's writer plus the terminal: the progress bar follows the steps, and the step
+/// count feeds the Newton progress line.
+struct Terminal {
+    writer: OutputWriter,
+    bar: Option<ProgressBar>,
+    steps_done: Arc<AtomicUsize>,
+}
+
+impl Observer for Terminal {
+    fn start(&mut self, sim: &Simulation) {
+        self.writer.start(sim);
+    }
+
+    fn step(&mut self, sim: &Simulation, record: &StepRecord) {
+        self.steps_done
+            .store(sim.steps_done(), std::sync::atomic::Ordering::Relaxed);
+        self.writer.step(sim, record);
+        if let Some(bar) = &self.bar {
+            bar.set_position(sim.steps_done() as u64);
+            bar.set_message(format!("E = {:.4e} J", record.energy.elastic()));
+        }
+    }
+}
+
+/// `thinshell run SCENE` with default options (see [`run_with`]).
+pub fn run(
+    scene: &Path,
+    out: Option<&Path>,
+    overrides: &[String],
+    quiet: bool,
+    stop: &Arc<AtomicBool>,
+) -> Result<(), Failure> {
+    let options = RunOptions {
+        quiet,
+        ..RunOptions::default()
+    };
+    run_with(scene, out, overrides, &options, stop)
+}
+
+/// `thinshell run SCENE`: runs a scene, writing frames (OBJ and/or VTK), `steps.csv`,
+/// `summary.json` and (with [`RunOptions::checkpoint_every`]) `checkpoint.bin` into `out`
+/// (default `out/<scene name>`). Ctrl-C (the `stop` flag) ends the run cleanly after the
+/// current step (a running Newton solve stops within one iteration and its step is not taken)
+/// and writes a checkpoint there, so that `resume` continues from it.
+pub fn run_with(
+    scene_path: &Path,
+    out: Option<&Path>,
+    overrides: &[String],
+    options: &RunOptions,
+    stop: &Arc<AtomicBool>,
+) -> Result<(), Failure> {
+    let (scene, sim) = crate::load::load(scene_path, overrides)?;
+    if options.checkpoint_every.is_some() && sim.is_path_following() {
+        return Err(Failure::BadInput(format!(
+            "--checkpoint-every: {}",
+            thinshell::sim::CheckpointError::PathFollowing
+        )));
+    }
+    let dir = out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| Path::new("out").join(sim.name().replace([' ', '/', ','], "_")));
+    let scene_abs = std::fs::canonicalize(scene_path)
+        .map_err(|e| Failure::BadInput(format!("{}: {e}", scene_path.display())))?;
+    let record = RunRecord::new(scene_abs, scene.origin.clone(), overrides.to_vec());
+    let writer = OutputWriter::for_run(&scene, &sim, &dir, record, options.checkpoint_every)?;
+    drive(sim, writer, options, stop)
+}
+
+/// `thinshell resume OUT_DIR`: continues the run whose checkpoint is `OUT_DIR/checkpoint.bin`;
+/// its frames, `.pvd`, `steps.csv` and `summary.json` continue as if it had never stopped.
+/// Without `options.checkpoint_every` the run's own setting is kept.
+pub fn resume(dir: &Path, options: &RunOptions, stop: &Arc<AtomicBool>) -> Result<(), Failure> {
+    let (sim, writer, checkpoint_every) = crate::resume::reopen(dir, options.checkpoint_every)?;
+    let options = RunOptions {
+        checkpoint_every,
+        ..options.clone()
+    };
+    drive(sim, writer, &options, stop)
+}
+
+/// Runs a loaded (fresh or restored) simulation to its end and writes `summary.json`.
+fn drive(
+    mut sim: Simulation,
+    writer: OutputWriter,
+    options: &RunOptions,
+    stop: &Arc<AtomicBool>,
+) -> Result<(), Failure> {
+    let bar = (!options.quiet).then(|| {
+        let bar = ProgressBar::new(sim.steps_total() as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{bar:40} {pos}/{len} steps  {per_sec}  {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar.set_position(sim.steps_done() as u64);
+        bar
+    });
+    let steps_done = Arc::new(AtomicUsize::new(sim.steps_done()));
+    sim.set_newton_progress(crate::resume::progress_hook(
+        bar.clone(),
+        options.verbose,
+        Arc::clone(&steps_done),
+    ));
+    let mut terminal = Terminal {
+        writer,
+        bar,
+        steps_done,
+    };
+    let notice_bar = terminal.bar.clone();
+    terminal.writer.set_notify(Box::new(move |line| {
+        crate::resume::say(notice_bar.as_ref(), line)
+    }));
+    // Ctrl-C also cancels a long Newton solve between its iterations (the step is not taken).
+    sim.set_cancel(Some(Arc::clone(stop)));
+    let result = sim.run(&mut terminal, stop);
+    if let Some(bar) = &terminal.bar {
+        bar.finish_and_clear();
+    }
+    let writer = &mut terminal.writer;
+    if result.as_ref().is_ok_and(|s| s.interrupted) && !sim.is_path_following() {
+        // Ctrl-C: `resume` continues from exactly here, with or without --checkpoint-every.
+        writer.checkpoint(&sim);
+    }
+    let status = match &result {
+        Ok(s) if s.interrupted => RunStatus::Interrupted,
+        Ok(_) => RunStatus::Completed,
+        Err(_) => RunStatus::Failed,
+    };
+    writer.finish(&sim, status, result.as_ref().err())?;
+    match (result, options.quiet) {
+        (Err(e), _) => match crate::resume::memory_refusal(&e, &sim) {
+            Some(line) => Err(Failure::BadInput(line)),
+            None => Err(Failure::Simulation(e.to_string())),
+        },
+        (Ok(s), false) => {
+            let stability = match s.stable {
+                Some(true) => ", a stable equilibrium",
+                Some(false) => ", an UNSTABLE equilibrium (saddle)",
+                None => "",
+            };
+            let status = match status {
+                RunStatus::Interrupted => "interrupted",
+                _ => "completed",
+            };
+            println!(
+                "{}: {} {} of {} steps in {:.3} s, elastic energy {:.6e} J{stability}; output in {}",
+                sim.name(),
+                status,
+                s.steps,
+                s.steps_requested,
+                s.wall_s,
+                s.final_energy.elastic(),
+                writer.dir().display()
+            );
+            Ok(())
+        }
+        (Ok(_), true) => Ok(()),
+    }
+}
