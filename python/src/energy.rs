@@ -129,6 +129,7 @@ fn inputs<'py>(
         RestState {
             a_bar: convert::forms(&t.get_item(0)?, "a_bar")?,
             b_bar: convert::forms(&t.get_item(1)?, "b_bar")?,
+            sff: None,
         }
     } else {
         let x0 = convert::points(rest, "rest positions")?;

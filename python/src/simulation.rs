@@ -668,6 +668,7 @@ impl PySimulation {
         let rest = RestState {
             a_bar: convert::forms(a_bar, "a_bar")?,
             b_bar: convert::forms(b_bar, "b_bar")?,
+            sff: None,
         };
         let mut inner = self.lock()?;
         let sim = &mut inner.sim;
