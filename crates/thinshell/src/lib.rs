@@ -9,6 +9,7 @@ pub mod atomic;
 pub mod cli;
 pub mod face_fields;
 pub mod mesh_info;
+pub mod modes;
 pub mod reference;
 pub mod resume;
 pub mod scene;
