@@ -195,3 +195,51 @@ fn a_rest_state_of_another_form_is_refused() {
     assert!(matches!(err, SolverError::FormMismatch { .. }), "{err}");
     assert!(err.to_string().contains("RestState::for_model"), "{err}");
 }
+
+/// A system with damping reports the same elastic energy (at the minimising angles) as the
+/// same system without it: `energy(x)` is the elastic energy, whatever the terms solved.
+#[test]
+fn energy_of_a_damped_system_is_its_elastic_energy() {
+    let mesh = generators::icosphere(0.1, 2).unwrap();
+    let x: Vec<Vector3<f64>> = mesh
+        .positions()
+        .iter()
+        .map(|p| Vector3::new(p.x * 1.1, p.y, p.z * 0.95))
+        .collect();
+    let elastic = model();
+    let damped = ShellModel {
+        terms: Terms::ALL,
+        ..elastic
+    };
+    let rest = RestState::for_model(&mesh, mesh.positions(), &elastic).unwrap();
+    let system = |m: ShellModel| {
+        ShellSystem::new(
+            mesh.clone(),
+            m,
+            rest.clone(),
+            Boundary::default(),
+            Loads::default(),
+        )
+        .unwrap()
+    };
+    let e = system(elastic).energy(&x).unwrap();
+    let mut d = system(damped);
+    let e_damped = d.energy(&x).unwrap();
+    let faces: f64 = d
+        .face_energies(&x, &[])
+        .unwrap()
+        .iter()
+        .map(|t| t.total())
+        .sum();
+    let reference = independent_energy(&mesh, &elastic, &rest, &x);
+    assert!(
+        (e.total() - reference).abs() <= 1e-10 * reference,
+        "{e:?} vs {reference}"
+    );
+    assert!(
+        (e_damped.total() - e.total()).abs() <= 1e-12 * e.total(),
+        "{e_damped:?} vs {e:?}"
+    );
+    assert_eq!(e_damped.damping, 0.0);
+    assert!((faces - e.total()).abs() <= 1e-12 * e.total());
+}

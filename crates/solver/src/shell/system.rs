@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 use thinshell_energy::{
     Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, HessianMode, RestState,
-    ShellModel, lumped_mass,
+    ShellModel, Terms, lumped_mass,
 };
 use thinshell_mesh::Mesh;
 
@@ -392,34 +392,59 @@ impl ShellSystem {
         if d.is_finite() && d > 0.0 { d } else { 1.0 }
     }
 
-    /// Energy terms (J) at positions `x` (no damping). With edge unknowns the massless edge
-    /// angles are at their minimiser φ*(x) for these positions, the energy the shell has there
-    /// (model.md §1.1): relaxed by [`ShellSystem::relax_edge_angles`] from the angles of the
-    /// last solve ([`ShellSystem::edge_angles`]), which then hold the relaxed ones. Errors
-    /// when the relaxation fails (never a value at unrelaxed angles).
+    /// Elastic energy terms (J; stretching and bending, no damping) at positions `x`. With
+    /// edge unknowns the massless edge angles are at their minimiser φ*(x) for these
+    /// positions, the energy the shell has there (model.md §1.1): relaxed by Newton on the
+    /// angle block ([`ShellSystem::relax_edge_angles`]) from the angles of the last solve
+    /// ([`ShellSystem::edge_angles`]), which then hold the relaxed ones. Errors when the
+    /// relaxation fails (never a value at unrelaxed angles).
     pub fn energy(&mut self, x: &[Vector3<f64>]) -> Result<EnergyTerms, SolverError> {
         self.energy_at(x, &[])
     }
 
-    /// Energy terms (J) at positions `x` and edge angles `phi` (rad, one per edge; empty: the
-    /// minimising angles at `x`, as in [`ShellSystem::energy`]; must be empty without edge
-    /// unknowns), no damping.
+    /// Elastic energy terms (J; no damping) at positions `x` and edge angles `phi` (rad, one
+    /// per edge; empty: the minimising angles at `x`, as in [`ShellSystem::energy`]; must be
+    /// empty without edge unknowns).
     pub fn energy_at(
         &mut self,
         x: &[Vector3<f64>],
         phi: &[f64],
     ) -> Result<EnergyTerms, SolverError> {
-        let model = ShellModel {
-            terms: self.assembler.terms(),
+        Ok(self.elastic_eval(x, phi, false)?.0)
+    }
+
+    /// Elastic energy terms (J; no damping) of every face, in face order, at positions `x`
+    /// and edge angles `phi` (rad, one per edge; empty: the minimising angles at `x`, as in
+    /// [`ShellSystem::energy`]); they sum to [`ShellSystem::energy_at`]. For energy maps and
+    /// per-face studies.
+    pub fn face_energies(
+        &mut self,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+    ) -> Result<Vec<EnergyTerms>, SolverError> {
+        Ok(self.elastic_eval(x, phi, true)?.1)
+    }
+
+    /// The model without its damping term (the elastic energy).
+    fn elastic_model(&self) -> ShellModel {
+        ShellModel {
+            terms: Terms {
+                damping: false,
+                ..self.assembler.terms()
+            },
             ..self.model
-        };
-        if model.terms.damping {
-            return Err(SolverError::InvalidSetting {
-                name: "terms.damping",
-                value: 1.0,
-                requirement: "energy() evaluates without damping state; use an integrator",
-            });
         }
+    }
+
+    /// Elastic energy (and, when `faces`, per-face energies) at `x` and `phi` (empty: the
+    /// minimising angles). A system with damping evaluates through a separate elastic-only
+    /// assembler, since its own includes the damping term.
+    fn elastic_eval(
+        &mut self,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+        faces: bool,
+    ) -> Result<(EnergyTerms, Vec<EnergyTerms>), SolverError> {
         let relaxed;
         let phi = if phi.is_empty() && self.has_edge_unknowns() {
             relaxed = self.relaxed_angles(x)?;
@@ -427,22 +452,28 @@ impl ShellSystem {
         } else {
             phi
         };
-        self.assembler
-            .evaluate_with_angles(&model, x, phi, &self.rest, None, EvalOutput::default())
-            .map_err(SolverError::from)
-    }
-
-    /// Energy terms (J) of every face, in face order, at positions `x` and edge angles `phi`
-    /// (rad, one per edge; empty: the minimising angles at `x`, as in
-    /// [`ShellSystem::energy`]), no damping; they sum to [`ShellSystem::energy_at`]. For
-    /// energy maps and per-face studies.
-    pub fn face_energies(
-        &mut self,
-        x: &[Vector3<f64>],
-        phi: &[f64],
-    ) -> Result<Vec<EnergyTerms>, SolverError> {
-        self.energy_at(x, phi)?;
-        Ok(self.assembler.face_energies().to_vec())
+        let model = self.elastic_model();
+        let mut own;
+        let assembler = if model.terms == self.assembler.terms() {
+            &mut self.assembler
+        } else {
+            own = self.assembler_for(&model)?;
+            &mut own
+        };
+        let e = assembler.evaluate_with_angles(
+            &model,
+            x,
+            phi,
+            &self.rest,
+            None,
+            EvalOutput::default(),
+        )?;
+        let per_face = if faces {
+            assembler.face_energies().to_vec()
+        } else {
+            Vec::new()
+        };
+        Ok((e, per_face))
     }
 
     /// Edge angles (rad, one per edge) of the last solve on this system (static, implicit or
@@ -460,15 +491,28 @@ impl ShellSystem {
         }
     }
 
-    /// The minimising edge angles φ*(x) (rad) at positions `x`, relaxed from the kept angles
-    /// (or 0), and kept.
+    /// The minimising edge angles φ*(x) (rad) of the elastic energy at positions `x`, relaxed
+    /// from the kept angles (or 0), and kept.
     fn relaxed_angles(&mut self, x: &[Vector3<f64>]) -> Result<Vec<f64>, SolverError> {
         let mut phi = if self.angles.len() == self.n_edge_angles() {
             self.angles.clone()
         } else {
             vec![0.0; self.n_edge_angles()]
         };
-        self.relax_edge_angles(x, &mut phi, None, &AngleSettings::default(), None)?;
+        let settings = AngleSettings::default();
+        if self.model.terms.damping {
+            // The cached angle problem includes damping; the elastic minimiser needs its own.
+            let model = self.elastic_model();
+            let mut problem = AngleRelaxation::new(
+                &self.mesh,
+                &model,
+                &self.boundary.clamped_edges,
+                self.clamp_reference(),
+            )?;
+            problem.relax(&model, &self.rest, x, &mut phi, None, &settings)?;
+        } else {
+            self.relax_edge_angles(x, &mut phi, None, &settings, None)?;
+        }
         self.keep_angles(&phi);
         Ok(phi)
     }
