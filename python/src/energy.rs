@@ -129,6 +129,7 @@ fn inputs<'py>(
         RestState {
             a_bar: convert::forms(&t.get_item(0)?, "a_bar")?,
             b_bar: convert::forms(&t.get_item(1)?, "b_bar")?,
+            sff: None,
         }
     } else {
         let x0 = convert::points(rest, "rest positions")?;
@@ -142,7 +143,8 @@ fn inputs<'py>(
     };
     let phi = match edge_angles {
         Some(a) => a.as_array().to_vec(),
-        None => vec![0.0; n_angles],
+        None if n_angles > 0 => relaxed_angles(&mesh, &model, &rest, &x)?,
+        None => Vec::new(),
     };
     if phi.len() != n_angles {
         return Err(PyValueError::new_err(format!(
@@ -160,12 +162,40 @@ fn inputs<'py>(
     })
 }
 
+/// The edge angles (rad, one per edge) that minimise the energy of `model` at positions `x`:
+/// the massless angles' own equilibrium (model.md §1.1), what `edge_angles=None` means with an
+/// edge-director form (never silently 0). Fitted free edges keep 0 (no unknown, model.md §1.2).
+fn relaxed_angles(
+    mesh: &Mesh,
+    model: &ShellModel,
+    rest: &RestState,
+    x: &[Vector3<f64>],
+) -> PyResult<Vec<f64>> {
+    use thinshell_solver::{AngleSettings, Boundary, Loads, ShellSystem};
+    let fail = |e: thinshell_solver::SolverError| {
+        errors::energy(format!("relaxing the edge angles (edge_angles=None): {e}"))
+    };
+    let mut system = ShellSystem::new(
+        mesh.clone(),
+        *model,
+        rest.clone(),
+        Boundary::default(),
+        Loads::default(),
+    )
+    .map_err(fail)?;
+    let mut phi = vec![0.0; mesh.n_edges()];
+    system
+        .relax_edge_angles(x, &mut phi, None, &AngleSettings::default(), None)
+        .map_err(fail)?;
+    Ok(phi)
+}
+
 /// Energy terms, gradient and full symmetric Hessian (as COO triplets) of the mesh `(V, F)`
 /// at `V` against `rest`: either rest positions (n × 3: forms of that shape) or a tuple
 /// `(a_bar, b_bar)` of m × 2 × 2 arrays. Returns `(stretch, bend, gradient, rows, cols, vals,
 /// n)`; the `thinshell.energy` function builds the `scipy.sparse.csc_matrix`.
 #[pyfunction]
-#[pyo3(signature = (vertices, faces, rest, material=None, form="mid_edge_average", terms=None, edge_angles=None, hessian=true))]
+#[pyo3(signature = (vertices, faces, rest, material=None, form="edge_director_tan", terms=None, edge_angles=None, hessian=true))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 pub fn energy_parts<'py>(
     py: Python<'py>,
@@ -185,6 +215,7 @@ pub fn energy_parts<'py>(
     Bound<'py, PyArray1<i64>>,
     Bound<'py, PyArray1<f64>>,
     usize,
+    Bound<'py, PyArray1<f64>>,
 )> {
     let Inputs {
         mesh,
@@ -194,6 +225,7 @@ pub fn energy_parts<'py>(
         phi,
         n_angles,
     } = inputs(vertices, faces, rest, material, form, terms, edge_angles)?;
+    let angles = phi.clone();
     let result = py.detach(|| {
         let dofs = DofMap::all_free(mesh.n_vertices()).with_edges(n_angles, [])?;
         let mut assembler = Assembler::for_model(&mesh, &dofs, &model)?;
@@ -243,6 +275,7 @@ pub fn energy_parts<'py>(
         PyArray1::from_vec(py, cols),
         PyArray1::from_vec(py, vals),
         n,
+        PyArray1::from_vec(py, angles),
     ))
 }
 
@@ -255,7 +288,7 @@ pub fn energy_parts<'py>(
 /// conversion, which is what it checks. O(n²) memory: small meshes only. Exposed to Python as
 /// `thinshell._thinshell._reference_hessian`.
 #[pyfunction]
-#[pyo3(name = "_reference_hessian", signature = (vertices, faces, rest, material=None, form="mid_edge_average", terms=None, edge_angles=None))]
+#[pyo3(name = "_reference_hessian", signature = (vertices, faces, rest, material=None, form="edge_director_tan", terms=None, edge_angles=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn reference_hessian<'py>(
     py: Python<'py>,

@@ -15,6 +15,7 @@ mod errors;
 mod mesh;
 mod scene;
 mod simulation;
+mod state_energy;
 
 /// The extension module.
 #[pymodule]

@@ -652,6 +652,81 @@ impl PySimulation {
         Ok(d)
     }
 
+    /// The bending form (docs/scenes.md `[bending]`): "edge_director_tan" (the default),
+    /// "edge_director_sin" or "mid_edge_average".
+    #[getter]
+    fn form(&self) -> PyResult<String> {
+        Ok(self.lock()?.sim.model().sff.name().to_string())
+    }
+
+    /// The material: a dict with `thickness` (m), `young` (Pa), `poisson`, `density`
+    /// (kg/m³), `viscosity` (Pa·s) and `model` ("stvk", "neo_hookean", "bilayer").
+    #[getter]
+    fn material<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let m = self.lock()?.sim.model().material;
+        let d = PyDict::new(py);
+        d.set_item("thickness", m.thickness)?;
+        d.set_item("young", m.young)?;
+        d.set_item("poisson", m.poisson)?;
+        d.set_item("density", m.density)?;
+        d.set_item("viscosity", m.viscosity)?;
+        d.set_item("model", m.model.name())?;
+        Ok(d)
+    }
+
+    /// The elastic energy (J; stretching and bending, no damping, no loads) at the
+    /// simulation's own state — positions and edge angles (the state's; before the first step
+    /// of an edge-director scene, the minimising ones) — with its gradient over all coordinates
+    /// (N, then J/rad per edge) and, when `hessian`, its Hessian (`scipy.sparse.csc_matrix`,
+    /// rows and columns of held coordinates empty; clamped directors held as in the
+    /// simulation): an `EnergyResult`, whose `edge_angles` are the angles used.
+    #[pyo3(signature = (hessian=true))]
+    fn energy<'py>(&self, py: Python<'py>, hessian: bool) -> PyResult<Bound<'py, PyAny>> {
+        let mut inner = self.lock()?;
+        let sim = &mut inner.sim;
+        let e = py
+            .detach(move || crate::state_energy::state_energy(sim, hessian))
+            .map_err(errors::energy)?;
+        py.import("thinshell")?.getattr("_energy_result")?.call1((
+            e.stretch,
+            e.bend,
+            PyArray1::from_vec(py, e.gradient),
+            PyArray1::from_vec(py, e.rows),
+            PyArray1::from_vec(py, e.cols),
+            PyArray1::from_vec(py, e.vals),
+            e.n,
+            hessian,
+            PyArray1::from_vec(py, e.edge_angles),
+        ))
+    }
+
+    /// The `count` lowest natural frequencies and mode shapes about the simulation's current
+    /// state (docs/modal.md; damping left out, the massless edge angles condensed): a
+    /// `Modes` with `frequencies` (Hz, ascending), `eigenvalues` (ω², rad²/s²), `shapes`
+    /// (count × n × 3, M-normalised displacements, m) and `residuals`.
+    #[pyo3(signature = (count=6))]
+    fn modes<'py>(&self, py: Python<'py>, count: usize) -> PyResult<Bound<'py, PyAny>> {
+        let mut inner = self.lock()?;
+        let sim = &mut inner.sim;
+        let m = py
+            .detach(move || crate::state_energy::state_modes(sim, count))
+            .map_err(errors::simulation)?;
+        let n = m.shapes.first().map_or(0, Vec::len);
+        let flat: Vec<f64> = m
+            .shapes
+            .iter()
+            .flat_map(|s| s.iter().flat_map(|v| [v.x, v.y, v.z]))
+            .collect();
+        let shapes = numpy::ndarray::Array3::from_shape_vec((m.shapes.len(), n, 3), flat)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        py.import("thinshell")?.getattr("Modes")?.call1((
+            PyArray1::from_vec(py, m.frequencies),
+            PyArray1::from_vec(py, m.eigenvalues),
+            PyArray3::from_owned_array(py, shapes),
+            PyArray1::from_vec(py, m.residuals),
+        ))
+    }
+
     /// The rest forms the next step solves against: `(a_bar, b_bar)`, each m × 2 × 2 (ā in m²,
     /// b̄ in m), in each face's basis (x_j − x_i, x_k − x_i).
     #[getter]
@@ -669,6 +744,7 @@ impl PySimulation {
         let rest = RestState {
             a_bar: convert::forms(a_bar, "a_bar")?,
             b_bar: convert::forms(b_bar, "b_bar")?,
+            sff: None,
         };
         let mut inner = self.lock()?;
         let sim = &mut inner.sim;

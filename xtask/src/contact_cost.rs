@@ -106,7 +106,12 @@ fn system(mesh: &Mesh, rolled: &[V]) -> Result<ShellSystem> {
     let sff = SffKind::MidEdgeAverage;
     let rest = RestState::from_mesh(mesh, rolled, sff)?;
     let model = ShellModel {
-        material: Material::new(THICKNESS, YOUNG, 0.3),
+        material: Material {
+            thickness: THICKNESS,
+            young: YOUNG,
+            poisson: 0.3,
+            ..Material::paper()
+        },
         terms: Terms::ELASTIC,
         sff,
     };

@@ -1,5 +1,5 @@
 //! The `thinshell` command-line tool's commands, as library functions so that they can be
-//! tested without spawning processes: [`commands`] (`run`, `resume`, `check`, `info`), the
+//! tested without spawning processes: [`commands`] (`run`, `resume`, `check`, `info`), [`modes`], the
 //! progress display and resume bookkeeping ([`resume`]), and the browser viewer ([`view`]).
 //!
 //! Everything that writes a run's outputs lives in the library (`thinshell::output`), shared
@@ -8,6 +8,7 @@
 
 pub mod commands;
 mod load;
+pub mod modes;
 pub mod resume;
 pub mod view;
 

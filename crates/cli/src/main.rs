@@ -81,6 +81,21 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         html: Option<PathBuf>,
     },
+    /// Natural frequencies and mode shapes of a scene about its start state: OUT/modes.json
+    /// (Hz, ascending) and one VTK frame per mode (docs/modal.md).
+    Modes {
+        /// The scene file.
+        scene: PathBuf,
+        /// Number of modes (the lowest).
+        #[arg(long, default_value_t = 10)]
+        count: usize,
+        /// Output directory (default: out/<scene name>-modes).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Override a scene value (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+    },
     /// Print statistics of a mesh (OBJ) and the problems found in it.
     Info {
         /// The mesh file (OBJ).
@@ -141,6 +156,12 @@ fn main() -> ExitCode {
         }
         Command::Check { scene, set } => cli::check(&scene, &set),
         Command::Info { mesh } => cli::info(&mesh),
+        Command::Modes {
+            scene,
+            count,
+            out,
+            set,
+        } => cli::modes::modes_command(&scene, count, out.as_deref(), &set),
         Command::View {
             dir,
             dir2,

@@ -239,7 +239,10 @@ impl Assembler {
                 has: if self.director.is_some() {
                     "was built with edge angles (another form)"
                 } else {
-                    "was built without edge angles"
+                    "was built without edge angles (`Assembler::new`): an edge-director form \
+                     needs `DofMap::with_edges`, `Assembler::for_model` and \
+                     `evaluate_with_angles` with the angles, or the solver's \
+                     `ShellSystem::energy`, which minimises over them"
                 },
             });
         }

@@ -22,6 +22,10 @@ pub struct RestState {
     pub a_bar: Vec<Matrix2<f64>>,
     /// b̄ per face (symmetric, m).
     pub b_bar: Vec<Matrix2<f64>>,
+    /// The second fundamental form b̄ was computed with ([`RestState::from_mesh`],
+    /// [`RestState::for_model`]); `None` for forms given directly (from the plane, a growth
+    /// model, a file). A shell system checks it against its model's form.
+    pub sff: Option<SffKind>,
 }
 
 /// The forms (a, b) of every face of `mesh` at positions `x` (not validated); an edge-director
@@ -70,7 +74,11 @@ fn forms_with(
         };
         b.push(sff.b(&st));
     }
-    Ok(RestState { a_bar: a, b_bar: b })
+    Ok(RestState {
+        a_bar: a,
+        b_bar: b,
+        sff: Some(sff),
+    })
 }
 
 impl RestState {
@@ -85,6 +93,16 @@ impl RestState {
         let rest = forms_of(mesh, x, &[], sff)?;
         rest.validate(mesh)?;
         Ok(rest)
+    }
+
+    /// [`RestState::from_mesh`] with `model`'s second fundamental form: the form is named once,
+    /// in the model.
+    pub fn for_model(
+        mesh: &Mesh,
+        x: &[Vector3<f64>],
+        model: &crate::ShellModel,
+    ) -> Result<RestState, EnergyError> {
+        RestState::from_mesh(mesh, x, model.sff)
     }
 
     /// Rest forms given in the xy-plane (model.md §5): for a mesh lying in a plane `z = const`
@@ -117,7 +135,11 @@ impl RestState {
                 (t.transpose() * a_xy * t, t.transpose() * b_xy * t)
             })
             .unzip();
-        let rest = RestState { a_bar, b_bar };
+        let rest = RestState {
+            a_bar,
+            b_bar,
+            sff: None,
+        };
         rest.validate(mesh)?;
         Ok(rest)
     }
@@ -230,6 +252,7 @@ impl DampingState {
         let RestState {
             a_bar: a_prev,
             b_bar: b_prev,
+            ..
         } = forms_with(stencils, x_prev, phi_prev, sff)?;
         for (f, a) in a_prev.iter().enumerate() {
             if let Err(reason) = form_problem(a, true) {

@@ -146,7 +146,8 @@ fn lumped_mass_sums_to_total_mass() {
             &sphere,
             &RestState {
                 a_bar: vec![],
-                b_bar: vec![]
+                b_bar: vec![],
+                sff: None,
             },
             &m
         ),

@@ -49,6 +49,9 @@ pub fn apply_growth(
     check("thickness", thickness, thickness > 0.0, "must be positive")?;
     out.a_bar.resize(n, Matrix2::zeros());
     out.b_bar.resize(n, Matrix2::zeros());
+    // The grown forms are the initial ones rewritten: they keep the initial forms' bending
+    // form (checked against the model's by `ShellSystem::new`).
+    out.sff = initial.sff;
     for (f, &m) in stimulus.iter().enumerate() {
         let face = FaceId::new(f);
         if !m.is_finite() {

@@ -64,6 +64,7 @@ fn zero_stimulus_gives_back_initial_forms_exactly() {
         let mut out = RestState {
             a_bar: vec![],
             b_bar: vec![],
+            sff: None,
         };
         apply_growth(model.as_ref(), &initial, &zero, H, &mut out).unwrap();
         assert_eq!(out, initial, "{}", model.name());

@@ -27,6 +27,30 @@ pub enum SolverError {
         /// What the value must satisfy.
         requirement: &'static str,
     },
+    /// The rest state was computed with another second fundamental form than the model's
+    /// (the form is named once: build the rest state with the model's form, or from forms).
+    #[error(
+        "the rest state was computed with the bending form {rest:?} but the model uses {model:?}; \
+         build it with the model's form (`RestState::for_model`)"
+    )]
+    FormMismatch {
+        /// The form the rest state's b̄ was computed with.
+        rest: thinshell_energy::SffKind,
+        /// The model's form.
+        model: thinshell_energy::SffKind,
+    },
+    /// The modal eigen-solve did not converge within its Krylov basis limit
+    /// ([`ModalSettings::max_basis`](crate::shell::ModalSettings::max_basis)).
+    #[error(
+        "natural modes: not converged with a Krylov basis of {basis} vectors (largest relative \
+         residual {worst:e}); raise max_basis or lower count"
+    )]
+    ModesDidNotConverge {
+        /// Basis size reached.
+        basis: usize,
+        /// Largest relative residual of the wanted modes.
+        worst: f64,
+    },
     /// A vector handed to the solver has the wrong length.
     #[error("{what}: length {found}, expected {expected}")]
     DimensionMismatch {
@@ -449,6 +473,16 @@ impl std::fmt::Debug for SolverError {
                 .field("name", name)
                 .field("value", value)
                 .field("requirement", requirement)
+                .finish(),
+            ModesDidNotConverge { basis, worst } => f
+                .debug_struct("ModesDidNotConverge")
+                .field("basis", basis)
+                .field("worst", worst)
+                .finish(),
+            FormMismatch { rest, model } => f
+                .debug_struct("FormMismatch")
+                .field("rest", rest)
+                .field("model", model)
                 .finish(),
             DimensionMismatch {
                 what,

@@ -137,6 +137,6 @@ pub struct ReadmeDoctests;
 
 pub use shell::{
     AngleReport, AngleSettings, Boundary, Contact, ContactError, ContactRunState, ContactSettings,
-    ContactStats, ExplicitEuler, ImplicitEuler, Integrator, Loads, NewtonCache, Obstacle,
-    Prescribed, ShellPath, ShellSystem, State, Static, StepKind, StepReport,
+    ContactStats, ExplicitEuler, ImplicitEuler, Integrator, Loads, ModalSettings, Modes,
+    NewtonCache, Obstacle, Prescribed, ShellPath, ShellSystem, State, Static, StepKind, StepReport,
 };

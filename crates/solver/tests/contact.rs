@@ -21,7 +21,12 @@ fn sheet(n: usize, lift: f64) -> (ShellSystem, Vec<V>) {
     let sff = SffKind::MidEdgeAverage;
     let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
     let model = ShellModel {
-        material: Material::new(1e-3, 1e6, 0.3),
+        material: Material {
+            thickness: 1e-3,
+            young: 1e6,
+            poisson: 0.3,
+            ..Material::paper()
+        },
         terms: Terms::ELASTIC,
         sff,
     };
@@ -273,7 +278,12 @@ fn scroll(contact: bool, steps: usize) -> (bool, f64, usize, usize) {
     let sff = SffKind::MidEdgeAverage;
     let rest = RestState::from_mesh(&mesh, &rolled, sff).unwrap();
     let model = ShellModel {
-        material: Material::new(2e-4, 1e6, 0.3),
+        material: Material {
+            thickness: 2e-4,
+            young: 1e6,
+            poisson: 0.3,
+            ..Material::paper()
+        },
         terms: Terms::ELASTIC,
         sff,
     };
@@ -341,7 +351,12 @@ fn stacked_static(n: usize) -> (ShellSystem, Vec<V>, thinshell_solver::NewtonRep
     let sff = SffKind::MidEdgeAverage;
     let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
     let model = ShellModel {
-        material: Material::new(1e-3, 1e6, 0.3),
+        material: Material {
+            thickness: 1e-3,
+            young: 1e6,
+            poisson: 0.3,
+            ..Material::paper()
+        },
         terms: Terms::ELASTIC,
         sff,
     };

@@ -23,7 +23,12 @@ fn arch(force: f64) -> (ShellSystem, Vec<Vector3<f64>>, VertexId) {
     let sff = SffKind::MidEdgeAverage;
     let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).expect("rest");
     let model = ShellModel {
-        material: Material::new(0.01, 1e7, 0.3),
+        material: Material {
+            thickness: 0.01,
+            young: 1e7,
+            poisson: 0.3,
+            ..Material::paper()
+        },
         terms: Terms::ELASTIC,
         sff,
     };
@@ -155,7 +160,12 @@ fn roof(h: f64, p_max: f64) -> (ShellSystem, Vec<Vector3<f64>>, VertexId, Vector
     let sff = SffKind::MidEdgeAverage;
     let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).expect("rest");
     let model = ShellModel {
-        material: Material::new(h, 3102.75, 0.3),
+        material: Material {
+            thickness: h,
+            young: 3102.75,
+            poisson: 0.3,
+            ..Material::paper()
+        },
         terms: Terms::ELASTIC,
         sff,
     };

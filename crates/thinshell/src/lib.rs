@@ -15,6 +15,7 @@ pub mod atomic;
 mod face_fields;
 pub mod mesh_info;
 pub mod output;
+pub mod modes;
 pub mod reference;
 pub mod scene;
 pub mod sim;

@@ -11,7 +11,9 @@ in m^2, b_bar in m.
   ``set_positions()``, ``save()``/``restore()``, ``snapshot()``, ...; the GIL is released while
   a step runs, so threads stepping different simulations run in parallel, and Ctrl-C stops a
   step within one Newton iteration (KeyboardInterrupt; ``cancel()`` from another thread).
-- :func:`energy` - energy, gradient and Hessian (``scipy.sparse.csc_matrix``) of a mesh.
+- :func:`energy` - energy, gradient and Hessian (``scipy.sparse.csc_matrix``) of a mesh;
+  ``Simulation.energy()`` the same at a simulation's own state (``sim.form``, ``sim.material``).
+- :func:`modes` - natural frequencies and mode shapes of a scene (``Simulation.modes()``).
 - :func:`sweep` - every combination of a parameter grid, in a local process pool or on Dask;
   runs are keyed by scene, file contents and version, interruptible, returned as a DataFrame.
 
@@ -48,6 +50,7 @@ __all__ = [
     "EnergyError",
     "EnergyResult",
     "Mesh",
+    "Modes",
     "MeshError",
     "Scene",
     "SceneError",
@@ -57,6 +60,7 @@ __all__ = [
     "ThinshellError",
     "energy",
     "load_scene",
+    "modes",
     "sweep",
 ]
 
@@ -92,6 +96,44 @@ class EnergyResult(_NamedTuple):
     hessian: "object | None"
     """d2E/dx2 as a full symmetric ``scipy.sparse.csc_matrix`` (N/m), same ordering as the
     gradient; None when ``hessian=False``."""
+    edge_angles: "_np.ndarray | None" = None
+    """The edge angles (rad, one per edge) the energy was evaluated at: those given, else the
+    minimising ones (edge-director forms); empty for ``mid_edge_average``."""
+
+
+def _energy_result(stretch, bend, grad, rows, cols, vals, n, hessian, phi) -> EnergyResult:
+    """EnergyResult from the extension's parts (COO triplets of the full symmetric Hessian)."""
+    import scipy.sparse
+
+    H = None
+    if hessian:
+        H = scipy.sparse.csc_matrix((vals, (rows, cols)), shape=(n, n))
+        H.sort_indices()
+    return EnergyResult(stretch + bend, stretch, bend, grad, H, phi)
+
+
+class Modes(_NamedTuple):
+    """What :meth:`Simulation.modes` and :func:`modes` return (docs/modal.md)."""
+
+    frequencies: _np.ndarray
+    """Natural frequencies, Hz, ascending (rigid motions: about 0)."""
+    eigenvalues: _np.ndarray
+    """omega^2, rad^2/s^2, ascending."""
+    shapes: _np.ndarray
+    """count x n x 3 displacements (m), mass-normalised (sum m_i |v_i|^2 = 1), 0 where held."""
+    residuals: _np.ndarray
+    """Relative residual of each mode."""
+
+
+def modes(
+    scene: "str | _Mapping[str, object] | Scene | object",
+    count: int = 6,
+    overrides: _Sequence[str] = (),
+) -> Modes:
+    """The ``count`` lowest natural frequencies and mode shapes of a scene about its start
+    state (what ``thinshell modes`` computes; the massless edge angles condensed, damping left
+    out): ``Simulation(load_scene(scene, overrides)).modes(count)``."""
+    return Simulation(load_scene(scene, overrides)).modes(count)
 
 
 def energy(
@@ -99,7 +141,7 @@ def energy(
     F: _np.ndarray,
     rest: "_np.ndarray | tuple[_np.ndarray, _np.ndarray]",
     material: "_Mapping[str, float | str] | None" = None,
-    form: str = "mid_edge_average",
+    form: str = "edge_director_tan",
     terms: "str | _Iterable[str]" = ("stretching", "bending"),
     edge_angles: "_np.ndarray | None" = None,
     hessian: bool = True,
@@ -117,17 +159,20 @@ def energy(
     material : dict with any of ``thickness`` (m), ``young`` (Pa), ``poisson``, ``density``
         (kg/m^3), ``viscosity`` (Pa s), ``model`` ("stvk" or "neo_hookean"); the rest are
         paper's (h = 1e-4 m, E = 2e9 Pa, nu = 0.3).
-    form : discrete second fundamental form: "mid_edge_average" (positions only),
-        "edge_director_sin" or "edge_director_tan" (one angle unknown per edge).
+    form : discrete second fundamental form: "edge_director_tan" (the default, as in scenes)
+        or "edge_director_sin" (one angle unknown per edge), or "mid_edge_average" (positions
+        only). A Simulation's own is ``sim.form``.
     terms : "stretching" and/or "bending".
-    edge_angles : edge-director angles (rad, one per edge); default all 0.
+    edge_angles : edge-director angles (rad, one per edge); default: the angles that minimise
+        the energy at ``V`` (the massless angles' equilibrium, as a simulation solves them:
+        fitted free edges, model.md section 1.2, keep 0; returned as ``edge_angles``).
     hessian : whether to assemble the Hessian.
     """
     import scipy.sparse
 
     if isinstance(terms, str):
         terms = [terms]  # "bending" is one term, not the letters b, e, n, ...
-    stretch, bend, grad, rows, cols, vals, n = _thinshell.energy_parts(
+    stretch, bend, grad, rows, cols, vals, n, phi = _thinshell.energy_parts(
         V,
         F,
         rest,
@@ -137,8 +182,4 @@ def energy(
         None if edge_angles is None else _np.ascontiguousarray(edge_angles, dtype=_np.float64),
         hessian,
     )
-    H = None
-    if hessian:
-        H = scipy.sparse.csc_matrix((vals, (rows, cols)), shape=(n, n))
-        H.sort_indices()
-    return EnergyResult(stretch + bend, stretch, bend, grad, H)
+    return _energy_result(stretch, bend, grad, rows, cols, vals, n, hessian, phi)

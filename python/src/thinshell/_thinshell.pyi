@@ -218,13 +218,24 @@ class Simulation:
         """m x 2 (top, bottom) in the stimulus' unit; None without growth."""
     def set_stimulus(self, values: npt.ArrayLike) -> None:
         """Per-face stimulus, (m,) or (m, 2), held constant from now on (growth scenes)."""
+    @property
+    def form(self) -> str:
+        """The bending form: "edge_director_tan" (default), "edge_director_sin", "mid_edge_average"."""
+    @property
+    def material(self) -> dict[str, Any]:
+        """thickness (m), young (Pa), poisson, density (kg/m^3), viscosity (Pa s), model."""
+    def energy(self, hessian: bool = True) -> Any:
+        """EnergyResult at the simulation's own state (positions and edge angles): elastic
+        energy (J), gradient over all coordinates, Hessian over the unknowns."""
+    def modes(self, count: int = 6) -> Any:
+        """Modes: the count lowest natural frequencies (Hz) and mode shapes about the state."""
 
 def energy_parts(
     vertices: npt.ArrayLike,
     faces: npt.ArrayLike,
     rest: Any,
     material: Mapping[str, Any] | None = None,
-    form: str = "mid_edge_average",
+    form: str = "edge_director_tan",
     terms: Sequence[str] | None = None,
     edge_angles: npt.ArrayLike | None = None,
     hessian: bool = True,
@@ -236,13 +247,14 @@ def energy_parts(
     npt.NDArray[np.int64],
     npt.NDArray[np.float64],
     int,
+    npt.NDArray[np.float64],
 ]: ...
 def _reference_hessian(
     vertices: npt.ArrayLike,
     faces: npt.ArrayLike,
     rest: Any,
     material: Mapping[str, Any] | None = None,
-    form: str = "mid_edge_average",
+    form: str = "edge_director_tan",
     terms: Sequence[str] | None = None,
     edge_angles: npt.ArrayLike | None = None,
 ) -> npt.NDArray[np.float64]:

@@ -98,7 +98,12 @@ fn inflation(sff: SffKind, level: usize) -> Result<Outcome> {
     let mut sys = super::solve::stress_free(
         mesh,
         sff,
-        Material::new(h, e, nu),
+        Material {
+            thickness: h,
+            young: e,
+            poisson: nu,
+            ..Material::paper()
+        },
         Boundary::default(),
         loads,
     )?;
@@ -167,7 +172,12 @@ fn helix(sff: SffKind, level: usize) -> Result<Outcome> {
         mesh,
         rest,
         sff,
-        Material::new(0.01, 1e6, 0.3),
+        Material {
+            thickness: 0.01,
+            young: 1e6,
+            poisson: 0.3,
+            ..Material::paper()
+        },
         Boundary::default(),
         Loads::default(),
     )?;
@@ -211,6 +221,7 @@ fn cap(sff: SffKind, level: usize) -> Result<Outcome> {
     let rest = RestState {
         b_bar: metric.a_bar.iter().map(|a| a * sk).collect(),
         a_bar: metric.a_bar,
+        sff: None,
     };
     let start: Vec<V3> = mesh
         .positions()
@@ -221,7 +232,12 @@ fn cap(sff: SffKind, level: usize) -> Result<Outcome> {
         mesh,
         rest,
         sff,
-        Material::new(0.01, 1e6, 0.3),
+        Material {
+            thickness: 0.01,
+            young: 1e6,
+            poisson: 0.3,
+            ..Material::paper()
+        },
         Boundary::default(),
         Loads::default(),
     )?;

@@ -192,7 +192,18 @@ fn plate(
         point_forces,
         ..Loads::default()
     };
-    let mut sys = stress_free(mesh, sff, Material::new(h, e, nu), bc, loads)?;
+    let mut sys = stress_free(
+        mesh,
+        sff,
+        Material {
+            thickness: h,
+            young: e,
+            poisson: nu,
+            ..Material::paper()
+        },
+        bc,
+        loads,
+    )?;
     let mut cfg = Config::of(&sys, x0.clone());
     let converged = equilibrium(&mut sys, &mut cfg);
     Ok(Outcome {
@@ -287,7 +298,18 @@ fn pinched_cylinder(sff: SffKind, level: usize) -> Result<Outcome> {
         ..Boundary::default()
     };
     let x0 = mesh.positions().to_vec();
-    let mut sys = stress_free(mesh, sff, Material::new(t, e, nu), bc, loads)?;
+    let mut sys = stress_free(
+        mesh,
+        sff,
+        Material {
+            thickness: t,
+            young: e,
+            poisson: nu,
+            ..Material::paper()
+        },
+        bc,
+        loads,
+    )?;
     let mut cfg = Config::of(&sys, x0.clone());
     let converged = equilibrium(&mut sys, &mut cfg);
     let w = 0.5 * ((x0[a.idx()] - x0[b.idx()]).norm() - (cfg.x[a.idx()] - cfg.x[b.idx()]).norm());
@@ -341,7 +363,17 @@ fn hemisphere(mesh: Mesh, label: String, reference: f64, sff: SffKind) -> Result
     let faces = mesh.n_faces();
     let (point_forces, v) = hemisphere_loads(&mesh, r, 2.0 * scale)?;
     let x0 = mesh.positions().to_vec();
-    let mut sys = unheld(mesh, sff, Material::new(t, e, nu), point_forces)?;
+    let mut sys = unheld(
+        mesh,
+        sff,
+        Material {
+            thickness: t,
+            young: e,
+            poisson: nu,
+            ..Material::paper()
+        },
+        point_forces,
+    )?;
     let mut cfg = Config::of(&sys, x0.clone());
     let converged = equilibrium(&mut sys, &mut cfg);
     let (pulled, pushed) = hemisphere_displacements(&x0, &cfg.x, v);

@@ -237,7 +237,12 @@ fn slit_annulus(sff: SffKind, level: usize) -> Result<Outcome> {
     let mut sys = stress_free(
         mesh,
         sff,
-        Material::new(h, e, nu),
+        Material {
+            thickness: h,
+            young: e,
+            poisson: nu,
+            ..Material::paper()
+        },
         Boundary {
             clamped_edges,
             ..Boundary::default()
@@ -275,7 +280,17 @@ fn hemisphere_path(sff: SffKind, level: usize) -> Result<Outcome> {
     let faces = mesh.n_faces();
     let (point_forces, v) = hemisphere_loads(&mesh, r, pmax)?;
     let x0 = mesh.positions().to_vec();
-    let mut sys = unheld(mesh, sff, Material::new(t, e, nu), point_forces)?;
+    let mut sys = unheld(
+        mesh,
+        sff,
+        Material {
+            thickness: t,
+            young: e,
+            poisson: nu,
+            ..Material::paper()
+        },
+        point_forces,
+    )?;
     let mut c = Config::of(&sys, x0.clone());
     let (mut pulled, mut pushed) = (Vec::new(), Vec::new());
     let stopped = ramp(&mut sys, &mut c, &HEMI_LEVELS, 0.1, |_, _, c| {
@@ -321,7 +336,17 @@ fn pullout(sff: SffKind, level: usize) -> Result<Outcome> {
         (a[1], V3::new(0.0, -pmax, 0.0)),
     ];
     let x0 = mesh.positions().to_vec();
-    let mut sys = unheld(mesh, sff, Material::new(h, e, nu), point_forces)?;
+    let mut sys = unheld(
+        mesh,
+        sff,
+        Material {
+            thickness: h,
+            young: e,
+            poisson: nu,
+            ..Material::paper()
+        },
+        point_forces,
+    )?;
     // Half the change of the distance between a pair (outward positive).
     let half_change = |x: &[V3], p: [VertexId; 2]| {
         0.5 * ((x[p[0].idx()] - x[p[1].idx()]).norm() - (x0[p[0].idx()] - x0[p[1].idx()]).norm())
@@ -433,7 +458,12 @@ fn roof(sff: SffKind, level: usize) -> Result<Outcome> {
     let mut sys = stress_free(
         mesh,
         sff,
-        Material::new(h, e, nu),
+        Material {
+            thickness: h,
+            young: e,
+            poisson: nu,
+            ..Material::paper()
+        },
         Boundary {
             pinned_vertices,
             ..Boundary::default()

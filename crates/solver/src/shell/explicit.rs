@@ -116,6 +116,7 @@ impl Integrator for ExplicitEuler {
         state.x = x1;
         state.v = v1;
         state.phi = phi1;
+        system.keep_angles(&state.phi);
         state.t = t1;
         Ok(StepReport {
             t: t1,

@@ -47,6 +47,7 @@ pub(crate) fn solve_by_continuation(
     let origin = RestState {
         a_bar: origin.a_prev,
         b_bar: origin.b_prev,
+        sff: target.sff,
     };
     let result = walk(solve, system, &origin, &target, lambda, x, phi);
     system.rest = target;

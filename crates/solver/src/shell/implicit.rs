@@ -165,6 +165,7 @@ impl Integrator for ImplicitEuler {
             match result {
                 Ok((next, report, energies)) => {
                     *state = next;
+                    system.keep_angles(&state.phi);
                     return Ok(StepReport {
                         t: state.t,
                         dt,

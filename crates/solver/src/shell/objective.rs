@@ -613,7 +613,12 @@ mod contact_tests {
         let sff = SffKind::MidEdgeAverage;
         let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
         let model = ShellModel {
-            material: Material::new(1e-3, 1e4, 0.3),
+            material: Material {
+                thickness: 1e-3,
+                young: 1e4,
+                poisson: 0.3,
+                ..Material::paper()
+            },
             terms: Terms::ELASTIC,
             sff,
         };

@@ -43,7 +43,7 @@ use crate::{Objective, SolverError};
 /// let mesh = Mesh::new(arch.clone(), flat.faces_usize())?;
 /// let sff = SffKind::MidEdgeAverage;
 /// let rest = RestState::from_mesh(&mesh, mesh.positions(), sff)?;
-/// let model = ShellModel { material: Material::new(0.01, 1e7, 0.3), terms: Terms::ELASTIC, sff };
+/// let model = ShellModel { material: Material { thickness: 0.01, young: 1e7, poisson: 0.3, ..Material::paper() }, terms: Terms::ELASTIC, sff };
 /// // Both short ends pinned; the load on the middle vertex of the crown line.
 /// let ends = (0..mesh.n_vertices()).map(VertexId::new)
 ///     .filter(|v| arch[v.idx()].x < 1e-9 || arch[v.idx()].x > 1.0 - 1e-9).collect();

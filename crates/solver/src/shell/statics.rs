@@ -59,8 +59,9 @@ impl Default for Static {
 
 impl Static {
     /// Solves for the equilibrium starting from `x` (overwritten; held coordinates kept). With
-    /// edge unknowns the angles start at 0 and are discarded; use
-    /// [`Static::solve_with_angles`] to keep them.
+    /// edge unknowns the angles start at 0; the solved ones are kept on the system
+    /// ([`ShellSystem::edge_angles`]), where [`ShellSystem::energy`] starts from them.
+    /// [`Static::solve_with_angles`] also takes and returns them.
     pub fn solve(
         &mut self,
         system: &mut ShellSystem,
@@ -85,6 +86,9 @@ impl Static {
         let result = newton_solve(&mut obj, &mut u, &self.newton, ws);
         let sys = obj.sys;
         sys.scatter(&u, x, phi);
+        if result.is_ok() {
+            sys.keep_angles(phi);
+        }
         result
     }
 }

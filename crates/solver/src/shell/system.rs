@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 use thinshell_energy::{
     Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, HessianMode, RestState,
-    ShellModel, lumped_mass,
+    ShellModel, Terms, lumped_mass,
 };
 use thinshell_mesh::Mesh;
 
@@ -73,6 +73,10 @@ pub struct ShellSystem {
     pub(crate) angle_scale: f64,
     /// Angle-only sub-problem of [`ShellSystem::relax_edge_angles`], built on first use.
     pub(crate) angle_relaxation: Option<Box<AngleRelaxation>>,
+    /// Edge angles (rad, one per edge) of the last solve on this system, or of the last
+    /// relaxation by [`ShellSystem::energy`]; empty before the first (see
+    /// [`ShellSystem::edge_angles`]).
+    pub(crate) angles: Vec<f64>,
     /// Positions (m) at which clamped edges' directors are held (model.md §1.3); empty: the
     /// mesh's positions.
     pub(crate) clamp_reference: Vec<Vector3<f64>>,
@@ -145,6 +149,14 @@ impl ShellSystem {
         loads: Loads,
     ) -> Result<ShellSystem, SolverError> {
         rest.validate(&mesh)?;
+        // The form is named once: a rest state computed with one form and a model of another
+        // would measure bending against the wrong b̄ without a word.
+        if let Some(form) = rest.sff.filter(|&s| s != model.sff) {
+            return Err(SolverError::FormMismatch {
+                rest: form,
+                model: model.sff,
+            });
+        }
         let directors = ShellSystem::has_edge_unknowns_for(&model);
         let mut dofs = boundary.dof_map(&mesh, !directors)?;
         if directors {
@@ -175,6 +187,7 @@ impl ShellSystem {
             assembler,
             angle_scale,
             angle_relaxation: None,
+            angles: Vec::new(),
             clamp_reference: Vec::new(),
             contact: None,
             contact_pattern: None,
@@ -379,71 +392,150 @@ impl ShellSystem {
         if d.is_finite() && d > 0.0 { d } else { 1.0 }
     }
 
-    /// Energy terms (J) at positions `x` (no damping), with all edge angles 0 when the system
-    /// has edge unknowns (see [`ShellSystem::energy_at`]).
+    /// Elastic energy terms (J; stretching and bending, no damping) at positions `x`. With
+    /// edge unknowns the massless edge angles are at their minimiser φ*(x) for these
+    /// positions, the energy the shell has there (model.md §1.1): relaxed by Newton on the
+    /// angle block ([`ShellSystem::relax_edge_angles`]) from the angles of the last solve
+    /// ([`ShellSystem::edge_angles`]), which then hold the relaxed ones. Errors when the
+    /// relaxation fails (never a value at unrelaxed angles).
     pub fn energy(&mut self, x: &[Vector3<f64>]) -> Result<EnergyTerms, SolverError> {
         self.energy_at(x, &[])
     }
 
-    /// Energy terms (J) at positions `x` and edge angles `phi` (rad, one per edge; empty = all
-    /// 0; must be empty without edge unknowns), no damping.
+    /// Elastic energy terms (J; no damping) at positions `x` and edge angles `phi` (rad, one
+    /// per edge; empty: the minimising angles at `x`, as in [`ShellSystem::energy`]; must be
+    /// empty without edge unknowns).
     pub fn energy_at(
         &mut self,
         x: &[Vector3<f64>],
         phi: &[f64],
     ) -> Result<EnergyTerms, SolverError> {
-        let model = ShellModel {
-            terms: self.assembler.terms(),
-            ..self.model
-        };
-        if model.terms.damping {
-            return Err(SolverError::InvalidSetting {
-                name: "terms.damping",
-                value: 1.0,
-                requirement: "energy() evaluates without damping state; use an integrator",
-            });
-        }
-        let zeros;
-        let phi = if phi.is_empty() && self.has_edge_unknowns() {
-            zeros = vec![0.0; self.dofs.n_edges()];
-            &zeros
-        } else {
-            phi
-        };
-        self.assembler
-            .evaluate_with_angles(&model, x, phi, &self.rest, None, EvalOutput::default())
-            .map_err(SolverError::from)
+        Ok(self.elastic_eval(x, phi, false)?.0)
     }
 
-    /// Energy terms (J) of every face, in face order, at positions `x` and edge angles `phi`
-    /// (rad, one per edge; empty = all 0), no damping; they sum to
-    /// [`ShellSystem::energy_at`]. For energy maps and per-face studies.
+    /// Elastic energy terms (J; no damping) of every face, in face order, at positions `x`
+    /// and edge angles `phi` (rad, one per edge; empty: the minimising angles at `x`, as in
+    /// [`ShellSystem::energy`]); they sum to [`ShellSystem::energy_at`]. For energy maps and
+    /// per-face studies.
     pub fn face_energies(
         &mut self,
         x: &[Vector3<f64>],
         phi: &[f64],
     ) -> Result<Vec<EnergyTerms>, SolverError> {
-        self.energy_at(x, phi)?;
-        Ok(self.assembler.face_energies().to_vec())
+        Ok(self.elastic_eval(x, phi, true)?.1)
+    }
+
+    /// The model without its damping term (the elastic energy).
+    fn elastic_model(&self) -> ShellModel {
+        ShellModel {
+            terms: Terms {
+                damping: false,
+                ..self.assembler.terms()
+            },
+            ..self.model
+        }
+    }
+
+    /// Elastic energy (and, when `faces`, per-face energies) at `x` and `phi` (empty: the
+    /// minimising angles). A system with damping evaluates through a separate elastic-only
+    /// assembler, since its own includes the damping term.
+    fn elastic_eval(
+        &mut self,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+        faces: bool,
+    ) -> Result<(EnergyTerms, Vec<EnergyTerms>), SolverError> {
+        let relaxed;
+        let phi = if phi.is_empty() && self.has_edge_unknowns() {
+            relaxed = self.relaxed_angles(x)?;
+            &relaxed
+        } else {
+            phi
+        };
+        let model = self.elastic_model();
+        let mut own;
+        let assembler = if model.terms == self.assembler.terms() {
+            &mut self.assembler
+        } else {
+            own = self.assembler_for(&model)?;
+            &mut own
+        };
+        let e = assembler.evaluate_with_angles(
+            &model,
+            x,
+            phi,
+            &self.rest,
+            None,
+            EvalOutput::default(),
+        )?;
+        let per_face = if faces {
+            assembler.face_energies().to_vec()
+        } else {
+            Vec::new()
+        };
+        Ok((e, per_face))
+    }
+
+    /// Edge angles (rad, one per edge) of the last solve on this system (static, implicit or
+    /// explicit step, [`Static::solve`](super::Static::solve)) or of the last relaxation by
+    /// [`ShellSystem::energy`]; empty before the first and without edge unknowns.
+    pub fn edge_angles(&self) -> &[f64] {
+        &self.angles
+    }
+
+    /// Records `phi` as the angles of the last solve (ignored unless one per edge).
+    pub(crate) fn keep_angles(&mut self, phi: &[f64]) {
+        if self.has_edge_unknowns() && phi.len() == self.n_edge_angles() {
+            self.angles.clear();
+            self.angles.extend_from_slice(phi);
+        }
+    }
+
+    /// The minimising edge angles φ*(x) (rad) of the elastic energy at positions `x`, relaxed
+    /// from the kept angles (or 0), and kept.
+    fn relaxed_angles(&mut self, x: &[Vector3<f64>]) -> Result<Vec<f64>, SolverError> {
+        let mut phi = if self.angles.len() == self.n_edge_angles() {
+            self.angles.clone()
+        } else {
+            vec![0.0; self.n_edge_angles()]
+        };
+        let settings = AngleSettings::default();
+        if self.model.terms.damping {
+            // The cached angle problem includes damping; the elastic minimiser needs its own.
+            let model = self.elastic_model();
+            let mut problem = AngleRelaxation::new(
+                &self.mesh,
+                &model,
+                &self.boundary.clamped_edges,
+                self.clamp_reference(),
+            )?;
+            problem.relax(&model, &self.rest, x, &mut phi, None, &settings)?;
+        } else {
+            self.relax_edge_angles(x, &mut phi, None, &settings, None)?;
+        }
+        self.keep_angles(&phi);
+        Ok(phi)
     }
 
     /// The force (N) the supports exert on every held coordinate at `x`:
     /// `R = ∂E/∂x − F_ext − p ∂V/∂x` there (0 on free coordinates).
-    /// With edge unknowns the angles are taken as 0 (see [`ShellSystem::reactions_at`]).
+    /// With edge unknowns the angles are the minimising ones at `x` (see
+    /// [`ShellSystem::energy`]).
     pub fn reactions(&mut self, x: &[Vector3<f64>]) -> Result<Vec<f64>, SolverError> {
         self.reactions_at(x, &[])
     }
 
-    /// [`ShellSystem::reactions`] at edge angles `phi` (rad, one per edge; empty = all 0).
+    /// [`ShellSystem::reactions`] at edge angles `phi` (rad, one per edge; empty: the
+    /// minimising angles at `x`).
     pub fn reactions_at(
         &mut self,
         x: &[Vector3<f64>],
         phi: &[f64],
     ) -> Result<Vec<f64>, SolverError> {
-        let zeros;
+        let relaxed;
         let phi = if phi.is_empty() && self.has_edge_unknowns() {
-            zeros = vec![0.0; self.dofs.n_edges()];
-            &zeros
+            relaxed = self.relaxed_angles(x)?;
+            &relaxed
         } else {
             phi
         };
