@@ -1352,9 +1352,8 @@ const REFINE_TOLERANCE: f64 = 1e-6;
 /// modes of curvature λ near s — the long bending modes of slender and thin shells — and the
 /// correction used by the step test underestimates the distance to the equilibrium there.
 ///
-/// Returns whether CG converged, and whether it met non-positive curvature. Otherwise (such
-/// curvature along a CG direction — a rigid motion of an unheld shell at round-off, or a
-/// negative eigenvalue the small shift hides — or the iteration limit) `ws.dx` is the shifted
+/// Returns whether CG converged. Otherwise (non-positive curvature along a CG direction,
+/// typically a rigid motion of an unheld shell, or the iteration limit) `ws.dx` is the shifted
 /// direction again, which then serves as before: the shift is far below the stiffness of every
 /// mode but the softest.
 fn refine_direction(
@@ -1362,10 +1361,10 @@ fn refine_direction(
     obj_shift: f64,
     eta: f64,
     rec: &mut Record,
-) -> Result<(bool, bool), SolverError> {
+) -> Result<bool, SolverError> {
     let t = Instant::now();
     let Some(o) = pcg_with_factor(ws, obj_shift, eta, REFINE_MAX_ITERATIONS)? else {
-        return Ok((false, false));
+        return Ok(false);
     };
     rec.cg_iterations += o.iterations;
     let solved = o.converged && !o.negative_curvature;
@@ -1378,7 +1377,7 @@ fn refine_direction(
         cholesky.solve_in_place(&mut ws.dx)?;
     }
     rec.timings.solve += t.elapsed();
-    Ok((solved, o.negative_curvature))
+    Ok(solved)
 }
 
 /// Estimates the Newton correction at the new iterate with the last factor (or, with the
@@ -1536,8 +1535,6 @@ pub fn newton_solve<O: Objective + ?Sized>(
     // at a minimum).
     let mut met_indefinite = false;
     let mut want_escape = false;
-    // Whether a negative-curvature probe triggered by CG found nothing to leave along.
-    let mut curvature_probe_spent = false;
     // Consecutive PSD iterations that reduced the residual by less than PSD_SLOW_RATIO, and
     // whether the PSD iterations have stalled: only then does an indefinite own Hessian get
     // trust-region steps (far from a solution Gauss–Newton is the faster: its model ignores
@@ -1814,20 +1811,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             && kind == IterationHessian::Own
             && (outcome.mu > 0.0 || obj_shift > 0.0)
         {
-            let (_, negative) = refine_direction(ws, obj_shift, REFINE_TOLERANCE, &mut rec)?;
-            if negative {
-                met_indefinite = true;
-            }
-            if negative && !curvature_probe_spent {
-                // CG met non-positive curvature of the unshifted Hessian, which the small
-                // shift made positive definite: a saddle whose unstable mode is softer than
-                // the shift (a strut just past Euler's load). Newton steps would leave it
-                // only geometrically (×1.8 per iteration measured); a step along the most
-                // negative curvature leaves it at once. Probed once per solve unless it
-                // finds one (rigid motions of an unheld shell meet zero curvature too).
-                leave_saddle!('newton, false);
-                curvature_probe_spent = true;
-            }
+            refine_direction(ws, obj_shift, REFINE_TOLERANCE, &mut rec)?;
         }
 
         let step_limit = current_step_limit(step_limit, settings, x, x_start.as_deref());
@@ -2469,58 +2453,23 @@ fn escape_saddle<O: Objective + ?Sized>(
     }
     ws.reusable = None;
     curvature::scaling(&ws.hessian, &ws.diag_offsets, &mut ws.scale);
+    let Some(cholesky) = ws.cholesky.as_mut() else {
+        return Ok(None);
+    };
     let t = Instant::now();
     if !known_indefinite {
-        // The test of the stability report ([`NewtonWorkspace::stability`]): the smallest
-        // eigenvalue of the unshifted Hessian with the free rigid motions left out, whatever
-        // its size (a test of H + 10⁻⁸S for positive definiteness missed the saddles whose
-        // unstable mode is softer than that, which the report then called unstable).
-        let obj_shift = objective.hessian_diagonal_shift();
-        let shift_diagonal = |h: &mut SparseColMat<usize, f64>, by: f64, offsets: &[usize]| {
-            if by != 0.0 {
-                let val = h.val_mut();
-                offsets.iter().for_each(|&o| val[o] += by);
-            }
-        };
-        shift_diagonal(&mut ws.hessian, -obj_shift, &ws.diag_offsets);
-        let modes = objective.rigid_modes(x);
-        let Some(cholesky) = ws.cholesky.as_mut() else {
-            return Ok(None);
-        };
-        let found = curvature::smallest_eigenpair(
+        rec.factorizations += 1;
+        if curvature::factorize_shifted(
             cholesky,
             &mut ws.hessian,
             &ws.diag_offsets,
             &ws.scale,
-            &modes,
-        );
-        shift_diagonal(&mut ws.hessian, obj_shift, &ws.diag_offsets);
-        let (pair, attempts) = found?;
-        rec.factorizations += attempts;
-        rec.timings.factorization += t.elapsed();
-        if pair.value.is_nan() || pair.value >= 0.0 {
+            SMALL_SHIFT,
+        )? {
+            rec.timings.factorization += t.elapsed();
             return Ok(None);
         }
-        return leave_along(
-            objective,
-            x,
-            f,
-            ws,
-            rec,
-            LeaveAlong {
-                v: pair.vector,
-                shift: (-2.0 * pair.value).max(SHIFT_GROWTH * SMALL_SHIFT),
-                length_scale,
-                force_scale,
-                started,
-            },
-            sigma,
-            iteration,
-        );
     }
-    let Some(cholesky) = ws.cholesky.as_mut() else {
-        return Ok(None);
-    };
     // A mildly indefinite Hessian met during the solve (capped at the trust-region limit:
     // beyond it PSD steps do better), or any indefinite one at a converged point.
     let cap = if known_indefinite {
@@ -2547,55 +2496,7 @@ fn escape_saddle<O: Objective + ?Sized>(
     if pair.value.is_nan() || pair.value >= 0.0 {
         return Ok(None);
     }
-    leave_along(
-        objective,
-        x,
-        f,
-        ws,
-        rec,
-        LeaveAlong {
-            v: pair.vector,
-            shift,
-            length_scale,
-            force_scale,
-            started,
-        },
-        sigma,
-        iteration,
-    )
-}
-
-/// A direction of negative curvature to leave a saddle along, for [`leave_along`].
-struct LeaveAlong {
-    /// The direction (‖v‖∞ = 1).
-    v: Vec<f64>,
-    /// The trust-region shift to continue with after the step.
-    shift: f64,
-    length_scale: f64,
-    force_scale: f64,
-    started: Instant,
-}
-
-/// The step of [`escape_saddle`] along `along.v` (sign chosen downhill) as far as f keeps
-/// decreasing; `None` when no step decreases f beyond its noise.
-#[allow(clippy::too_many_arguments)]
-fn leave_along<O: Objective + ?Sized>(
-    objective: &mut O,
-    x: &mut [f64],
-    f: f64,
-    ws: &mut NewtonWorkspace,
-    rec: &mut Record,
-    along: LeaveAlong,
-    sigma: &mut f64,
-    iteration: &mut usize,
-) -> Result<Option<f64>, SolverError> {
-    let LeaveAlong {
-        mut v,
-        shift,
-        length_scale,
-        force_scale,
-        started,
-    } = along;
+    let mut v = pair.vector;
     if v.iter().zip(&ws.g).map(|(a, b)| a * b).sum::<f64>() > 0.0 {
         v.iter_mut().for_each(|a| *a = -*a);
     }
@@ -2618,24 +2519,21 @@ fn leave_along<O: Objective + ?Sized>(
             Ok(if val.is_finite() { val } else { f64::INFINITY })
         };
     let noise = rec.noise(f);
-    let t0 = (1e-3 * length_scale).min(t_max);
-    let mut t = t0;
+    let mut t = (1e-3 * length_scale).min(t_max);
     let mut best = (0.0, f);
-    // Doubling while f does not rise beyond its noise: along a very soft unstable mode the
-    // decrease ½λt² stays below the noise for short steps and becomes large only near the
-    // buckled amplitude (measured: a strut just past Euler's load, whose escapes from 10⁻³ of
-    // its length found nothing and shrank to steps of 2.5·10⁻⁴).
-    while t <= t_max {
-        let ft = value_at(t, ws, rec)?;
-        if ft < best.1 && ft < f - noise {
-            best = (t, ft);
-        } else if ft > best.1 + noise {
-            break;
+    let ft = value_at(t, ws, rec)?;
+    if ft < f - noise {
+        best = (t, ft);
+        while 2.0 * t <= t_max {
+            let f2 = value_at(2.0 * t, ws, rec)?;
+            if f2 < best.1 {
+                t *= 2.0;
+                best = (t, f2);
+            } else {
+                break;
+            }
         }
-        t *= 2.0;
-    }
-    if best.0 == 0.0 {
-        t = t0;
+    } else {
         for _ in 0..30 {
             t *= 0.25;
             let f2 = value_at(t, ws, rec)?;
