@@ -209,7 +209,12 @@ fn dihedral_derivatives(p: [&Vector3<f64>; 4], hess: bool) -> (f64, PVec, Option
     let (uf, ug) = (nf_raw * kf, ng_raw * kg);
     let tf = (p[0] - p[1]).dot(&e) * inv_l2;
     let tg = (p[3] - p[1]).dot(&e) * inv_l2;
-    let gb = [-uf, uf * (1.0 - tf) + ug * (1.0 - tg), uf * tf + ug * tg, -ug];
+    let gb = [
+        -uf,
+        uf * (1.0 - tf) + ug * (1.0 - tg),
+        uf * tf + ug * tg,
+        -ug,
+    ];
     let mut g = PVec::zeros();
     for (b, v) in gb.iter().enumerate() {
         add_vec(&mut g, b, v);
