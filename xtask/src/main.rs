@@ -121,6 +121,11 @@ enum Task {
         /// The JSON file with every sample (default: target/xtask/perf.json).
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Run only the extra sections whose title contains this text (`reuse`, `fallback`):
+        /// print their markdown and write it to target/xtask/perf-only.md, leaving the docs
+        /// file unchanged.
+        #[arg(long)]
+        only: Option<String>,
     },
     /// What the `contact` effect costs (issue #30): broad phase, CCD, barrier assembly and
     /// implicit steps with and without contact on the rolling scroll at three sizes. Prints a
@@ -207,12 +212,14 @@ fn main() -> ExitCode {
             rounds,
             docs,
             json,
+            only,
         } => perf::run(&perf::Options {
             quick,
             big,
             rounds,
             docs_path: docs.unwrap_or_else(|| workspace_root().join("docs").join("performance.md")),
             json_path: json.unwrap_or_else(|| out_dir().join("perf.json")),
+            only,
         }),
         Task::PerfChild {
             level,

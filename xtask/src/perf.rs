@@ -54,6 +54,9 @@ pub struct Options {
     pub docs_path: PathBuf,
     /// Every raw sample.
     pub json_path: PathBuf,
+    /// Only the extra sections whose title contains this text, printed and written to
+    /// `target/xtask/perf-only.md` (the docs file is left alone).
+    pub only: Option<String>,
 }
 
 /// A section appended inside the generated part: (title for the log, generator taking `quick`).
@@ -219,6 +222,9 @@ pub fn run(opts: &Options) -> Result<()> {
     if opts.rounds == 0 {
         bail!("--rounds must be at least 1");
     }
+    if let Some(only) = &opts.only {
+        return run_only(only, opts.quick);
+    }
     let rounds = if opts.quick { 1 } else { opts.rounds };
     let sizes = Sizes::new(opts.quick);
     let t0 = Instant::now();
@@ -278,6 +284,39 @@ pub fn run(opts: &Options) -> Result<()> {
         load_start,
     };
     report::write(opts, &run, &docs)
+}
+
+/// `--only`: the extra sections whose title contains `only`, with the machine line.
+fn run_only(only: &str, quick: bool) -> Result<()> {
+    let load_start = report::load_average();
+    let t0 = Instant::now();
+    let mut md = String::new();
+    for (title, section) in extra_sections() {
+        if !title.contains(only) {
+            continue;
+        }
+        println!("perf: section {title}");
+        md += &section(quick).with_context(|| format!("section {title}"))?;
+        md += "\n";
+    }
+    if md.is_empty() {
+        let titles: Vec<&str> = extra_sections().iter().map(|s| s.0).collect();
+        bail!("--only {only}: no section title contains it (sections: {titles:?})");
+    }
+    md += &format!(
+        "`cargo xtask perf --only {only}{}`: {:.0} s; load average {} at the start, {} at the end \
+         (2 cores).\n",
+        if quick { " --quick" } else { "" },
+        t0.elapsed().as_secs_f64(),
+        load_start.map_or("?".to_string(), |l| format!("{l:.2}")),
+        report::load_average().map_or("?".to_string(), |l| format!("{l:.2}")),
+    );
+    let path = crate::out_dir().join("perf-only.md");
+    std::fs::create_dir_all(crate::out_dir())?;
+    std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?;
+    println!("{md}");
+    println!("perf: written to {}", path.display());
+    Ok(())
 }
 
 #[cfg(test)]

@@ -123,8 +123,9 @@ pub mod shell;
 pub use error::{PathFailure, SolverError};
 pub use linear::{FactorStats, RegularizationKind, RegularizationParams, SparseCholesky};
 pub use newton::{
-    Convergence, HessianPolicy, IterationHessian, IterativeFallback, LinearSolver, NewtonReport,
-    NewtonSettings, NewtonTimings, NewtonWorkspace, RegularizationEvent, Stability, newton_solve,
+    Convergence, HessianPolicy, IterationHessian, IterativeFallback, KeptFactor, LinearSolver,
+    NewtonReport, NewtonSettings, NewtonTimings, NewtonWorkspace, RegularizationEvent, Stability,
+    newton_solve,
 };
 pub use objective::Objective;
 pub use ordering::Ordering;

@@ -90,6 +90,9 @@ use crate::objective::Objective;
 use crate::ordering::Ordering;
 use crate::progress::{CancelFlag, NewtonProgress, ProgressHook};
 
+mod kept;
+pub use kept::KeptFactor;
+
 /// Which Hessian each Newton iteration factorises.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum HessianPolicy {
@@ -502,6 +505,8 @@ pub struct NewtonWorkspace {
     /// Kind of Hessian of the last Cholesky factor when it is unshifted and may precondition CG
     /// ([`NewtonSettings::reuse_factor`]); `None`: refactorise.
     reusable: Option<IterationHessian>,
+    /// The input of the kept factor's factorisation (checkpoints, cancelled solves).
+    kept: kept::KeptRecord,
     /// Statistics of the symbolic analysis (of the refused factor with the fallback).
     stats: FactorStats,
     /// Built with [`NewtonSettings::force_iterative`].
@@ -666,6 +671,7 @@ impl NewtonWorkspace {
             diag_offsets,
             pcg: PcgScratch::new(n),
             reusable: None,
+            kept: kept::KeptRecord::default(),
             hessian,
             g: vec![0.0; n],
             g_trial: vec![0.0; n],
@@ -963,6 +969,9 @@ impl NewtonWorkspace {
             Ok(()) => {
                 // An unshifted factor of the own Hessian: the next solve may reuse it.
                 self.reusable = Some(IterationHessian::Own);
+                let h = self.hessian.val();
+                self.kept
+                    .record(IterationHessian::Own, h, 0.0, RegularizationKind::Identity);
                 Ok(true)
             }
             Err(FactorError::NotPositiveDefinite { .. }) => Ok(false),
@@ -1114,6 +1123,14 @@ fn try_reuse(
     if !settings.reuse_factor || ws.reusable != Some(kind) {
         return Ok(false);
     }
+    // After a restore or a cancelled solve the kept factor is rebuilt from its recorded input.
+    if !ws
+        .kept
+        .ensure_factor(ws.cholesky.as_mut(), &mut ws.hessian)?
+    {
+        ws.reusable = None;
+        return Ok(false);
+    }
     // The own Hessian's unshifted system (see `refine_direction`; PSD ones keep their shift).
     let obj_shift = if kind == IterationHessian::Own {
         obj_shift
@@ -1179,6 +1196,10 @@ fn solve_direction(
         rec.timings.solve += t.elapsed();
         if outcome.mu <= SMALL_SHIFT {
             ws.reusable = Some(kind);
+            if settings.reuse_factor {
+                ws.kept
+                    .record(kind, ws.hessian.val(), outcome.mu, params.kind);
+            }
         }
         return Ok((outcome, true));
     }
@@ -1470,6 +1491,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
         ws.mu = 0.0;
     }
     let mu_at_start = ws.mu;
+    ws.kept.begin_solve(ws.reusable);
     let mut rec = Record {
         residuals: Vec::new(),
         values: Vec::new(),
@@ -1615,7 +1637,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
             // A cancelled solve leaves the workspace's carried state as it found it, so that a
             // run resumed from the last completed step repeats this one exactly.
             ws.mu = mu_at_start;
-            ws.reusable = None;
+            ws.reusable = ws.kept.cancel_solve();
             return Err(SolverError::Cancelled {
                 iterations: iteration + rec.watchdog_undone,
                 residuals: rec.residuals,

@@ -136,3 +136,70 @@ fn save_writes_a_file_that_restore_reads() {
     b.restore(&path, scene_hash(&s)).unwrap();
     assert!(fingerprint(&a) == fingerprint(&b));
 }
+
+/// A checkpoint of format version 1 (before the kept factor, issue #31) still restores: the
+/// same state, and a resumed run that factorises afresh at its first step (so within the
+/// solver's tolerance of the uninterrupted run, not bit for bit).
+#[test]
+fn a_version_1_checkpoint_restores_without_a_kept_factor() {
+    let s = scene("square_enlarged.toml", &["integrator.steps=40"]);
+    let hash = scene_hash(&s);
+    let mut a = Simulation::build(&s).unwrap();
+    for _ in 0..5 {
+        a.step().unwrap();
+    }
+    let v2 = a.checkpoint_bytes(hash, b"");
+    // No growth, no contact: the payload ends with the regularisation memory and the kept
+    // factor, a flag 1 then its kind, shift, shape and the values (a u64 count, then f64s).
+    let header = 32;
+    let payload = &v2[header..];
+    let count_at = |end: usize| {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&payload[end - 8..end]);
+        u64::from_le_bytes(b) as usize
+    };
+    // Find the kept factor's start: the u64 count n followed by n values ends the payload.
+    let kept_start = (0..payload.len() / 8)
+        .map(|k| payload.len() - 8 * k)
+        .find(|&end| end >= 8 && end + 8 * count_at(end) == payload.len() && count_at(end) > 0)
+        .map(|end| end - 8 * 5)
+        .unwrap();
+    let v1_payload = &payload[..kept_start];
+    let mut v1 = Vec::new();
+    v1.extend_from_slice(&v2[..8]);
+    v1.extend_from_slice(&1u32.to_le_bytes());
+    v1.extend_from_slice(&v2[12..20]);
+    v1.extend_from_slice(&(v1_payload.len() as u64).to_le_bytes());
+    v1.extend_from_slice(&crc32fast::hash(v1_payload).to_le_bytes());
+    v1.extend_from_slice(v1_payload);
+
+    let mut b = Simulation::build(&s).unwrap();
+    b.restore_bytes(&v1, hash, Path::new("v1")).unwrap();
+    assert!(
+        fingerprint(&a) == fingerprint(&b),
+        "the restored state differs"
+    );
+    let mut c = Simulation::build(&s).unwrap();
+    c.restore_bytes(&v2, hash, Path::new("v2")).unwrap();
+    for _ in 0..5 {
+        a.step().unwrap();
+        b.step().unwrap();
+        c.step().unwrap();
+    }
+    assert!(
+        fingerprint(&a) == fingerprint(&c),
+        "version 2 is bit for bit"
+    );
+    assert!(
+        fingerprint(&a) != fingerprint(&b),
+        "version 1 has no kept factor"
+    );
+    // The square is 1 m wide; steps converge to 1e-3 of their move.
+    let d = a
+        .positions()
+        .iter()
+        .zip(b.positions())
+        .map(|(p, q)| (p - q).norm())
+        .fold(0.0, f64::max);
+    assert!(d < 1e-8, "version 1 resume moved by {d} m");
+}

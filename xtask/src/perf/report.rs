@@ -305,15 +305,18 @@ mod why {
         ≤ 149 ms (issue #31's libshell: 594 ms) for assembly, factorisation and solve, and the \
         two-thread factorisation alone takes about that (Factorisation table); closing it needs \
         fewer flops (the ordering row), faster supernodal kernels, or skipped factorisations \
-        (factor reuse, below: not the default, see there).";
+        (factor reuse, below: the default of implicit steps since issue #31, which this row, \
+        one factorisation per iteration, does not count).";
     pub(super) const GROWTH: &str = "*Growth exponent*: nested dissection factorises a 2-D mesh \
         of n unknowns in O(n^1.5) flops, and the factorisation is most of an iteration from \
         20 480 faces up, so the slope rises with size; two threads pull it down (the split \
         pays more on larger factors: speed-up 1.30 at 20 480, 1.68 at 81 920 faces).";
     pub(super) const DIRECTOR_FACE: &str = "*Director forms per face*: 21 dofs per face (the \
         three edge angles) against 18, and 45 vertex/edge block pairs gathered against 21; the \
-        dihedral angle's Hessian, through normalised normals, still costs about 8 000 \
-        instructions per edge (callgrind); a closed-form dihedral Hessian is the next step.";
+        dihedral angle's Hessian is in closed form since issue #31 (Bridson's gradient \
+        differentiated, instead of the chain rule through three normalised vectors); what \
+        remains is the altitude's Hessian, the fitted/clamped edges' dual numbers and the larger \
+        gather.";
     pub(super) const DIRECTOR_STEP: &str = "*Director forms per implicit step*: twice the \
         unknowns (one angle per edge) and about 2.2× the predicted factorisation flops with \
         METIS (1.53e10 against 7.03e9 at 20 480 faces), on top of the per-face cost.";

@@ -1,4 +1,5 @@
-//! Issue #17, factorisation reuse (`integrator.newton.reuse_factor`): every case is run without
+//! Issues #17 and #31, factorisation reuse (`integrator.newton.reuse_factor`, on by default for
+//! implicit steps since #31): every case is run without
 //! and with reuse, back to back in one process (A then B), and compared on numeric
 //! factorisations, CG iterations, Newton iterations, wall time per step and the largest
 //! distance between the two runs' final positions relative to the model size (bounding-box
@@ -156,6 +157,21 @@ fn cases(quick: bool) -> Vec<Case> {
         scene: "sphere_uniform_heat.toml",
         overrides: s(&["integrator.steps=5", "mesh.level=5"]),
     });
+    // The library's default form (the seed's scenes name the average).
+    v.push(Case {
+        name: "sphere uniform heat, edge_director_tan, seed protocol, 200 steps".into(),
+        scene: "sphere_uniform_heat.toml",
+        overrides: s(&["integrator.steps=200", "bending.form=\"edge_director_tan\""]),
+    });
+    v.push(Case {
+        name: "sphere uniform heat, edge_director_tan, 20 480 faces, 5 steps".into(),
+        scene: "sphere_uniform_heat.toml",
+        overrides: s(&[
+            "integrator.steps=5",
+            "mesh.level=5",
+            "bending.form=\"edge_director_tan\"",
+        ]),
+    });
     v
 }
 
@@ -163,7 +179,8 @@ fn cases(quick: bool) -> Vec<Case> {
 pub(crate) fn section(quick: bool) -> Result<String> {
     let mut md = String::from(
         "### Factor reuse\n\n`cargo xtask perf` (section `reuse`; `--quick`: two small cases). \
-         Each case runs without, then with `integrator.newton.reuse_factor=true` in one process; \
+         Each case runs without, then with `integrator.newton.reuse_factor=true` (the default of \
+         implicit steps since issue #31; static solves keep `false`) in one process; \
          Δx is the largest distance between the two final position sets over the bounding-box \
          diagonal.\n\n\
          | case | steps | Newton it. off / on | factorisations off / on | CG it. (on) | wall s/step off / on | ratio | Δx / size | rms Δx mod rigid / size |\n\

@@ -10,7 +10,8 @@ use thinshell_energy::{EnergyTerms, HessianMode};
 use super::objective::ShellObjective;
 use super::system::{ShellSystem, State};
 use crate::{
-    CancelFlag, NewtonReport, NewtonSettings, NewtonWorkspace, Objective, ProgressHook, SolverError,
+    CancelFlag, KeptFactor, NewtonReport, NewtonSettings, NewtonWorkspace, Objective, ProgressHook,
+    SolverError,
 };
 
 /// What one step did.
@@ -94,6 +95,19 @@ pub trait Integrator {
 
     /// Restores what [`Integrator::carried_state`] returned.
     fn restore_carried_state(&mut self, _mu: f64) {}
+
+    /// The other state carried from step to step that changes later results: the input of the
+    /// Cholesky factor the next Newton solve may reuse
+    /// ([`NewtonSettings::reuse_factor`], [`NewtonWorkspace::kept_factor`]); `None` for
+    /// integrators without one or when the next solve factorises afresh. A checkpoint saves
+    /// it, so that a resumed run reuses the same factor as the run that wrote it.
+    fn kept_factor(&self) -> Option<KeptFactor> {
+        None
+    }
+
+    /// Restores what [`Integrator::kept_factor`] returned (before the next step; a factor whose
+    /// size does not fit the next solve's Hessian pattern is an error of that step).
+    fn restore_kept_factor(&mut self, _kept: Option<KeptFactor>) {}
 }
 
 pub(crate) fn check_dt(dt: f64) -> Result<(), SolverError> {
@@ -148,6 +162,8 @@ pub struct NewtonCache {
     cancel: Option<CancelFlag>,
     /// A restored regularisation memory waiting for the workspace of the next solve.
     pending_mu: Option<f64>,
+    /// A restored kept factor waiting for the workspace of the next solve.
+    pending_kept: Option<KeptFactor>,
 }
 
 impl std::fmt::Debug for NewtonCache {
@@ -157,6 +173,7 @@ impl std::fmt::Debug for NewtonCache {
             .field("progress", &self.progress.is_some())
             .field("cancel", &self.cancel.is_some())
             .field("pending_mu", &self.pending_mu)
+            .field("pending_kept", &self.pending_kept.as_ref().map(|k| k.kind))
             .finish()
     }
 }
@@ -200,6 +217,39 @@ impl NewtonCache {
         }
     }
 
+    /// The input of the factor the next solve may reuse ([`NewtonWorkspace::kept_factor`]).
+    pub fn kept_factor(&self) -> Option<KeptFactor> {
+        match (&self.ws, &self.pending_kept) {
+            (_, Some(k)) => Some(k.clone()),
+            (Some(ws), None) => ws.kept_factor(),
+            (None, None) => None,
+        }
+    }
+
+    /// Sets the kept factor of the next solve (a restored checkpoint): applied to the current
+    /// workspace when it fits, else to the next one built (whose solve fails with
+    /// [`SolverError::DimensionMismatch`] if the factor does not fit it either).
+    pub fn set_kept_factor(&mut self, kept: Option<KeptFactor>) {
+        self.pending_kept = None;
+        match (&mut self.ws, kept) {
+            (Some(ws), None) => {
+                // Cannot fail: `None` forgets.
+                let _ = ws.restore_kept_factor(None);
+            }
+            (Some(ws), Some(k)) => {
+                if k.values.len() == ws.nnz() {
+                    let _ = ws.restore_kept_factor(Some(k));
+                } else {
+                    // Another pattern: the next workspace is built afresh and takes it.
+                    self.pending_mu = Some(ws.regularization_memory());
+                    self.ws = None;
+                    self.pending_kept = Some(k);
+                }
+            }
+            (None, k) => self.pending_kept = k,
+        }
+    }
+
     /// The workspace for `objective` and `settings`, rebuilt if it does not fit them.
     pub(crate) fn fit(
         &mut self,
@@ -222,6 +272,7 @@ impl NewtonCache {
                 if let Some(mu) = self.pending_mu.take() {
                     ws.set_regularization_memory(mu);
                 }
+                ws.restore_kept_factor(self.pending_kept.take())?;
                 Ok(slot.insert(ws))
             }
         }

@@ -165,6 +165,14 @@ impl Integrator for Static {
         self.cache.set_regularization_memory(mu);
     }
 
+    fn kept_factor(&self) -> Option<crate::KeptFactor> {
+        self.cache.kept_factor()
+    }
+
+    fn restore_kept_factor(&mut self, kept: Option<crate::KeptFactor>) {
+        self.cache.set_kept_factor(kept);
+    }
+
     fn kind(&self) -> StepKind {
         StepKind::Static
     }

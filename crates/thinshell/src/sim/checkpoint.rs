@@ -18,12 +18,17 @@
 //! requested, Δt, the simulation's and the system's load factor, time, positions, velocities,
 //! edge angles, the energy terms of the current state, the rest forms ā and b̄ (4 entries per
 //! face each), the lumped masses, the growth state (stimulus field numbers, stale flags, rest
-//! updates; a presence byte first) and the regularisation memory of the integrator's Newton
-//! solves; then, only for a scene with the `contact` effect, its run state (a `u64` 1, κ, the
+//! updates; a presence byte first), the regularisation memory of the integrator's Newton
+//! solves and the input of the Cholesky factor its next solve may reuse (a `u64` 0, or 1
+//! followed by the kind of Hessian — 0 own, 1 PSD, 2 shifted, 3 negative curvature —, the
+//! shift μ, its shape — 0 identity, 1 diagonal — and the Hessian values as an f64 vector:
+//! about 8 bytes per Hessian entry, e.g. 7 MB for a 20 480-face sphere; since version 2);
+//! then, only for a scene with the `contact` effect, its run state (a `u64` 1, κ, the
 //! adaptive stiffness's flag and last gap, the approximated-pair and pattern-rebuild counters,
 //! and the couplings of the widened Hessian pattern: a presence `u64`, then the vertex pairs
 //! as an f64 vector). A contact scene's checkpoint without that section (an earlier version)
-//! restores with a fresh contact state. The file is written with
+//! restores with a fresh contact state. A version-1 checkpoint (no kept factor) restores with
+//! none: the resumed run factorises afresh at its first step. The file is written with
 //! [`crate::atomic::write_atomic`].
 //!
 //! Everything else a simulation holds is rebuilt from the scene identically (mesh, energy
@@ -35,12 +40,14 @@ use std::path::Path;
 use nalgebra::{Matrix2, Vector3};
 use thinshell_energy::EnergyTerms;
 use thinshell_growth::GrowthState;
+use thinshell_solver::{IterationHessian, KeptFactor, RegularizationKind};
 
 use super::Simulation;
 use crate::scene::Scene;
 
-/// Version of the checkpoint format this build writes and reads.
-pub const CHECKPOINT_VERSION: u32 = 1;
+/// Version of the checkpoint format this build writes (it also reads version 1, which has no
+/// kept factor).
+pub const CHECKPOINT_VERSION: u32 = 2;
 
 const MAGIC: [u8; 8] = *b"TSHELLCK";
 const HEADER_LEN: usize = 8 + 4 + 8 + 8 + 4;
@@ -150,7 +157,7 @@ pub struct CheckpointInfo {
 /// scene hash and attachment.
 pub fn read_checkpoint_info(path: &Path) -> Result<CheckpointInfo, CheckpointError> {
     let bytes = read(path)?;
-    let (hash, payload) = verify(&bytes, path)?;
+    let (_, hash, payload) = verify(&bytes, path)?;
     let mut r = Reader::new(payload, path);
     Ok(CheckpointInfo {
         scene_hash: hash,
@@ -165,8 +172,8 @@ fn read(path: &Path) -> Result<Vec<u8>, CheckpointError> {
     })
 }
 
-/// Checks the header and checksum; returns the scene hash and the payload.
-fn verify<'a>(bytes: &'a [u8], path: &Path) -> Result<(u64, &'a [u8]), CheckpointError> {
+/// Checks the header and checksum; returns the format version, the scene hash and the payload.
+fn verify<'a>(bytes: &'a [u8], path: &Path) -> Result<(u32, u64, &'a [u8]), CheckpointError> {
     let p = || path.display().to_string();
     if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
         return Err(CheckpointError::NotACheckpoint { path: p() });
@@ -189,7 +196,7 @@ fn verify<'a>(bytes: &'a [u8], path: &Path) -> Result<(u64, &'a [u8]), Checkpoin
         u64::from_le_bytes(b)
     };
     let version = u32_at(8);
-    if version != CHECKPOINT_VERSION {
+    if !(1..=CHECKPOINT_VERSION).contains(&version) {
         return Err(CheckpointError::Version {
             path: p(),
             found: version,
@@ -215,7 +222,7 @@ fn verify<'a>(bytes: &'a [u8], path: &Path) -> Result<(u64, &'a [u8]), Checkpoin
             expected: crc,
         });
     }
-    Ok((hash, payload))
+    Ok((version, hash, payload))
 }
 
 /// Little-endian payload writer.
@@ -310,6 +317,7 @@ struct Saved {
     mass: Vec<f64>,
     growth: Option<GrowthState>,
     regularization_memory: f64,
+    kept_factor: Option<KeptFactor>,
     contact: Option<thinshell_solver::ContactRunState>,
 }
 
@@ -357,6 +365,24 @@ impl Simulation {
             }
         }
         w.f64(self.integrator.carried_state());
+        match self.integrator.kept_factor() {
+            None => w.u64(0),
+            Some(k) => {
+                w.u64(1);
+                w.u64(match k.kind {
+                    IterationHessian::Own => 0,
+                    IterationHessian::Psd => 1,
+                    IterationHessian::Shifted => 2,
+                    IterationHessian::NegativeCurvature => 3,
+                });
+                w.f64(k.shift);
+                w.u64(match k.shift_kind {
+                    RegularizationKind::Identity => 0,
+                    RegularizationKind::Diagonal => 1,
+                });
+                w.f64s(k.values.iter().copied());
+            }
+        }
         // Only with contact: the payload of a scene without it is as before.
         if let Some(c) = self.system.contact_run_state() {
             w.u64(1);
@@ -427,7 +453,7 @@ impl Simulation {
         if self.is_path_following() {
             return Err(CheckpointError::PathFollowing);
         }
-        let (found, payload) = verify(bytes, path)?;
+        let (version, found, payload) = verify(bytes, path)?;
         if found != scene_hash {
             return Err(CheckpointError::SceneMismatch {
                 path: path.display().to_string(),
@@ -435,7 +461,7 @@ impl Simulation {
                 expected: scene_hash,
             });
         }
-        let saved = self.parse(payload, path)?;
+        let saved = self.parse(payload, version, path)?;
         let mismatch = |what: String| CheckpointError::Mismatch {
             path: path.display().to_string(),
             what,
@@ -477,11 +503,12 @@ impl Simulation {
         self.system.rest.b_bar = saved.b_bar;
         self.integrator
             .restore_carried_state(saved.regularization_memory);
+        self.integrator.restore_kept_factor(saved.kept_factor);
         Ok(saved.attachment)
     }
 
     /// Parses a verified payload and checks every length against this simulation.
-    fn parse(&self, payload: &[u8], path: &Path) -> Result<Saved, CheckpointError> {
+    fn parse(&self, payload: &[u8], version: u32, path: &Path) -> Result<Saved, CheckpointError> {
         let mut r = Reader::new(payload, path);
         let attachment = r.bytes()?;
         let steps_done = r.usize()?;
@@ -565,6 +592,37 @@ impl Simulation {
             }
         };
         let regularization_memory = r.f64()?;
+        // Version 1 has no kept factor.
+        let kept_flag = if version >= 2 { r.u64()? } else { 0 };
+        let kept_factor = match kept_flag {
+            0 => None,
+            1 => {
+                let kind = match r.u64()? {
+                    0 => IterationHessian::Own,
+                    1 => IterationHessian::Psd,
+                    2 => IterationHessian::Shifted,
+                    3 => IterationHessian::NegativeCurvature,
+                    k => return Err(r.mismatch(format!("kept factor of Hessian kind {k}"))),
+                };
+                let shift = r.f64()?;
+                let shift_kind = match r.u64()? {
+                    0 => RegularizationKind::Identity,
+                    1 => RegularizationKind::Diagonal,
+                    k => return Err(r.mismatch(format!("kept factor of shift shape {k}"))),
+                };
+                let values = r.f64s()?;
+                if !(shift.is_finite() && values.iter().all(|v| v.is_finite())) {
+                    return Err(r.mismatch("non-finite kept factor values"));
+                }
+                Some(KeptFactor {
+                    kind,
+                    values,
+                    shift,
+                    shift_kind,
+                })
+            }
+            flag => return Err(r.mismatch(format!("kept factor flag {flag}"))),
+        };
         // Absent from checkpoints of scenes without contact and of earlier versions (a
         // contact scene then restarts its contact state).
         let contact = if r.rest.is_empty() {
@@ -624,6 +682,7 @@ impl Simulation {
             mass,
             growth,
             regularization_memory,
+            kept_factor,
             contact,
         })
     }
