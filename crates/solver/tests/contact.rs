@@ -169,6 +169,7 @@ fn drop_onto(obstacle: Obstacle, lift: f64, steps: usize) -> [f64; 7] {
         Obstacle::Sphere { center, radius } => (y - center).norm() - radius - 0.5 * h,
         // Outside a box: the distance to its nearest point (the coordinates clamped to it).
         Obstacle::Box { min, max } => (y - y.sup(min).inf(max)).norm() - 0.5 * h,
+        Obstacle::Mesh { .. } => obstacle.distance(y).distance - 0.5 * h,
     };
     let mut state = State::at_rest(x0);
     let mut ie = ImplicitEuler::new(1e-3);

@@ -404,9 +404,9 @@ impl Simulation {
         }
         system.hessian_mode = hessian_mode;
         if on(Effect::Contact) {
-            system
-                .set_contact(&contact_settings(s.contact.as_ref()), &x)
-                .map_err(solver_err)?;
+            let settings = contact_settings(s.contact.as_ref(), &scene.base_dir)
+                .map_err(|(key, message)| invalid(&key, message))?;
+            system.set_contact(&settings, &x).map_err(solver_err)?;
         }
         // Convergence is the solver's scale-free test (Newton correction, round-off); an
         // explicit `tolerance` adds the gradient test against the system's one force scale.
@@ -465,36 +465,49 @@ impl Simulation {
 }
 
 /// The solver's contact settings of a `[contact]` section (all defaults without one);
-/// validation guarantees each obstacle has its keys.
-fn contact_settings(spec: Option<&ContactSpec>) -> ContactSettings {
+/// validation guarantees each obstacle has its keys. Mesh obstacles are read from their OBJ
+/// files (paths relative to `base_dir`, the scene file's directory); an unreadable or invalid
+/// file is an error `(key, message)`.
+fn contact_settings(
+    spec: Option<&ContactSpec>,
+    base_dir: &std::path::Path,
+) -> Result<ContactSettings, (String, String)> {
     let Some(c) = spec else {
-        return ContactSettings::default();
+        return Ok(ContactSettings::default());
     };
     let obstacles = c
         .obstacles
         .iter()
-        .map(|o| match o.kind {
-            ObstacleKind::Plane => Obstacle::Plane {
-                point: v3(&o.point.unwrap_or_default()),
-                normal: v3(&o.normal.unwrap_or([0.0, 0.0, 1.0])),
-            },
-            ObstacleKind::Sphere => Obstacle::Sphere {
-                center: v3(&o.center.unwrap_or_default()),
-                radius: o.radius.unwrap_or(1.0),
-            },
-            ObstacleKind::Box => Obstacle::Box {
-                min: v3(&o.min.unwrap_or_default()),
-                max: v3(&o.max.unwrap_or([1.0; 3])),
-            },
+        .enumerate()
+        .map(|(i, o)| {
+            Ok(match o.kind {
+                ObstacleKind::Plane => Obstacle::Plane {
+                    point: v3(&o.point.unwrap_or_default()),
+                    normal: v3(&o.normal.unwrap_or([0.0, 0.0, 1.0])),
+                },
+                ObstacleKind::Sphere => Obstacle::Sphere {
+                    center: v3(&o.center.unwrap_or_default()),
+                    radius: o.radius.unwrap_or(1.0),
+                },
+                ObstacleKind::Box => Obstacle::Box {
+                    min: v3(&o.min.unwrap_or_default()),
+                    max: v3(&o.max.unwrap_or([1.0; 3])),
+                },
+                ObstacleKind::Mesh => {
+                    let path = base_dir.join(o.path.as_deref().unwrap_or_default());
+                    Obstacle::mesh_from_obj(&path)
+                        .map_err(|e| (format!("contact.obstacles[{i}].path"), e))?
+                }
+            })
         })
-        .collect();
-    ContactSettings {
+        .collect::<Result<Vec<_>, (String, String)>>()?;
+    Ok(ContactSettings {
         obstacles,
         self_contact: c.self_contact,
         distance: c.distance,
         stiffness: c.stiffness,
         thickness_offset: c.thickness_offset,
-    }
+    })
 }
 
 fn v3(a: &[f64; 3]) -> Vector3<f64> {
