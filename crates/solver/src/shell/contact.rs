@@ -193,10 +193,10 @@ impl std::fmt::Debug for CandidateCache {
 /// assembled.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactStats {
-    /// Active pairs (self pairs plus vertex–obstacle pairs with gap < d̂).
+    /// Active pairs (self, mesh-obstacle and vertex–obstacle pairs with gap < d̂).
     pub active_pairs: usize,
-    /// The smallest gap (m) over the active self pairs and every vertex–obstacle pair (+∞ if
-    /// none).
+    /// The smallest gap (m) over the active self and mesh-obstacle pairs and every vertex pair
+    /// with an analytic obstacle (+∞ if none).
     pub min_gap: f64,
     /// The barrier energy κ Σ m_k b(g_k, d̂) (J).
     pub energy: f64,

@@ -52,7 +52,7 @@ pub enum Obstacle {
 /// vector, pointing away from the obstacle) and its Hessian (1/m).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ObstacleDistance {
-    /// Signed distance (m).
+    /// Signed distance (m; unsigned for a mesh).
     pub distance: f64,
     /// ∂d/∂y.
     pub normal: V,
@@ -113,7 +113,9 @@ impl Obstacle {
 
     /// The signed distance of `y` (m) with its gradient and Hessian. Planes need a unit normal
     /// (as the contact term stores them). At a sphere's centre or inside a box the
-    /// gradient is a valid unit vector but the point is far inside (the gap is negative).
+    /// gradient is a valid unit vector but the point is far inside (the gap is negative). A
+    /// mesh's distance is unsigned, to its nearest face by brute force (the contact term does
+    /// not use it).
     pub fn distance(&self, y: &V) -> ObstacleDistance {
         match self {
             Obstacle::Plane { point, normal } => ObstacleDistance {
