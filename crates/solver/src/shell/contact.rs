@@ -515,6 +515,51 @@ impl Contact {
         s
     }
 
+    /// Per vertex of the shell, the smallest gap (m) of the pairs it belongs to at `x` (self,
+    /// mesh-obstacle and analytic-obstacle pairs), capped at d̂: d̂ where no pair is active. A
+    /// face's is the least of its vertices' (see [`Contact::face_gaps`]).
+    pub fn vertex_gaps(&self, x: &[V]) -> Vec<f64> {
+        let mut out = vec![self.activation; x.len()];
+        let all = self.candidates(x);
+        let mut see = |ids: &[usize], gap: f64| {
+            for &v in ids {
+                out[v] = out[v].min(gap);
+            }
+        };
+        for &[v, f] in &all.own.point_triangle {
+            let t = self.faces[f];
+            let d = point_triangle_distance2(&self.pt_points(x, v, f)).0.sqrt();
+            see(&[v, t[0], t[1], t[2]], d - self.offset_self);
+        }
+        for &[i, j] in &all.own.edge_edge {
+            let (a, b) = (self.edges[i], self.edges[j]);
+            let d = edge_edge_distance2(&self.ee_points(x, i, j)).0.sqrt();
+            see(&[a[0], a[1], b[0], b[1]], d - self.offset_self);
+        }
+        self.for_mesh_pairs(x, &all.mesh, |ids, pts, kind| {
+            let gap = pair_gap(&pts, kind, self.offset_obstacle);
+            let shell: Vec<usize> = ids.iter().flatten().copied().collect();
+            see(&shell, gap);
+        });
+        for o in &self.obstacles {
+            for (v, y) in x.iter().enumerate() {
+                see(&[v], self.obstacle_gap(o, y).0);
+            }
+        }
+        out
+    }
+
+    /// Per face of the shell, the smallest gap (m) of its vertices ([`Contact::vertex_gaps`]),
+    /// in (0, d̂] for an intersection-free state: the VTK cell field `contact_gap` the viewer
+    /// colours by.
+    pub fn face_gaps(&self, x: &[V]) -> Vec<f64> {
+        let g = self.vertex_gaps(x);
+        self.faces
+            .iter()
+            .map(|f| g[f[0]].min(g[f[1]]).min(g[f[2]]))
+            .collect()
+    }
+
     /// Visits every active pair's vertices, gradient and Hessian (unit stiffness; column-major
     /// 3n×3n for n vertices), a self pair's Hessian projected to PSD when `project` is set, a
     /// vertex–obstacle pair's always.
