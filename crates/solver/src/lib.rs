@@ -126,7 +126,7 @@ pub use newton::{
     Convergence, HessianPolicy, IterationHessian, IterativeFallback, LinearSolver, NewtonReport,
     NewtonSettings, NewtonTimings, NewtonWorkspace, RegularizationEvent, Stability, newton_solve,
 };
-pub use objective::Objective;
+pub use objective::{IterationUpdate, Objective};
 pub use ordering::Ordering;
 pub use path::{LoadedObjective, PathControl, PathPoint, PathSettings, PathTracer};
 pub use progress::{CancelFlag, NewtonProgress, ProgressHook};
