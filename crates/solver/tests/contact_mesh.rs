@@ -296,7 +296,7 @@ fn pressed_static(obstacle: Obstacle, top: f64) -> [f64; 4] {
     let h = sys0.model.material.thickness;
     let d_hat = 1e-3;
     let mesh = sys0.mesh.clone();
-    let model = sys0.model.clone();
+    let model = sys0.model;
     let rest = sys0.rest.clone();
     let centre = mesh
         .positions()

@@ -54,8 +54,8 @@ impl Objective for Switching {
         // Column-major lower triangle: per column j the diagonal, then (j+1, j) when coupled.
         let val = h.val_mut();
         let mut k = 0;
-        for j in 0..N {
-            let d = x[j] - self.a[j];
+        for (j, (xj, aj)) in x.iter().zip(&self.a).enumerate() {
+            let d = xj - aj;
             let coupling = if self.coupled {
                 C * (if j == 0 || j == N - 1 { 1.0 } else { 2.0 })
             } else {
@@ -115,9 +115,9 @@ fn begin_iteration_changes_value_and_pattern_mid_solve() {
         changes: 0,
     };
     let settings = NewtonSettings::default();
-    let mut ws = NewtonWorkspace::new(&obj, &settings).unwrap();
+    let mut ws = NewtonWorkspace::new(&obj, &settings).expect("workspace");
     let mut x = vec![3.0; N];
-    let report = newton_solve(&mut obj, &mut x, &settings, &mut ws).unwrap();
+    let report = newton_solve(&mut obj, &mut x, &settings, &mut ws).expect("solve");
     let mut g = [0.0; N];
     gradient_of(&obj.a, true, &x, &mut g);
     let residual = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));

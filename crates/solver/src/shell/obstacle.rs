@@ -176,7 +176,8 @@ fn validated_mesh(vertices: &[V], faces: &[[usize; 3]]) -> Result<Obstacle, Stri
             .max(e2.norm_squared())
             .max(e3.norm_squared());
         let relative_area = e1.cross(&e2).norm() / l2;
-        if !(relative_area > DEGENERATE_TOLERANCE) {
+        // NaN-explicit: a NaN area is degenerate too.
+        if relative_area.is_nan() || relative_area <= DEGENERATE_TOLERANCE {
             return Err(format!(
                 "face {k} is degenerate: |e1 × e2| / l_max² = {relative_area:e}"
             ));
