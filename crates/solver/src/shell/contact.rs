@@ -1054,17 +1054,16 @@ impl Contact {
             }
         }
         // Crossings: shell edges through obstacle faces, obstacle edges through shell faces.
-        let boxes =
-            |p: &dyn Fn(usize) -> V, ids: &mut dyn Iterator<Item = Vec<usize>>| -> Vec<Aabb> {
-                ids.map(|f| Aabb::of_points(f.iter().map(|&v| p(v)), 0.0))
-                    .collect()
-            };
-        let shell = |v: usize| x[v];
+        fn boxes<const K: usize>(p: &[V], prims: &[[usize; K]]) -> Vec<Aabb> {
+            prims
+                .iter()
+                .map(|f| Aabb::of_points(f.map(|v| p[v]), 0.0))
+                .collect()
+        }
         let fixed = |v: usize| o.points[v];
-        let shell_edges = boxes(&shell, &mut self.edges.iter().map(|e| e.to_vec()));
-        let shell_faces = boxes(&shell, &mut self.faces.iter().map(|f| f.to_vec()));
-        let fixed_edges = boxes(&fixed, &mut o.edges.iter().map(|e| e.to_vec()));
-        let fixed_faces = boxes(&fixed, &mut o.faces.iter().map(|f| f.to_vec()));
+        let shell = |v: usize| x[v];
+        let (shell_edges, shell_faces) = (boxes(x, &self.edges), boxes(x, &self.faces));
+        let (fixed_edges, fixed_faces) = (boxes(&o.points, &o.edges), boxes(&o.points, &o.faces));
         for [e, f] in overlapping_pairs(&shell_edges, &fixed_faces) {
             let (a, t) = (self.edges[e], o.faces[f]);
             if segment_crosses_triangle(&x[a[0]], &x[a[1]], &t.map(fixed)) {
