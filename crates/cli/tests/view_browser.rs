@@ -371,6 +371,132 @@ fn browser_bending_density_is_zero_on_the_flat_sheet_and_not_when_bent() {
     }
 }
 
+/// The viewer's sequential colour map (viewer.js `SEQUENTIAL`, `ramp`) at t ∈ [0, 1].
+fn sequential(t: f64) -> [u8; 3] {
+    const STOPS: [[u8; 3]; 5] = [
+        [0x44, 0x01, 0x54],
+        [0x3b, 0x52, 0x8b],
+        [0x21, 0x91, 0x8c],
+        [0x5e, 0xc9, 0x62],
+        [0xfd, 0xe7, 0x25],
+    ];
+    let x = t.clamp(0.0, 1.0) * 4.0;
+    let k = (x.floor() as usize).min(3);
+    let f = x - k as f64;
+    std::array::from_fn(|j| {
+        let (a, b) = (f64::from(STOPS[k][j]), f64::from(STOPS[k + 1][j]));
+        (a + f * (b - a)).round() as u8
+    })
+}
+
+/// Colour by contact gap: the shipped sheet dropped on a pyramid (`sheet_on_pyramid.toml`, 40
+/// steps) writes the cell field `contact_gap` (capped at d̂); the page lists it, and in the top
+/// view the centroid pixel of every face whose 5 × 5 neighbourhood is inside the shell has the
+/// colour of its gap on the [0, max] sequential map, computed here from the frame file (within
+/// 12 of 255 per channel, for ≥ 95 % of them): the faces at the apex dark, those far from it at
+/// the top colour.
+#[test]
+#[ignore = "needs chromium: run by `cargo xtask test` (browser stage)"]
+fn browser_colours_faces_by_contact_gap() {
+    let r = runs();
+    let scene =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/sheet_on_pyramid.toml");
+    let out = r.root.join("pyramid");
+    let set: Vec<String> = [
+        "integrator.steps=40",
+        "output.every=20",
+        "output.formats=[\"vtk\", \"obj\"]",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    thinshell_cli::run(
+        &scene,
+        Some(&out),
+        &set,
+        true,
+        &AtomicBool::new(false).into(),
+    )
+    .unwrap_or_else(|e| panic!("pyramid run: {e:?}"));
+    let frame = thinshell_cli::view::frame::read(&out.join("frame_000040.vtu")).expect("vtu");
+    let gaps = &frame
+        .face_fields
+        .iter()
+        .find(|(n, _)| n == "contact_gap")
+        .expect("contact_gap in the frame")
+        .1;
+    let (lo, hi) = gaps
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), &g| (a.min(g), b.max(g)));
+    eprintln!("contact_gap over the faces: {lo:e} .. {hi:e} m");
+    assert!(lo > 0.0 && lo < 0.1 * hi, "gaps {lo} .. {hi}");
+
+    let url = serve(&[&out]);
+    let mut b = Browser::start(WIDTH, HEIGHT);
+    assert_eq!(
+        b.open(&format!(
+            "{url}?camera=top&lighting=0&field=contact_gap&frame=2"
+        )),
+        "1"
+    );
+    let options =
+        b.eval("[...document.querySelectorAll('#field option')].map(o => o.value).join(' ')");
+    assert!(
+        options.as_str().is_some_and(|s| s.contains("contact_gap")),
+        "{options}"
+    );
+    let legend = b.eval("document.querySelector('.legend').textContent");
+    assert!(
+        legend
+            .as_str()
+            .is_some_and(|s| s.contains("contact gap") && s.contains(" m")),
+        "{legend}"
+    );
+    let img = b.screenshot();
+    let (mask, canvas) = canvas_mask(&mut b, &img, 0, is_shell);
+    let (first, faces) = obj(&out.join("frame_000000.obj"));
+    let (last, _) = obj(&out.join("frame_000040.obj"));
+    let top = TopView::new(&[&first, &last], canvas);
+    let w = canvas[2].round() as usize;
+    let h = mask.len() / w;
+    let (mut checked, mut matched, mut dark) = (0, 0, 0);
+    for (k, f) in faces.iter().enumerate() {
+        let c = f.iter().fold([0.0; 3], |s, &v| {
+            std::array::from_fn(|j| s[j] + last[v][j] / 3.0)
+        });
+        let [px, py] = top.project(c).map(|q| q.floor() as i64);
+        let inside = (-2..=2).all(|dy| {
+            (-2..=2).all(|dx| {
+                let (x, y) = (px + dx, py + dy);
+                x >= 0
+                    && y >= 0
+                    && (x as usize) < w
+                    && (y as usize) < h
+                    && mask[y as usize * w + x as usize]
+            })
+        });
+        if !inside {
+            continue;
+        }
+        checked += 1;
+        let pixel = img.at(
+            canvas[0] as usize + px as usize,
+            canvas[1] as usize + py as usize,
+        );
+        let expected = sequential(gaps[k] / hi);
+        if distance(pixel, expected) < 12.0 {
+            matched += 1;
+        }
+        dark += usize::from(gaps[k] < 0.2 * hi && distance(pixel, COLOUR_OF_ZERO) < 60.0);
+    }
+    eprintln!("contact gap colours: {matched} of {checked} face centroids match, {dark} dark");
+    assert!(
+        checked > 100 && matched as f64 >= 0.95 * checked as f64,
+        "{matched} of {checked}"
+    );
+    assert!(dark > 0);
+}
+
 #[test]
 #[ignore = "needs chromium: run by `cargo xtask test` (browser stage)"]
 fn browser_two_runs_side_by_side_share_camera_and_timeline() {

@@ -127,7 +127,7 @@ pub use newton::{
     NewtonReport, NewtonSettings, NewtonTimings, NewtonWorkspace, RegularizationEvent, Stability,
     newton_solve,
 };
-pub use objective::Objective;
+pub use objective::{IterationUpdate, Objective};
 pub use ordering::Ordering;
 pub use path::{LoadedObjective, PathControl, PathPoint, PathSettings, PathTracer};
 pub use progress::{CancelFlag, NewtonProgress, ProgressHook};

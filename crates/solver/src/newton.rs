@@ -1619,6 +1619,10 @@ pub fn newton_solve<O: Objective + ?Sized>(
     let mut watch_allowed = true;
 
     'newton: loop {
+        // The objective's own update at this iterate (`Objective::begin_iteration`).
+        if begin_iteration(objective, x, iteration, settings, ws, &mut f, &mut rec)? {
+            watch = None;
+        }
         if watch.is_none()
             && gradient_test
             && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
@@ -2247,6 +2251,56 @@ const ESCAPE_MAX_SHIFT: f64 = 1e3;
 /// membrane far from equilibrium — where the shifted steps crawl (measured: σ ≈ 10–170 on the
 /// flat start of a cone-growing annulus) and PSD steps do better.
 const TR_MAX_SHIFT: f64 = 1e-2;
+
+/// Calls [`Objective::begin_iteration`] and applies its contract: re-analyses a changed
+/// Hessian pattern, re-evaluates f and ∇f at `x` and replaces the iterate's recorded residual
+/// and value when anything changed, and drops the factor kept for reuse. Returns whether
+/// anything changed (the caller then drops its watchdog point).
+fn begin_iteration<O: Objective + ?Sized>(
+    objective: &mut O,
+    x: &[f64],
+    iteration: usize,
+    settings: &NewtonSettings,
+    ws: &mut NewtonWorkspace,
+    f: &mut f64,
+    rec: &mut Record,
+) -> Result<bool, SolverError> {
+    let update = objective.begin_iteration(x, iteration)?;
+    if update.pattern_changed {
+        let mut fresh = NewtonWorkspace::new(objective, settings)?;
+        fresh.mu = ws.mu;
+        fresh.progress = ws.progress.take();
+        fresh.cancel = ws.cancel.take();
+        *ws = fresh;
+    }
+    if !(update.value_changed || update.pattern_changed) {
+        return Ok(false);
+    }
+    ws.reusable = None;
+    let t = Instant::now();
+    *f = objective.gradient(x, &mut ws.g)?;
+    rec.timings.assembly += t.elapsed();
+    if !f.is_finite() {
+        return Err(SolverError::NonFinite {
+            what: "value",
+            iteration,
+            dof: None,
+        });
+    }
+    if let Some(dof) = first_non_finite(&ws.g) {
+        return Err(SolverError::NonFinite {
+            what: "gradient",
+            iteration,
+            dof: Some(dof),
+        });
+    }
+    let residual = norm_inf(&ws.g) / objective.force_scale();
+    if let (Some(r), Some(v)) = (rec.residuals.last_mut(), rec.values.last_mut()) {
+        *r = residual;
+        *v = *f;
+    }
+    Ok(true)
+}
 
 /// The objective's step limit for `dx` from `x` (see [`Objective::max_step`]), checked.
 fn step_limit_of<O: Objective + ?Sized>(

@@ -4,6 +4,17 @@ use faer::sparse::SparseColMat;
 
 use crate::SolverError;
 
+/// What [`Objective::begin_iteration`] changed in the objective.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct IterationUpdate {
+    /// f (and so ∇f, the Hessian) is no longer the function of the earlier iterations, e.g. a
+    /// barrier stiffness was raised.
+    pub value_changed: bool,
+    /// [`hessian_template`](Objective::hessian_template) now returns another pattern, e.g.
+    /// contact pairs came near that couple unknowns the old pattern did not.
+    pub pattern_changed: bool,
+}
+
 /// A twice differentiable scalar function of `n_dofs` unknowns with a sparse Hessian.
 ///
 /// Implementations: the incremental potential of implicit Euler, the total potential of a
@@ -103,5 +114,33 @@ pub trait Objective {
     /// Default 1 (no limit). Must return a finite α > 0; anything else fails the solve.
     fn max_step(&mut self, _x: &[f64], _dx: &[f64]) -> Result<f64, SolverError> {
         Ok(1.0)
+    }
+
+    /// Called by [`newton_solve`](crate::newton_solve) at the start of every iteration (the
+    /// first included), at the current iterate `x`, before the convergence tests: the one
+    /// place where the objective may change itself during a solve. Contract:
+    /// - everything else (value, gradient, Hessian, step limit) must describe one fixed
+    ///   function between two calls; a change made here is reported in the returned
+    ///   [`IterationUpdate`], and nothing changes without being reported;
+    /// - `value_changed`: Newton re-evaluates f and ∇f at `x` (replacing the iterate's
+    ///   recorded residual and value, so the convergence tests judge the new function), drops
+    ///   the factor kept for reuse and the watchdog's earlier point (neither compares with the
+    ///   new function);
+    /// - `pattern_changed`: Newton re-analyses the new [`hessian_template`](Objective::hessian_template)
+    ///   (a new symbolic factorisation; the workspace keeps its regularisation memory, progress
+    ///   hook and cancel flag) and proceeds as for `value_changed`. The new pattern must still
+    ///   hold every diagonal entry;
+    /// - the result must depend only on `x`, `iteration` and the objective's state, so that a
+    ///   solve repeated from the same state repeats exactly.
+    ///
+    /// Default: no change. The shell objective uses it to widen its Hessian pattern when
+    /// contact pairs came near mid-solve that the last Hessian could only approximate
+    /// (model.md §7).
+    fn begin_iteration(
+        &mut self,
+        _x: &[f64],
+        _iteration: usize,
+    ) -> Result<IterationUpdate, SolverError> {
+        Ok(IterationUpdate::default())
     }
 }

@@ -174,6 +174,7 @@ fn drop_onto(obstacle: Obstacle, lift: f64, steps: usize) -> [f64; 7] {
         Obstacle::Sphere { center, radius } => (y - center).norm() - radius - 0.5 * h,
         // Outside a box: the distance to its nearest point (the coordinates clamped to it).
         Obstacle::Box { min, max } => (y - y.sup(min).inf(max)).norm() - 0.5 * h,
+        Obstacle::Mesh { .. } => obstacle.distance(y).distance - 0.5 * h,
     };
     let mut state = State::at_rest(x0);
     let mut ie = ImplicitEuler::new(1e-3);
@@ -263,7 +264,7 @@ fn sheet_dropped_onto_a_box_drapes_over_its_edges_without_crossing() {
 /// A strip whose rest shape is rolled 1.5 turns (rest curvature 1/R, L = 3πR) starts flat and
 /// curls under implicit Euler. Without contact it passes through itself; with self-contact
 /// every step is intersection-free (no edge through a face, every gap positive).
-fn scroll(contact: bool, steps: usize) -> (bool, f64, usize, usize) {
+fn scroll(contact: bool, steps: usize) -> (bool, f64, usize, usize, bool) {
     let (l, w) = (0.2, 0.02);
     let mesh = generators::rectangle(l, w, 60, 4).unwrap();
     let r = l / (3.0 * std::f64::consts::PI);
@@ -299,6 +300,7 @@ fn scroll(contact: bool, steps: usize) -> (bool, f64, usize, usize) {
     let mut state = State::at_rest(x0);
     let mut ie = ImplicitEuler::new(5e-3);
     let mut crossed = false;
+    let mut meeting = false;
     let (mut iterations, mut approximated_steps, mut rebuilds) = (0, 0, 0);
     let mut min_gap = f64::INFINITY;
     let mut active = 0;
@@ -312,6 +314,8 @@ fn scroll(contact: bool, steps: usize) -> (bool, f64, usize, usize) {
             rebuilds = c.pattern_rebuilds;
         }
         crossed |= first_edge_crossing_face(&state.x, &faces, &edges).is_some();
+        // The test kit's exact (rational) triangle test, independent of the contact code.
+        meeting |= thinshell_testkit::exact::first_meeting_faces(&state.x, &faces).is_some();
         let s = probe.stats(&state.x);
         min_gap = min_gap.min(s.min_gap);
         active = active.max(s.active_pairs);
@@ -320,7 +324,7 @@ fn scroll(contact: bool, steps: usize) -> (bool, f64, usize, usize) {
         "scroll (contact {contact}): {iterations} Newton iterations, {approximated_steps} steps \
          with approximated pairs, {rebuilds} pattern rebuilds"
     );
-    (crossed, min_gap, active, approximated_steps)
+    (crossed, min_gap, active, approximated_steps, meeting)
 }
 
 /// About 9 s on the 2-core VM for both runs (it took ~3 min while self pairs entered the
@@ -329,16 +333,20 @@ fn scroll(contact: bool, steps: usize) -> (bool, f64, usize, usize) {
 #[test]
 fn scroll_rolls_into_contact_without_crossing() {
     let steps = 120;
-    let (crossed_free, gap_free, _, _) = scroll(false, steps);
+    let (crossed_free, gap_free, _, _, meeting_free) = scroll(false, steps);
     eprintln!("scroll without contact: crossed {crossed_free}, min gap {gap_free:e} m");
     // Without contact the layers (h = 0.2 mm) overlap: a negative gap between surfaces.
     assert!(
         gap_free < 0.0,
         "without contact the strip should pass through itself"
     );
-    let (crossed, min_gap, active, approximated) = scroll(true, steps);
-    eprintln!("scroll with contact: min gap {min_gap:e} m, up to {active} active pairs");
+    let (crossed, min_gap, active, approximated, meeting) = scroll(true, steps);
+    eprintln!(
+        "scroll with contact: min gap {min_gap:e} m, up to {active} active pairs; exact test: \
+         faces meet without contact {meeting_free}, with contact {meeting}"
+    );
     assert!(!crossed && min_gap > 0.0 && active > 0);
+    assert!(!meeting);
     assert_eq!(approximated, 0);
 }
 

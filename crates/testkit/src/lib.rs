@@ -2,6 +2,7 @@
 //! benches, never part of a library's public API.
 //!
 //! - [`rng`] — deterministic pseudo-random numbers ([`rng::SplitMix64`], [`rng::Lcg64`]);
+//! - [`exact`] — exact (rational-arithmetic) triangle intersection tests for contact checks;
 //! - [`fd`] — central finite differences and the error measures the derivative checks use;
 //! - [`strategies`] — proptest strategies for per-face kernel inputs and the
 //!   `PROPTEST_CASES` convention ([`strategies::cases_or`]);
@@ -15,6 +16,7 @@
 //! dev-dependency only; the crates' `#[cfg(test)]` unit tests inside `src/` cannot use it (they
 //! compile a second copy of their crate, whose types would not unify with the ones here).
 
+pub mod exact;
 pub mod fd;
 pub mod fixtures;
 pub mod rng;

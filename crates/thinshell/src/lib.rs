@@ -14,8 +14,8 @@
 pub mod atomic;
 mod face_fields;
 pub mod mesh_info;
-pub mod output;
 pub mod modes;
+pub mod output;
 pub mod reference;
 pub mod scene;
 pub mod sim;

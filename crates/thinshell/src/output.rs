@@ -615,6 +615,10 @@ impl OutputWriter {
                 .contact
                 .as_ref()
                 .map(|c| c.forces(sim.positions()));
+            if let Some(c) = &sim.system().contact {
+                // Per-face smallest contact gap (m, capped at d̂) for `thinshell view`.
+                cell_scalars.push(("contact_gap", c.face_gaps(sim.positions())));
+            }
             let mut point_vectors = vec![
                 ("displacement", displacement.as_slice()),
                 ("velocity", sim.velocities()),

@@ -4,7 +4,9 @@
 //! Frames are ASCII, positions in m, triangles as VTK cell type 5. Point data: `displacement`
 //! (m, from the reference configuration) and `velocity` (m/s); cell data: the energy densities
 //! `stretch_density` and `bend_density` (J/m², [`crate::face_fields`]) and the stimulus at the
-//! top and bottom surfaces when the scene has growth. The `.pvd` index is rewritten after every
+//! top and bottom surfaces when the scene has growth; with contact, the point field
+//! `contact_force` (N) and the cell field `contact_gap` (m, the smallest gap of the face's
+//! vertices' contact pairs, capped at d̂). The `.pvd` index is rewritten after every
 //! frame through a temporary file and a rename, so an interrupted or failed run always leaves a
 //! valid index of exactly the frames written.
 

@@ -34,7 +34,7 @@ pub struct Field {
 }
 
 /// The per-face arrays a VTK frame may carry, in the order the page lists them.
-pub const FACE_FIELDS: [Field; 4] = [
+pub const FACE_FIELDS: [Field; 5] = [
     Field {
         key: "stretch_density",
         label: "stretching energy density",
@@ -60,6 +60,13 @@ pub const FACE_FIELDS: [Field; 4] = [
         key: "stimulus_bottom",
         label: "stimulus, bottom surface",
         unit: "stimulus units of the scene",
+        location: Location::Face,
+        signed: false,
+    },
+    Field {
+        key: "contact_gap",
+        label: "smallest contact gap (capped at d̂)",
+        unit: "m",
         location: Location::Face,
         signed: false,
     },

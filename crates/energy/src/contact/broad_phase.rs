@@ -261,3 +261,107 @@ pub fn filter_candidate_pairs(
             .collect(),
     }
 }
+
+/// Candidate pairs between a moving mesh (the shell) and a fixed one (an obstacle): their
+/// bounding boxes overlap. Indices are into the shell's and the obstacle's own vertex, face and
+/// edge lists; no pair shares a vertex (the meshes are disjoint).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct CrossPairs {
+    /// `[shell vertex, obstacle face]`, sorted.
+    pub vertex_face: Vec<[usize; 2]>,
+    /// `[obstacle vertex, shell face]`, sorted.
+    pub face_vertex: Vec<[usize; 2]>,
+    /// `[shell edge, obstacle edge]`, sorted.
+    pub edge_edge: Vec<[usize; 2]>,
+}
+
+impl CrossPairs {
+    /// The number of pairs of all three kinds.
+    pub fn len(&self) -> usize {
+        self.vertex_face.len() + self.face_vertex.len() + self.edge_edge.len()
+    }
+
+    /// Whether there is no pair.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// A fixed triangle mesh's primitives: vertex positions (m), faces and edges as vertex indices.
+#[derive(Clone, Copy, Debug)]
+pub struct StaticMesh<'a> {
+    /// Vertex positions (m).
+    pub points: &'a [Vector3<f64>],
+    /// Triangles.
+    pub faces: &'a [[usize; 3]],
+    /// Edges (each once).
+    pub edges: &'a [[usize; 2]],
+}
+
+/// Candidate pairs between the shell at positions `x` (m), moving by `dx` when given (swept
+/// boxes), and a fixed `obstacle` mesh, with the same box growth as [`candidate_pairs`]: a
+/// vertex's box (shell or obstacle) grown by `inflate`, every edge's by `inflate / 2`, faces'
+/// not at all.
+pub fn candidate_pairs_against(
+    x: &[Vector3<f64>],
+    dx: Option<&[Vector3<f64>]>,
+    faces: &[[usize; 3]],
+    edges: &[[usize; 2]],
+    obstacle: StaticMesh<'_>,
+    inflate: f64,
+) -> CrossPairs {
+    let boxes = SweptBoxes { x, dx, inflate };
+    let fixed = SweptBoxes {
+        x: obstacle.points,
+        dx: None,
+        inflate,
+    };
+    let shell_vertices: Vec<Aabb> = (0..x.len()).map(|v| boxes.vertex(v)).collect();
+    let obstacle_faces: Vec<Aabb> = obstacle.faces.iter().map(|f| fixed.face(f)).collect();
+    let obstacle_vertices: Vec<Aabb> = (0..obstacle.points.len())
+        .map(|v| fixed.vertex(v))
+        .collect();
+    let shell_faces: Vec<Aabb> = faces.iter().map(|f| boxes.face(f)).collect();
+    let shell_edges: Vec<Aabb> = edges.iter().map(|e| boxes.edge(e)).collect();
+    let obstacle_edges: Vec<Aabb> = obstacle.edges.iter().map(|e| fixed.edge(e)).collect();
+    CrossPairs {
+        vertex_face: overlapping_pairs(&shell_vertices, &obstacle_faces),
+        face_vertex: overlapping_pairs(&obstacle_vertices, &shell_faces),
+        edge_edge: overlapping_pairs(&shell_edges, &obstacle_edges),
+    }
+}
+
+/// The pairs of `superset` that [`candidate_pairs_against`] with the same arguments would
+/// return, by the same box tests, in the same order (see [`filter_candidate_pairs`]).
+pub fn filter_cross_pairs(
+    superset: &CrossPairs,
+    x: &[Vector3<f64>],
+    dx: Option<&[Vector3<f64>]>,
+    faces: &[[usize; 3]],
+    edges: &[[usize; 2]],
+    obstacle: StaticMesh<'_>,
+    inflate: f64,
+) -> CrossPairs {
+    let boxes = SweptBoxes { x, dx, inflate };
+    let fixed = SweptBoxes {
+        x: obstacle.points,
+        dx: None,
+        inflate,
+    };
+    let keep = |pairs: &[[usize; 2]], test: &dyn Fn(usize, usize) -> bool| -> Vec<[usize; 2]> {
+        pairs.iter().copied().filter(|&[i, j]| test(i, j)).collect()
+    };
+    CrossPairs {
+        vertex_face: keep(&superset.vertex_face, &|v, f| {
+            fixed.face(&obstacle.faces[f]).overlaps(&boxes.vertex(v))
+        }),
+        face_vertex: keep(&superset.face_vertex, &|v, f| {
+            boxes.face(&faces[f]).overlaps(&fixed.vertex(v))
+        }),
+        edge_edge: keep(&superset.edge_edge, &|i, j| {
+            fixed
+                .edge(&obstacle.edges[j])
+                .overlaps(&boxes.edge(&edges[i]))
+        }),
+    }
+}

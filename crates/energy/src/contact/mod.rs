@@ -23,7 +23,8 @@ pub mod pair;
 
 pub use barrier::barrier;
 pub use broad_phase::{
-    Aabb, CandidatePairs, candidate_pairs, filter_candidate_pairs, overlapping_pairs,
+    Aabb, CandidatePairs, CrossPairs, StaticMesh, candidate_pairs, candidate_pairs_against,
+    filter_candidate_pairs, filter_cross_pairs, overlapping_pairs,
 };
 pub use ccd::{CcdSettings, additive_ccd};
 pub use distance::{

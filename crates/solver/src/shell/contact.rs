@@ -13,9 +13,10 @@ use faer::sparse::SparseColMat;
 use nalgebra::{Matrix3, Vector3};
 use thinshell_energy::DofMap;
 use thinshell_energy::contact::{
-    Aabb, BarrierGeometry, CandidatePairs, CcdSettings, PairBarrier, PairKind, PairPoints,
-    additive_ccd, barrier, candidate_pairs, distance2_derivatives, edge_edge_distance2,
-    filter_candidate_pairs, mollifier_threshold, overlapping_pairs, pair_barrier, pair_energy,
+    Aabb, BarrierGeometry, CandidatePairs, CcdSettings, CrossPairs, PairBarrier, PairKind,
+    PairPoints, StaticMesh, additive_ccd, barrier, candidate_pairs, candidate_pairs_against,
+    distance2_derivatives, edge_edge_distance2, filter_candidate_pairs, filter_cross_pairs,
+    mollifier_threshold, overlapping_pairs, pair_barrier, pair_energy, pair_gap,
     point_triangle_distance2, segment_crosses_triangle,
 };
 use thinshell_energy::linalg::project_psd;
@@ -96,7 +97,10 @@ impl From<ContactError> for SolverError {
 /// The resolved contact term of a mesh.
 #[derive(Clone, Debug)]
 pub struct Contact {
+    /// The analytic obstacles (plane, sphere, box).
     obstacles: Vec<Obstacle>,
+    /// The mesh obstacles, merged into one fixed mesh.
+    meshes: ObstacleMeshes,
     self_contact: bool,
     /// d̂ (m).
     pub activation: f64,
@@ -118,9 +122,60 @@ pub struct Contact {
     cache: CandidateCache,
 }
 
+/// The mesh obstacles of a contact term merged into one fixed mesh.
+#[derive(Clone, Debug, Default)]
+struct ObstacleMeshes {
+    /// Vertex positions (m).
+    points: Vec<V>,
+    faces: Vec<[usize; 3]>,
+    /// Every edge of the faces once.
+    edges: Vec<[usize; 2]>,
+    /// Per vertex, the index of its obstacle in [`ContactSettings::obstacles`].
+    owner: Vec<usize>,
+}
+
+impl ObstacleMeshes {
+    fn add(&mut self, index: usize, vertices: &[V], faces: &[[usize; 3]]) {
+        let base = self.points.len();
+        self.points.extend_from_slice(vertices);
+        self.owner
+            .extend(std::iter::repeat_n(index, vertices.len()));
+        let mut edges: Vec<[usize; 2]> = faces
+            .iter()
+            .flat_map(|f| {
+                [[f[0], f[1]], [f[1], f[2]], [f[2], f[0]]].map(|[a, b]| [a.min(b), a.max(b)])
+            })
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        self.faces.extend(faces.iter().map(|f| f.map(|v| v + base)));
+        self.edges.extend(edges.iter().map(|e| e.map(|v| v + base)));
+    }
+
+    fn view(&self) -> StaticMesh<'_> {
+        StaticMesh {
+            points: &self.points,
+            faces: &self.faces,
+            edges: &self.edges,
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.faces.is_empty()
+    }
+}
+
+/// The candidate pairs of one broad phase: the shell's own and those against the mesh
+/// obstacles.
+#[derive(Debug, Default)]
+struct Candidates {
+    own: CandidatePairs,
+    mesh: CrossPairs,
+}
+
 /// The positions and candidate pairs of the last barrier broad phase (a clone starts empty).
 #[derive(Default)]
-struct CandidateCache(Mutex<Option<(Vec<V>, Arc<CandidatePairs>)>>);
+struct CandidateCache(Mutex<Option<(Vec<V>, Arc<Candidates>)>>);
 
 impl Clone for CandidateCache {
     fn clone(&self) -> Self {
@@ -138,10 +193,10 @@ impl std::fmt::Debug for CandidateCache {
 /// assembled.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactStats {
-    /// Active pairs (self pairs plus vertex–obstacle pairs with gap < d̂).
+    /// Active pairs (self, mesh-obstacle and vertex–obstacle pairs with gap < d̂).
     pub active_pairs: usize,
-    /// The smallest gap (m) over the active self pairs and every vertex–obstacle pair (+∞ if
-    /// none).
+    /// The smallest gap (m) over the active self and mesh-obstacle pairs and every vertex pair
+    /// with an analytic obstacle (+∞ if none).
     pub min_gap: f64,
     /// The barrier energy κ Σ m_k b(g_k, d̂) (J).
     pub energy: f64,
@@ -188,12 +243,15 @@ impl Contact {
                 "stiffness must be positive and finite, got {stiffness}"
             )));
         }
-        let obstacles = settings
-            .obstacles
-            .iter()
-            .map(Obstacle::validated)
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(ContactError::Invalid)?;
+        let mut obstacles = Vec::new();
+        let mut meshes = ObstacleMeshes::default();
+        for (k, o) in settings.obstacles.iter().enumerate() {
+            match o.validated() {
+                Ok(Obstacle::Mesh { vertices, faces }) => meshes.add(k, &vertices, &faces),
+                Ok(o) => obstacles.push(o),
+                Err(e) => return Err(ContactError::Invalid(format!("obstacle {k}: {e}"))),
+            }
+        }
         let h = if settings.thickness_offset {
             thickness
         } else {
@@ -201,6 +259,7 @@ impl Contact {
         };
         Ok(Contact {
             obstacles,
+            meshes,
             self_contact: settings.self_contact,
             activation,
             stiffness,
@@ -241,13 +300,70 @@ impl Contact {
         }
     }
 
+    /// The barrier geometry of pairs against the mesh obstacles (offset h/2 or 0).
+    fn mesh_geometry(&self) -> BarrierGeometry {
+        BarrierGeometry {
+            activation: self.activation,
+            offset: self.offset_obstacle,
+        }
+    }
+
+    /// Visits every pair of `c` between the shell at `x` and the mesh obstacles: per point the
+    /// shell vertex it is (`None`: an obstacle vertex), the four points and the pair's kind
+    /// (edge pairs with the mollifier threshold of the shell edge's reference positions).
+    fn for_mesh_pairs(
+        &self,
+        x: &[V],
+        c: &CrossPairs,
+        mut f: impl FnMut([Option<usize>; 4], PairPoints, PairKind),
+    ) {
+        let o = &self.meshes;
+        for &[v, k] in &c.vertex_face {
+            let t = o.faces[k];
+            f(
+                [Some(v), None, None, None],
+                [x[v], o.points[t[0]], o.points[t[1]], o.points[t[2]]],
+                PairKind::PointTriangle,
+            );
+        }
+        for &[w, k] in &c.face_vertex {
+            let t = self.faces[k];
+            f(
+                [None, Some(t[0]), Some(t[1]), Some(t[2])],
+                [o.points[w], x[t[0]], x[t[1]], x[t[2]]],
+                PairKind::PointTriangle,
+            );
+        }
+        for &[i, j] in &c.edge_edge {
+            let (a, b) = (self.edges[i], o.edges[j]);
+            let (p, q) = (o.points[b[0]], o.points[b[1]]);
+            f(
+                [Some(a[0]), Some(a[1]), None, None],
+                [x[a[0]], x[a[1]], p, q],
+                PairKind::EdgeEdge {
+                    mollifier_threshold: mollifier_threshold(&[
+                        self.rest[a[0]],
+                        self.rest[a[1]],
+                        p,
+                        q,
+                    ]),
+                },
+            );
+        }
+    }
+
+    /// The obstacle index of mesh-obstacle vertex `w` (for messages).
+    fn mesh_owner(&self, w: usize) -> usize {
+        self.meshes.owner[w]
+    }
+
     /// The self pairs that may be active at `x`: a superset of those whose boxes, grown by
     /// offset + d̂, overlap (inactive extras add exactly 0 to every sum, so the results do not
     /// depend on it). Reused from the last broad phase while no vertex has moved more than
     /// d̂/2 since it: a pair's distance changes by at most twice the largest vertex
     /// displacement, and the cached pairs were found with boxes grown by offset + 2 d̂.
-    fn candidates(&self, x: &[V]) -> Arc<CandidatePairs> {
-        if !self.self_contact {
+    fn candidates(&self, x: &[V]) -> Arc<Candidates> {
+        if !self.self_contact && self.meshes.is_empty() {
             return Arc::default();
         }
         let slack = 0.5 * self.activation;
@@ -261,13 +377,33 @@ impl Contact {
         {
             return Arc::clone(pairs);
         }
-        let pairs = Arc::new(candidate_pairs(
-            x,
-            None,
-            &self.faces,
-            &self.edges,
-            self.offset_self + self.activation + 2.0 * slack,
-        ));
+        // Pairs against a fixed obstacle change their distance by at most the vertex
+        // displacement, so the same reuse rule holds for them with room to spare.
+        let pairs = Arc::new(Candidates {
+            own: if self.self_contact {
+                candidate_pairs(
+                    x,
+                    None,
+                    &self.faces,
+                    &self.edges,
+                    self.offset_self + self.activation + 2.0 * slack,
+                )
+            } else {
+                CandidatePairs::default()
+            },
+            mesh: if self.meshes.is_empty() {
+                CrossPairs::default()
+            } else {
+                candidate_pairs_against(
+                    x,
+                    None,
+                    &self.faces,
+                    &self.edges,
+                    self.meshes.view(),
+                    self.offset_obstacle + self.activation + 2.0 * slack,
+                )
+            },
+        });
         *cache = Some((x.to_vec(), Arc::clone(&pairs)));
         pairs
     }
@@ -278,7 +414,7 @@ impl Contact {
     /// within the largest vertex displacement since of its cached box (per axis, so grown
     /// boxes that overlap now overlapped then once the growth covers twice that). For a short
     /// CCD step (`reach` = ξ + 2 |Δx|max) this saves its broad phase.
-    fn cached_candidates_within(&self, x: &[V], reach: f64) -> Option<Arc<CandidatePairs>> {
+    fn cached_candidates_within(&self, x: &[V], reach: f64) -> Option<Arc<Candidates>> {
         let cache = self.cache.0.lock().unwrap_or_else(|e| e.into_inner());
         let (x_ref, pairs) = cache.as_ref()?;
         if x_ref.len() != x.len() {
@@ -300,7 +436,8 @@ impl Contact {
 
     /// The contact energy (J) at positions `x`; +∞ when a pair touches or crosses.
     pub fn energy(&self, x: &[V]) -> f64 {
-        let c = self.candidates(x);
+        let all = self.candidates(x);
+        let c = &all.own;
         let g = self.geometry();
         let mut e = 0.0;
         for &[v, f] in &c.point_triangle {
@@ -309,6 +446,10 @@ impl Contact {
         for &[i, j] in &c.edge_edge {
             e += pair_energy(&self.ee_points(x, i, j), self.ee_kind(i, j), g);
         }
+        let gm = self.mesh_geometry();
+        self.for_mesh_pairs(x, &all.mesh, |_, pts, kind| {
+            e += pair_energy(&pts, kind, gm)
+        });
         for o in &self.obstacles {
             for y in x {
                 e += barrier(self.obstacle_gap(o, y).0, self.activation).0;
@@ -320,7 +461,8 @@ impl Contact {
     /// Active pairs, the smallest gap and the energy at positions `x` (the Hessian counters
     /// are left 0).
     pub fn stats(&self, x: &[V]) -> ContactStats {
-        let c = self.candidates(x);
+        let all = self.candidates(x);
+        let c = &all.own;
         let g = self.geometry();
         let mut s = ContactStats {
             min_gap: f64::INFINITY,
@@ -354,6 +496,15 @@ impl Contact {
                 false,
             );
         }
+        let gm = self.mesh_geometry();
+        self.for_mesh_pairs(x, &all.mesh, |_, pts, kind| {
+            // Like self pairs, mesh-obstacle pairs enter the smallest gap only when active.
+            see(
+                pair_gap(&pts, kind, self.offset_obstacle),
+                pair_energy(&pts, kind, gm),
+                false,
+            );
+        });
         for o in &self.obstacles {
             for y in x {
                 let gap = self.obstacle_gap(o, y).0;
@@ -364,11 +515,57 @@ impl Contact {
         s
     }
 
+    /// Per vertex of the shell, the smallest gap (m) of the pairs it belongs to at `x` (self,
+    /// mesh-obstacle and analytic-obstacle pairs), capped at d̂: d̂ where no pair is active. A
+    /// face's is the least of its vertices' (see [`Contact::face_gaps`]).
+    pub fn vertex_gaps(&self, x: &[V]) -> Vec<f64> {
+        let mut out = vec![self.activation; x.len()];
+        let all = self.candidates(x);
+        let mut see = |ids: &[usize], gap: f64| {
+            for &v in ids {
+                out[v] = out[v].min(gap);
+            }
+        };
+        for &[v, f] in &all.own.point_triangle {
+            let t = self.faces[f];
+            let d = point_triangle_distance2(&self.pt_points(x, v, f)).0.sqrt();
+            see(&[v, t[0], t[1], t[2]], d - self.offset_self);
+        }
+        for &[i, j] in &all.own.edge_edge {
+            let (a, b) = (self.edges[i], self.edges[j]);
+            let d = edge_edge_distance2(&self.ee_points(x, i, j)).0.sqrt();
+            see(&[a[0], a[1], b[0], b[1]], d - self.offset_self);
+        }
+        self.for_mesh_pairs(x, &all.mesh, |ids, pts, kind| {
+            let gap = pair_gap(&pts, kind, self.offset_obstacle);
+            let shell: Vec<usize> = ids.iter().flatten().copied().collect();
+            see(&shell, gap);
+        });
+        for o in &self.obstacles {
+            for (v, y) in x.iter().enumerate() {
+                see(&[v], self.obstacle_gap(o, y).0);
+            }
+        }
+        out
+    }
+
+    /// Per face of the shell, the smallest gap (m) of its vertices ([`Contact::vertex_gaps`]),
+    /// in (0, d̂] for an intersection-free state: the VTK cell field `contact_gap` the viewer
+    /// colours by.
+    pub fn face_gaps(&self, x: &[V]) -> Vec<f64> {
+        let g = self.vertex_gaps(x);
+        self.faces
+            .iter()
+            .map(|f| g[f[0]].min(g[f[1]]).min(g[f[2]]))
+            .collect()
+    }
+
     /// Visits every active pair's vertices, gradient and Hessian (unit stiffness; column-major
     /// 3n×3n for n vertices), a self pair's Hessian projected to PSD when `project` is set, a
     /// vertex–obstacle pair's always.
     fn for_active(&self, x: &[V], project: bool, mut f: impl FnMut(&[usize], &[f64], &[f64])) {
-        let c = self.candidates(x);
+        let all = self.candidates(x);
+        let c = &all.own;
         let g = self.geometry();
         let mut pair = |ids: [usize; 4], pts: PairPoints, kind: PairKind| {
             if let PairBarrier::Active(d) = pair_barrier(&pts, kind, g, project) {
@@ -391,6 +588,46 @@ impl Contact {
                 self.ee_kind(i, j),
             );
         }
+        let gm = self.mesh_geometry();
+        self.for_mesh_pairs(x, &all.mesh, |ids, pts, kind| {
+            let PairBarrier::Active(d) = pair_barrier(&pts, kind, gm, false) else {
+                return;
+            };
+            // The obstacle's coordinates are fixed: keep the rows and columns of the shell's
+            // vertices (projecting the 12×12 matrix with the others zeroed projects that
+            // principal block).
+            let mut h = d.hessian;
+            for (a, id) in ids.iter().enumerate() {
+                if id.is_none() {
+                    h.fixed_rows_mut::<3>(3 * a).fill(0.0);
+                    h.fixed_columns_mut::<3>(3 * a).fill(0.0);
+                }
+            }
+            if project {
+                project_psd(&mut h);
+            }
+            let mut keep = [0usize; 4];
+            let mut vs = [0usize; 4];
+            let mut k = 0;
+            for (a, id) in ids.iter().enumerate() {
+                if let Some(v) = id {
+                    keep[k] = a;
+                    vs[k] = *v;
+                    k += 1;
+                }
+            }
+            let m = 3 * k;
+            let mut grad = [0.0; 12];
+            let mut hess = [0.0; 144];
+            for i in 0..m {
+                let r = 3 * keep[i / 3] + i % 3;
+                grad[i] = d.gradient[r];
+                for j in 0..m {
+                    hess[j * m + i] = h[(r, 3 * keep[j / 3] + j % 3)];
+                }
+            }
+            f(&vs[..k], &grad[..m], &hess[..m * m]);
+        });
         for o in &self.obstacles {
             for (v, y) in x.iter().enumerate() {
                 let d = o.distance(y);
@@ -492,7 +729,8 @@ impl Contact {
     pub(crate) fn gap_gradient_sum(&self, x: &[V]) -> (Vec<f64>, usize) {
         let mut n = vec![0.0; 3 * x.len()];
         let mut active = 0;
-        let c = self.candidates(x);
+        let all = self.candidates(x);
+        let c = &all.own;
         let mut add = |ids: [usize; 4], pts: PairPoints, (d2, ty)| {
             let d: f64 = f64::sqrt(d2);
             if d - self.offset_self < self.activation && d > 0.0 {
@@ -515,6 +753,24 @@ impl Contact {
             let pts = self.ee_points(x, i, j);
             add([a[0], a[1], b[0], b[1]], pts, edge_edge_distance2(&pts));
         }
+        self.for_mesh_pairs(x, &all.mesh, |ids, pts, kind| {
+            let (d2, ty) = match kind {
+                PairKind::PointTriangle => point_triangle_distance2(&pts),
+                PairKind::EdgeEdge { .. } => edge_edge_distance2(&pts),
+            };
+            let d = d2.sqrt();
+            if d - self.offset_obstacle < self.activation && d > 0.0 {
+                active += 1;
+                let g = distance2_derivatives(&pts, ty).gradient / (2.0 * d);
+                for (a, id) in ids.iter().enumerate() {
+                    if let Some(v) = id {
+                        for k in 0..3 {
+                            n[3 * v + k] += g[3 * a + k];
+                        }
+                    }
+                }
+            }
+        });
         for o in &self.obstacles {
             for (v, y) in x.iter().enumerate() {
                 let (gap, u) = self.obstacle_gap(o, y);
@@ -572,17 +828,50 @@ impl Contact {
         first_non_finite(x1, "end of the step")?;
         let dx: Vec<V> = x0.iter().zip(x1).map(|(a, b)| b - a).collect();
         let mut alpha = 1.0f64;
+        let step = dx.iter().map(V::norm).fold(0.0, f64::max);
+        // The same pairs either way (the cache holds them all when it qualifies), so the step
+        // does not depend on the cache's history.
+        let cached = self.cached_candidates_within(x0, self.separation + 2.0 * step);
+        if !self.meshes.is_empty() {
+            let xi = self.offset_obstacle + self.separation;
+            let settings = CcdSettings {
+                min_separation: xi,
+                ..CcdSettings::default()
+            };
+            let (faces, edges, mesh) = (&self.faces, &self.edges, self.meshes.view());
+            let c = match &cached {
+                Some(c) => filter_cross_pairs(&c.mesh, x0, Some(&dx), faces, edges, mesh, xi),
+                None => candidate_pairs_against(x0, Some(&dx), faces, edges, mesh, xi),
+            };
+            let mut touching = None;
+            self.for_mesh_pairs(x0, &c, |ids, pts, kind| {
+                if touching.is_some() {
+                    return;
+                }
+                let d = ids.map(|id| id.map_or(V::zeros(), |v| dx[v]));
+                alpha = additive_ccd(&pts, &d, kind, alpha, &settings);
+                if alpha == 0.0 {
+                    touching = Some(ids);
+                }
+            });
+            if let Some(ids) = touching {
+                return Err(ContactError::Intersecting(format!(
+                    "shell vertices {:?} of a pair are within the minimum separation of a mesh \
+                     obstacle",
+                    ids.iter().flatten().collect::<Vec<_>>()
+                )));
+            }
+        }
         if self.self_contact {
             let xi = self.offset_self + self.separation;
             let settings = CcdSettings {
                 min_separation: xi,
                 ..CcdSettings::default()
             };
-            let step = dx.iter().map(V::norm).fold(0.0, f64::max);
-            // The same pairs either way (the cache holds them all when it qualifies), so the
-            // step does not depend on the cache's history.
-            let c = match self.cached_candidates_within(x0, self.separation + 2.0 * step) {
-                Some(c) => filter_candidate_pairs(&c, x0, Some(&dx), &self.faces, &self.edges, xi),
+            let c = match &cached {
+                Some(c) => {
+                    filter_candidate_pairs(&c.own, x0, Some(&dx), &self.faces, &self.edges, xi)
+                }
                 None => candidate_pairs(x0, Some(&dx), &self.faces, &self.edges, xi),
             };
             for &[v, f] in &c.point_triangle {
@@ -698,6 +987,9 @@ impl Contact {
                 )));
             }
         }
+        if !self.meshes.is_empty() {
+            self.check_meshes(x)?;
+        }
         for o in &self.obstacles {
             for (v, y) in x.iter().enumerate() {
                 let gap = self.obstacle_gap(o, y).0;
@@ -706,6 +998,88 @@ impl Contact {
                         "vertex {v} has gap {gap:e} m to obstacle {o:?}"
                     )));
                 }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Contact {
+    /// [`Contact::check`] against the mesh obstacles: every pair's gap above the minimum
+    /// separation, no shell edge crossing an obstacle face and no obstacle edge crossing a
+    /// shell face.
+    fn check_meshes(&self, x: &[V]) -> Result<(), ContactError> {
+        let xi = self.offset_obstacle + self.separation;
+        let o = &self.meshes;
+        let c = candidate_pairs_against(x, None, &self.faces, &self.edges, o.view(), xi);
+        let near = |d: f64| d.is_nan() || d <= xi;
+        for &[v, k] in &c.vertex_face {
+            let t = o.faces[k];
+            let d =
+                point_triangle_distance2(&[x[v], o.points[t[0]], o.points[t[1]], o.points[t[2]]])
+                    .0
+                    .sqrt();
+            if near(d) {
+                return Err(ContactError::Intersecting(format!(
+                    "vertex {v} is {d:e} m from a face of obstacle {} (a mesh; need more than \
+                     {xi:e} m)",
+                    self.mesh_owner(t[0])
+                )));
+            }
+        }
+        for &[w, k] in &c.face_vertex {
+            let t = self.faces[k];
+            let d = point_triangle_distance2(&[o.points[w], x[t[0]], x[t[1]], x[t[2]]])
+                .0
+                .sqrt();
+            if near(d) {
+                return Err(ContactError::Intersecting(format!(
+                    "face {k} {t:?} is {d:e} m from a vertex of obstacle {} (a mesh; need more \
+                     than {xi:e} m)",
+                    self.mesh_owner(w)
+                )));
+            }
+        }
+        for &[i, j] in &c.edge_edge {
+            let (a, b) = (self.edges[i], o.edges[j]);
+            let d = edge_edge_distance2(&[x[a[0]], x[a[1]], o.points[b[0]], o.points[b[1]]])
+                .0
+                .sqrt();
+            if near(d) {
+                return Err(ContactError::Intersecting(format!(
+                    "edge {i} {a:?} is {d:e} m from an edge of obstacle {} (a mesh; need more \
+                     than {xi:e} m)",
+                    self.mesh_owner(b[0])
+                )));
+            }
+        }
+        // Crossings: shell edges through obstacle faces, obstacle edges through shell faces.
+        fn boxes<const K: usize>(p: &[V], prims: &[[usize; K]]) -> Vec<Aabb> {
+            prims
+                .iter()
+                .map(|f| Aabb::of_points(f.map(|v| p[v]), 0.0))
+                .collect()
+        }
+        let fixed = |v: usize| o.points[v];
+        let shell = |v: usize| x[v];
+        let (shell_edges, shell_faces) = (boxes(x, &self.edges), boxes(x, &self.faces));
+        let (fixed_edges, fixed_faces) = (boxes(&o.points, &o.edges), boxes(&o.points, &o.faces));
+        for [e, f] in overlapping_pairs(&shell_edges, &fixed_faces) {
+            let (a, t) = (self.edges[e], o.faces[f]);
+            if segment_crosses_triangle(&x[a[0]], &x[a[1]], &t.map(fixed)) {
+                return Err(ContactError::Intersecting(format!(
+                    "edge {e} {a:?} crosses a face of obstacle {} (a mesh)",
+                    self.mesh_owner(t[0])
+                )));
+            }
+        }
+        for [e, f] in overlapping_pairs(&fixed_edges, &shell_faces) {
+            let (a, t) = (o.edges[e], self.faces[f]);
+            if segment_crosses_triangle(&o.points[a[0]], &o.points[a[1]], &t.map(shell)) {
+                return Err(ContactError::Intersecting(format!(
+                    "an edge of obstacle {} (a mesh) crosses face {f} {t:?}",
+                    self.mesh_owner(a[0])
+                )));
             }
         }
         Ok(())

@@ -9,7 +9,7 @@ use thinshell_energy::{DampingState, EnergyError, EnergyTerms, EvalOutput, Hessi
 
 use super::loads::{add_pressure_gradient, add_pressure_hessian, enclosed_volume};
 use super::system::{ShellSystem, State};
-use crate::{Objective, SolverError};
+use crate::{IterationUpdate, Objective, SolverError};
 
 /// Inertia term of the incremental potential: `1/(2Δt²) (x − x̃)ᵀ Λ (x − x̃)`.
 struct Inertia {
@@ -368,6 +368,28 @@ impl Objective for ShellObjective<'_> {
         self.sys.scatter(u, &mut x, &mut phi);
         let rotations = self.sys.f_ext.iter().all(|&f| f == 0.0);
         super::rigid::free_rigid_modes(&self.sys.dofs, &x, self.sys.contact.is_none(), rotations)
+    }
+
+    /// With self-contact: when the last Hessian had to approximate pairs outside its pattern
+    /// (they came near during the solve), widen the pattern around the current iterate so that
+    /// the next Hessian holds them exactly (`contact_pattern.rs`; a new symbolic
+    /// factorisation).
+    fn begin_iteration(
+        &mut self,
+        u: &[f64],
+        _iteration: usize,
+    ) -> Result<IterationUpdate, SolverError> {
+        if self.approximated_pairs == 0 {
+            return Ok(IterationUpdate::default());
+        }
+        self.approximated_pairs = 0;
+        let mut x = self.x_full.clone();
+        let mut phi = self.phi_full.clone();
+        self.sys.scatter(u, &mut x, &mut phi);
+        Ok(IterationUpdate {
+            value_changed: false,
+            pattern_changed: self.sys.refresh_contact_pattern(&x, None),
+        })
     }
 
     /// With contact on: the CCD step limit ([`super::contact::Contact::max_step`]).

@@ -1,8 +1,14 @@
 //! Rigid, fixed obstacles of the contact term: their signed distance to a point with its exact
-//! gradient and Hessian (model.md §7). A vertex's gap to an obstacle is this distance minus the
-//! thickness offset.
+//! gradient and Hessian (model.md §7). A vertex's gap to an analytic obstacle (plane, sphere,
+//! box) is this distance minus the thickness offset; a triangle-mesh obstacle instead enters
+//! the contact term by IPC pairs (shell vertex–obstacle face, obstacle vertex–shell face and
+//! edge–edge), as the shell's own faces do.
+
+use std::path::Path;
 
 use nalgebra::{Matrix3, Vector3};
+use thinshell_energy::contact::{distance2_derivatives, point_triangle_distance2};
+use thinshell_mesh::DEGENERATE_TOLERANCE;
 
 type V = Vector3<f64>;
 
@@ -31,13 +37,22 @@ pub enum Obstacle {
         /// The upper corner (m), above `min` on every axis.
         max: V,
     },
+    /// A fixed triangle mesh (m), e.g. read from an OBJ file ([`Obstacle::mesh_from_obj`]).
+    /// Neither closed nor oriented need it be: the shell is kept from crossing any of its
+    /// faces, from either side. Unreferenced vertices are ignored.
+    Mesh {
+        /// Vertex positions (m).
+        vertices: Vec<V>,
+        /// Triangles as 0-based indices into `vertices`.
+        faces: Vec<[usize; 3]>,
+    },
 }
 
 /// The distance of a point to an obstacle's surface (m; negative inside), its gradient (a unit
 /// vector, pointing away from the obstacle) and its Hessian (1/m).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ObstacleDistance {
-    /// Signed distance (m).
+    /// Signed distance (m; unsigned for a mesh).
     pub distance: f64,
     /// ∂d/∂y.
     pub normal: V,
@@ -46,6 +61,19 @@ pub struct ObstacleDistance {
 }
 
 impl Obstacle {
+    /// A mesh obstacle from an OBJ file (positions and triangles; polygons are fan-triangulated,
+    /// everything else is ignored, see [`thinshell_mesh::io`]). The error names the file and
+    /// what is wrong with it (missing, malformed, no faces, a degenerate face, …).
+    pub fn mesh_from_obj(path: &Path) -> Result<Obstacle, String> {
+        let file = std::fs::File::open(path)
+            .map_err(|e| format!("obstacle mesh {}: {e}", path.display()))?;
+        let (vertices, faces) = thinshell_mesh::io::read_obj_raw(std::io::BufReader::new(file))
+            .map_err(|e| format!("obstacle mesh {}: {e}", path.display()))?;
+        let mesh = Obstacle::Mesh { vertices, faces };
+        mesh.validated()
+            .map_err(|e| format!("obstacle mesh {}: {e}", path.display()))
+    }
+
     /// Checks the obstacle's numbers and normalises a plane's normal; the error says what is
     /// wrong.
     pub(crate) fn validated(&self) -> Result<Obstacle, String> {
@@ -79,12 +107,15 @@ impl Obstacle {
                 }
                 Ok(self.clone())
             }
+            Obstacle::Mesh { vertices, faces } => validated_mesh(vertices, faces),
         }
     }
 
     /// The signed distance of `y` (m) with its gradient and Hessian. Planes need a unit normal
     /// (as the contact term stores them). At a sphere's centre or inside a box the
-    /// gradient is a valid unit vector but the point is far inside (the gap is negative).
+    /// gradient is a valid unit vector but the point is far inside (the gap is negative). A
+    /// mesh's distance is unsigned, to its nearest face by brute force (the contact term does
+    /// not use it).
     pub fn distance(&self, y: &V) -> ObstacleDistance {
         match self {
             Obstacle::Plane { point, normal } => ObstacleDistance {
@@ -108,7 +139,98 @@ impl Obstacle {
                 }
             }
             Obstacle::Box { min, max } => box_distance(min, max, y),
+            Obstacle::Mesh { vertices, faces } => mesh_distance(vertices, faces, y),
         }
+    }
+}
+
+/// A mesh obstacle with at least one face, every index in range, no face repeating a vertex,
+/// finite positions of its vertices, no degenerate face (relative area below
+/// [`DEGENERATE_TOLERANCE`], as for the shell's meshes), and its unreferenced vertices dropped.
+fn validated_mesh(vertices: &[V], faces: &[[usize; 3]]) -> Result<Obstacle, String> {
+    if faces.is_empty() {
+        return Err("a mesh obstacle needs at least one face".into());
+    }
+    let mut new_index = vec![usize::MAX; vertices.len()];
+    let mut kept = Vec::new();
+    let mut out = Vec::with_capacity(faces.len());
+    for (k, f) in faces.iter().enumerate() {
+        if let Some(&v) = f.iter().find(|&&v| v >= vertices.len()) {
+            return Err(format!(
+                "face {k} refers to vertex {v}, but there are {} vertices",
+                vertices.len()
+            ));
+        }
+        if f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
+            return Err(format!("face {k} repeats a vertex: {f:?}"));
+        }
+        let p = f.map(|v| vertices[v]);
+        if let Some(q) = p.iter().find(|q| !q.iter().all(|c| c.is_finite())) {
+            return Err(format!(
+                "face {k} has a vertex at a non-finite position {q:?}"
+            ));
+        }
+        let (e1, e2, e3) = (p[1] - p[0], p[2] - p[0], p[2] - p[1]);
+        let l2 = e1
+            .norm_squared()
+            .max(e2.norm_squared())
+            .max(e3.norm_squared());
+        let relative_area = e1.cross(&e2).norm() / l2;
+        // NaN-explicit: a NaN area is degenerate too.
+        if relative_area.is_nan() || relative_area <= DEGENERATE_TOLERANCE {
+            return Err(format!(
+                "face {k} is degenerate: |e1 × e2| / l_max² = {relative_area:e}"
+            ));
+        }
+        out.push(f.map(|v| {
+            if new_index[v] == usize::MAX {
+                new_index[v] = kept.len();
+                kept.push(vertices[v]);
+            }
+            new_index[v]
+        }));
+    }
+    Ok(Obstacle::Mesh {
+        vertices: kept,
+        faces: out,
+    })
+}
+
+/// The unsigned distance to the nearest face of a mesh, by brute force over its faces (O(faces);
+/// the contact term does not use it, it keeps a mesh obstacle apart by IPC pairs), with the
+/// gradient and Hessian of that face's closest feature: ∇d = ∇(d²)/(2d) and
+/// ∇²d = ∇²(d²)/(2d) − ∇(d²)∇(d²)ᵀ/(4d³) in the point's three coordinates.
+fn mesh_distance(vertices: &[V], faces: &[[usize; 3]], y: &V) -> ObstacleDistance {
+    let mut best: Option<(f64, [V; 4])> = None;
+    for f in faces {
+        let pts = [*y, vertices[f[0]], vertices[f[1]], vertices[f[2]]];
+        let d2 = point_triangle_distance2(&pts).0;
+        if best.is_none_or(|(b, _)| d2 < b) {
+            best = Some((d2, pts));
+        }
+    }
+    let Some((d2, pts)) = best else {
+        return ObstacleDistance {
+            distance: f64::INFINITY,
+            normal: V::z(),
+            hessian: Matrix3::zeros(),
+        };
+    };
+    let d = d2.sqrt();
+    if d == 0.0 {
+        return ObstacleDistance {
+            distance: 0.0,
+            normal: V::z(),
+            hessian: Matrix3::zeros(),
+        };
+    }
+    let der = distance2_derivatives(&pts, point_triangle_distance2(&pts).1);
+    let g = V::new(der.gradient[0], der.gradient[1], der.gradient[2]);
+    let h = der.hessian.fixed_view::<3, 3>(0, 0).into_owned();
+    ObstacleDistance {
+        distance: d,
+        normal: g / (2.0 * d),
+        hessian: h / (2.0 * d) - g * g.transpose() / (4.0 * d * d * d),
     }
 }
 

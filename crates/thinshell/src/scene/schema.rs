@@ -93,12 +93,14 @@ fn default_true() -> bool {
 }
 
 /// One rigid obstacle: `kind = "plane"` with `point` and `normal` (the shell stays on the
-/// normal's side), `kind = "sphere"` with `center` and `radius`, or `kind = "box"` with the
-/// corners `min` and `max` of an axis-aligned box (m; the shell stays outside both).
+/// normal's side), `kind = "sphere"` with `center` and `radius`, `kind = "box"` with the
+/// corners `min` and `max` of an axis-aligned box (m; the shell stays outside both), or
+/// `kind = "mesh"` with the `path` of an OBJ file (relative to the scene file; the shell
+/// crosses none of its triangles).
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ObstacleSpec {
-    /// `plane`, `sphere` or `box`.
+    /// `plane`, `sphere`, `box` or `mesh`.
     pub kind: ObstacleKind,
     /// A point of the plane (m).
     #[serde(default)]
@@ -118,6 +120,9 @@ pub struct ObstacleSpec {
     /// The box's upper corner (m).
     #[serde(default)]
     pub max: Option<[f64; 3]>,
+    /// The mesh's OBJ file (positions in m), relative to the scene file's directory.
+    #[serde(default)]
+    pub path: Option<String>,
 }
 
 /// The shape of an obstacle.
@@ -130,6 +135,8 @@ pub enum ObstacleKind {
     Sphere,
     /// An axis-aligned box.
     Box,
+    /// A fixed triangle mesh read from an OBJ file.
+    Mesh,
 }
 
 /// A physical effect a scene can switch on.

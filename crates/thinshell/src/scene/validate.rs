@@ -87,11 +87,13 @@ fn contact(s: &SceneFile, on: bool) -> Check {
             ("radius", o.radius.is_some()),
             ("min", o.min.is_some()),
             ("max", o.max.is_some()),
+            ("path", o.path.is_some()),
         ];
-        let needed: [&str; 2] = match o.kind {
-            ObstacleKind::Plane => ["point", "normal"],
-            ObstacleKind::Sphere => ["center", "radius"],
-            ObstacleKind::Box => ["min", "max"],
+        let needed: &[&str] = match o.kind {
+            ObstacleKind::Plane => &["point", "normal"],
+            ObstacleKind::Sphere => &["center", "radius"],
+            ObstacleKind::Box => &["min", "max"],
+            ObstacleKind::Mesh => &["path"],
         };
         for (name, g) in given {
             if needed.contains(&name) && !g {
@@ -124,6 +126,9 @@ fn contact(s: &SceneFile, on: bool) -> Check {
         }
         if let Some(r) = o.radius {
             positive(&format!("{key}.radius"), r)?;
+        }
+        if o.path.as_deref().is_some_and(|p| p.trim().is_empty()) {
+            return Err(problem(format!("{key}.path"), "must name an OBJ file"));
         }
         if let (Some(lo), Some(hi)) = (o.min, o.max)
             && (0..3).any(|k| lo[k] >= hi[k])

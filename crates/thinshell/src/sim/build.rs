@@ -417,7 +417,14 @@ impl Simulation {
             builder = builder.growth(parts.0, parts.1, g.mass_uptake);
         }
         if on(Effect::Contact) {
-            builder = builder.contact(contact_settings(s.contact.as_ref()));
+            let settings = contact_settings(s.contact.as_ref(), &scene.base_dir).map_err(
+                |(key, message)| BuildError::Invalid {
+                    origin: origin.clone(),
+                    key,
+                    message,
+                },
+            )?;
+            builder = builder.contact(settings);
         }
         builder.finish(
             |system| integrator_of(scene, system, hessian_mode),
@@ -767,36 +774,49 @@ impl SimulationBuilder {
 }
 
 /// The solver's contact settings of a `[contact]` section (all defaults without one);
-/// validation guarantees each obstacle has its keys.
-fn contact_settings(spec: Option<&ContactSpec>) -> ContactSettings {
+/// validation guarantees each obstacle has its keys. Mesh obstacles are read from their OBJ
+/// files (paths relative to `base_dir`, the scene file's directory); an unreadable or invalid
+/// file is an error `(key, message)`.
+fn contact_settings(
+    spec: Option<&ContactSpec>,
+    base_dir: &std::path::Path,
+) -> Result<ContactSettings, (String, String)> {
     let Some(c) = spec else {
-        return ContactSettings::default();
+        return Ok(ContactSettings::default());
     };
     let obstacles = c
         .obstacles
         .iter()
-        .map(|o| match o.kind {
-            ObstacleKind::Plane => Obstacle::Plane {
-                point: v3(&o.point.unwrap_or_default()),
-                normal: v3(&o.normal.unwrap_or([0.0, 0.0, 1.0])),
-            },
-            ObstacleKind::Sphere => Obstacle::Sphere {
-                center: v3(&o.center.unwrap_or_default()),
-                radius: o.radius.unwrap_or(1.0),
-            },
-            ObstacleKind::Box => Obstacle::Box {
-                min: v3(&o.min.unwrap_or_default()),
-                max: v3(&o.max.unwrap_or([1.0; 3])),
-            },
+        .enumerate()
+        .map(|(i, o)| {
+            Ok(match o.kind {
+                ObstacleKind::Plane => Obstacle::Plane {
+                    point: v3(&o.point.unwrap_or_default()),
+                    normal: v3(&o.normal.unwrap_or([0.0, 0.0, 1.0])),
+                },
+                ObstacleKind::Sphere => Obstacle::Sphere {
+                    center: v3(&o.center.unwrap_or_default()),
+                    radius: o.radius.unwrap_or(1.0),
+                },
+                ObstacleKind::Box => Obstacle::Box {
+                    min: v3(&o.min.unwrap_or_default()),
+                    max: v3(&o.max.unwrap_or([1.0; 3])),
+                },
+                ObstacleKind::Mesh => {
+                    let path = base_dir.join(o.path.as_deref().unwrap_or_default());
+                    Obstacle::mesh_from_obj(&path)
+                        .map_err(|e| (format!("contact.obstacles[{i}].path"), e))?
+                }
+            })
         })
-        .collect();
-    ContactSettings {
+        .collect::<Result<Vec<_>, (String, String)>>()?;
+    Ok(ContactSettings {
         obstacles,
         self_contact: c.self_contact,
         distance: c.distance,
         stiffness: c.stiffness,
         thickness_offset: c.thickness_offset,
-    }
+    })
 }
 
 fn v3(a: &[f64; 3]) -> Vector3<f64> {
