@@ -501,8 +501,10 @@ fn cones(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
                 "adaptive_psd (before #26), no continuation",
             ] {
                 let mut cone = conformal_cone(c, h, 16, 64, form);
-                let mut st = Static::default();
-                st.continuation = variant == "default";
+                let mut st = Static {
+                    continuation: variant == "default",
+                    ..Static::default()
+                };
                 if variant.starts_with("adaptive_psd") {
                     st.newton.hessian = HessianPolicy::AdaptivePsd;
                 }
