@@ -8,55 +8,22 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use nalgebra::Vector3;
-use thinshell_energy::{Material, MaterialModel, RestState, SffKind, ShellModel, Terms};
-use thinshell_mesh::generators;
+use thinshell_energy::SffKind;
 use thinshell_solver::{
-    Boundary, Integrator, IterationHessian, Loads, NewtonProgress, ShellSystem, SolverError, State,
-    Static,
+    Integrator, IterationHessian, NewtonProgress, ShellSystem, SolverError, State, Static,
 };
+use thinshell_testkit::fixtures::conformal_cone;
 
 const RINGS: usize = 16;
 const AROUND: usize = 64;
 
-/// A flat annulus (radii 0.1 and 1 m) whose rest metric is grown conformally by e^{2s},
-/// s = c·ln r, with flat rest curvature: its zero-stretch shapes are cones with
-/// sin(half-angle) = 1 + c (a cone unrolls onto a sector of angle 2π(1 + c), and the conformal
-/// map of the plane onto that sector scales lengths by r^c).
+/// The conformal cone of `thinshell_testkit::fixtures::conformal_cone` (annulus 0.1–1 m grown
+/// by e^{2c·ln r}, zero-stretch shapes the cones of sin(half-angle) = 1 + c) with the default
+/// form, and its slightly lifted, slightly asymmetric start (flat is a symmetric critical
+/// point).
 fn cone_system(c: f64, h: f64) -> (ShellSystem, Vec<Vector3<f64>>) {
-    let mesh = generators::annulus(0.1, 1.0, RINGS, AROUND).unwrap();
-    let x0 = mesh.positions().to_vec();
-    let sff = SffKind::default();
-    let mut rest = RestState::from_mesh(&mesh, &x0, sff).unwrap();
-    for (f, a) in rest.a_bar.iter_mut().enumerate() {
-        let [i, j, k] = mesh.faces()[f];
-        let centre = (x0[i.idx()] + x0[j.idx()] + x0[k.idx()]) / 3.0;
-        let r = centre.xy().norm();
-        *a *= (2.0 * c * r.ln()).exp();
-    }
-    rest.b_bar.iter_mut().for_each(|b| *b *= 0.0);
-    let material = Material {
-        thickness: h,
-        young: 1e6,
-        poisson: 0.3,
-        density: 1000.0,
-        viscosity: 0.0,
-        model: MaterialModel::StVK,
-    };
-    let model = ShellModel {
-        material,
-        terms: Terms::ELASTIC,
-        sff,
-    };
-    let sys = ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default()).unwrap();
-    // A slightly lifted, slightly asymmetric start (flat is a symmetric critical point).
-    let start = x0
-        .iter()
-        .map(|p| {
-            let r = p.xy().norm();
-            p + Vector3::new(0.0, 0.0, 1e-3 * r * r + 1e-4 * (3.0 * p.x).sin() * r)
-        })
-        .collect();
-    (sys, start)
+    let cone = conformal_cone(c, h, RINGS, AROUND, SffKind::default());
+    (cone.system, cone.start)
 }
 
 /// sin(half-angle) between consecutive rings from their mean radii about their centroids and
