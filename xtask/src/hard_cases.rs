@@ -113,6 +113,20 @@ fn row(rows: &mut Vec<Value>, case: String, outcome: &str, detail: Value) {
     rows.push(json!({ "case": case, "outcome": outcome, "detail": detail }));
 }
 
+/// With `VERBOSE` set, `st` prints every Newton iteration (which Hessian each used).
+fn verbose(st: &mut Static) {
+    if std::env::var("VERBOSE").is_ok() {
+        st.set_progress(Some(std::sync::Arc::new(
+            |p: &thinshell_solver::NewtonProgress| {
+                println!(
+                    "  it {:3} {:?} residual {:.3e} step {:.3e}",
+                    p.iteration, p.hessian, p.residual, p.step_length
+                );
+            },
+        )));
+    }
+}
+
 /// Part 1: the seed scenes at large time steps.
 fn scenes(rows: &mut Vec<Value>) -> Result<()> {
     let dir = crate::workspace_root().join("data").join("scenes");
@@ -439,17 +453,7 @@ fn strip(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
                     st.fallback_hessian = Some(HessianMode::GaussNewton);
                 }
             }
-            if std::env::var("VERBOSE").is_ok() {
-                // Every Newton iteration, to see which Hessian each used.
-                st.set_progress(Some(std::sync::Arc::new(
-                    |p: &thinshell_solver::NewtonProgress| {
-                        println!(
-                            "  it {:3} {:?} residual {:.3e} step {:.3e}",
-                            p.iteration, p.hessian, p.residual, p.step_length
-                        );
-                    },
-                )));
-            }
+            verbose(&mut st);
             let mut state = State::at_rest(x0);
             let mut its = Vec::new();
             let mut failure = None;
@@ -600,16 +604,7 @@ fn past_critical(rows: &mut Vec<Value>) -> Result<()> {
         let faces = sys.mesh.n_faces();
         let mut state = State::at_rest(x0);
         let mut st = Static::default();
-        if std::env::var("VERBOSE").is_ok() {
-            st.set_progress(Some(std::sync::Arc::new(
-                |p: &thinshell_solver::NewtonProgress| {
-                    println!(
-                        "  it {:3} {:?} residual {:.3e} step {:.3e}",
-                        p.iteration, p.hessian, p.residual, p.step_length
-                    );
-                },
-            )));
-        }
+        verbose(&mut st);
         let t0 = Instant::now();
         let result = st.step(&mut sys, &mut state);
         let wall = t0.elapsed().as_secs_f64();

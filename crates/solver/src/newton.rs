@@ -789,6 +789,26 @@ fn norm_inf(v: &[f64]) -> f64 {
     v.iter().fold(0.0, |m, x| m.max(x.abs()))
 }
 
+/// A non-finite value `f` or gradient `g` at an iterate, as the error of iteration
+/// `iteration`.
+fn check_finite(f: f64, g: &[f64], iteration: usize) -> Result<(), SolverError> {
+    if !f.is_finite() {
+        return Err(SolverError::NonFinite {
+            what: "value",
+            iteration,
+            dof: None,
+        });
+    }
+    if let Some(dof) = first_non_finite(g) {
+        return Err(SolverError::NonFinite {
+            what: "gradient",
+            iteration,
+            dof: Some(dof),
+        });
+    }
+    Ok(())
+}
+
 fn first_non_finite(v: &[f64]) -> Option<usize> {
     v.iter().position(|x| !x.is_finite())
 }
@@ -1516,20 +1536,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
     let t = Instant::now();
     let mut f = objective.gradient(x, &mut ws.g)?;
     rec.timings.assembly += t.elapsed();
-    if !f.is_finite() {
-        return Err(SolverError::NonFinite {
-            what: "value",
-            iteration: 0,
-            dof: None,
-        });
-    }
-    if let Some(dof) = first_non_finite(&ws.g) {
-        return Err(SolverError::NonFinite {
-            what: "gradient",
-            iteration: 0,
-            dof: Some(dof),
-        });
-    }
+    check_finite(f, &ws.g, 0)?;
     rec.residuals.push(norm_inf(&ws.g) / force_scale);
     rec.values.push(f);
     let mut iteration = 0;
@@ -2071,20 +2078,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
         }
         iteration += 1;
         rec.hessians.push(kind);
-        if !f.is_finite() {
-            return Err(SolverError::NonFinite {
-                what: "value",
-                iteration,
-                dof: None,
-            });
-        }
-        if let Some(dof) = first_non_finite(&ws.g) {
-            return Err(SolverError::NonFinite {
-                what: "gradient",
-                iteration,
-                dof: Some(dof),
-            });
-        }
+        check_finite(f, &ws.g, iteration)?;
         rec.residuals.push(norm_inf(&ws.g) / force_scale);
         rec.values.push(f);
         if let Some(hook) = &ws.progress {
@@ -2280,20 +2274,7 @@ fn begin_iteration<O: Objective + ?Sized>(
     let t = Instant::now();
     *f = objective.gradient(x, &mut ws.g)?;
     rec.timings.assembly += t.elapsed();
-    if !f.is_finite() {
-        return Err(SolverError::NonFinite {
-            what: "value",
-            iteration,
-            dof: None,
-        });
-    }
-    if let Some(dof) = first_non_finite(&ws.g) {
-        return Err(SolverError::NonFinite {
-            what: "gradient",
-            iteration,
-            dof: Some(dof),
-        });
-    }
+    check_finite(*f, &ws.g, iteration)?;
     let residual = norm_inf(&ws.g) / objective.force_scale();
     if let (Some(r), Some(v)) = (rec.residuals.last_mut(), rec.values.last_mut()) {
         *r = residual;
@@ -2628,20 +2609,7 @@ fn escape_saddle<O: Objective + ?Sized>(
     let s = Instant::now();
     let f_new = objective.gradient(x, &mut ws.g)?;
     rec.timings.assembly += s.elapsed();
-    if !f_new.is_finite() {
-        return Err(SolverError::NonFinite {
-            what: "value",
-            iteration: *iteration + 1,
-            dof: None,
-        });
-    }
-    if let Some(dof) = first_non_finite(&ws.g) {
-        return Err(SolverError::NonFinite {
-            what: "gradient",
-            iteration: *iteration + 1,
-            dof: Some(dof),
-        });
-    }
+    check_finite(f_new, &ws.g, *iteration + 1)?;
     *iteration += 1;
     *sigma = shift;
     rec.hessians.push(IterationHessian::NegativeCurvature);
