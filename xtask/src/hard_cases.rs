@@ -119,8 +119,12 @@ fn verbose(st: &mut Static) {
         st.set_progress(Some(std::sync::Arc::new(
             |p: &thinshell_solver::NewtonProgress| {
                 println!(
-                    "  it {:3} {:?} residual {:.3e} step {:.3e}",
-                    p.iteration, p.hessian, p.residual, p.step_length
+                    "  it {:3} {:?} residual {:.3e} step {:.3e} at {:.1} s",
+                    p.iteration,
+                    p.hessian,
+                    p.residual,
+                    p.step_length,
+                    p.elapsed.as_secs_f64()
                 );
             },
         )));
@@ -561,54 +565,78 @@ fn cones(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
 }
 
 /// Part 6: just past a critical load at 20 000 faces (module docs). The default form: the
-/// fixture's.
+/// fixtures'.
 fn past_critical(rows: &mut Vec<Value>) -> Result<()> {
     use std::f64::consts::PI;
-    use thinshell_testkit::fixtures::compressed_plate;
+    use thinshell_testkit::fixtures::{compressed_plate, pressurised_tube};
     let (h, young): (f64, f64) = (0.002, 1e9);
-    // (name, length, width, nx, ny, ν, sides held, analytic critical end load in N)
-    let strut_ei = young * 0.05 * h.powi(3) / 12.0;
-    let plate_d = young * h.powi(3) / (12.0 * (1.0 - 0.3f64.powi(2)));
-    let cases = [
-        (
-            "pinned-pinned strut",
-            1.0,
-            0.05,
-            1000,
-            10,
-            0.0,
-            false,
-            PI * PI * strut_ei,
-        ),
-        (
-            "simply supported plate",
-            0.2,
-            0.2,
-            100,
-            100,
-            0.3,
-            true,
-            4.0 * PI * PI * plate_d / 0.2,
-        ),
-    ];
     // CRITICAL_SCALE=k divides the cells per side by k (a quicker look at the same cases).
     let k: usize = std::env::var("CRITICAL_SCALE")
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(1);
-    for (name, length, width, nx, ny, nu, sides, p_cr) in cases {
-        let (nx, ny) = (nx / k, (ny / k).max(1));
-        let p = 1.05 * p_cr;
-        let (mut sys, x0) =
-            compressed_plate(length, width, nx, ny, h, young, nu, sides, p, 1e-6 * p);
+    let strut_ei = young * 0.05 * h.powi(3) / 12.0;
+    let plate_d = young * h.powi(3) / (12.0 * (1.0 - 0.3f64.powi(2)));
+    // The tube of `critical_loads.rs` (R = 0.1 m, h = 1 mm, ν = 0, plane strain), 1000 × 10.
+    let tube_d = young * 1e-3f64.powi(3) / 12.0;
+    type Build = Box<dyn Fn(usize) -> (ShellSystem, Vec<Vector3<f64>>)>;
+    let cases: [(&str, Build); 3] = [
+        (
+            "pinned-pinned strut",
+            Box::new(move |k| {
+                let p = 1.05 * PI * PI * strut_ei;
+                compressed_plate(
+                    1.0,
+                    0.05,
+                    1000 / k,
+                    (10 / k).max(1),
+                    h,
+                    young,
+                    0.0,
+                    false,
+                    p,
+                    1e-6 * p,
+                )
+            }),
+        ),
+        (
+            "simply supported plate",
+            Box::new(move |k| {
+                let p = 1.05 * 4.0 * PI * PI * plate_d / 0.2;
+                compressed_plate(0.2, 0.2, 100 / k, 100 / k, h, young, 0.3, true, p, 1e-6 * p)
+            }),
+        ),
+        (
+            "tube under external pressure",
+            Box::new(move |k| {
+                let p = 1.05 * 3.0 * tube_d / 0.1f64.powi(3);
+                // The imperfection: 1e-6 of the pressure's force on one cell.
+                let cell = 2.0 * PI * 0.1 / 1000.0 * k as f64;
+                let n_around = (1000 / k) / 4 * 4;
+                pressurised_tube(
+                    0.1,
+                    n_around,
+                    (10 / k).max(1),
+                    1e-3,
+                    young,
+                    0.0,
+                    p,
+                    1e-6 * p * cell * cell,
+                )
+            }),
+        ),
+    ];
+    for (name, build) in cases {
+        let (mut sys, x0) = build(k);
         let faces = sys.mesh.n_faces();
-        let mut state = State::at_rest(x0);
+        let mut state = State::at_rest(x0.clone());
         let mut st = Static::default();
         verbose(&mut st);
         let t0 = Instant::now();
         let result = st.step(&mut sys, &mut state);
         let wall = t0.elapsed().as_secs_f64();
-        let case = format!("{name}, {faces} faces, 1.05 P_cr, from flat");
+        let case =
+            format!("{name}, {faces} faces, 1.05 of the critical load, from the unbuckled start");
         let (outcome, detail) = match result {
             Ok(r) => {
                 let n = r
@@ -616,15 +644,20 @@ fn past_critical(rows: &mut Vec<Value>) -> Result<()> {
                     .as_ref()
                     .context("a static step has a Newton report")?;
                 check_newton(n, "past critical")?;
-                let w = state.x.iter().fold(0.0f64, |m, x| m.max(x.z.abs()));
+                let w = state
+                    .x
+                    .iter()
+                    .zip(&x0)
+                    .fold(0.0f64, |m, (x, x0)| m.max((x - x0).norm()));
                 (
                     format!(
-                        "{} iterations, stable {:?}, largest deflection {w:.3e} m, {wall:.1} s",
+                        "{} iterations, stable {:?}, largest displacement {w:.3e} m, {wall:.1} s",
                         n.iterations, r.stable
                     ),
                     json!({
                         "newton_iterations": n.iterations, "stable": r.stable,
-                        "deflection": w, "wall_s": wall, "faces": faces,
+                        "extrapolated_steps": n.extrapolated_steps,
+                        "displacement": w, "wall_s": wall, "faces": faces,
                     }),
                 )
             }

@@ -27,6 +27,7 @@ fn forces_and_pressure_scale_with_the_load_factor() {
         gravity: Vector3::new(0.0, 0.0, -9.81),
         point_forces: vec![(VertexId::new(5), Vector3::new(0.1, -0.2, 0.3))],
         pressure: 40.0,
+        pressure_axis: None,
     };
     let mut sys = system(loads, Boundary::default());
     let full = sys.external_forces().to_vec();

@@ -403,3 +403,79 @@ pub fn compressed_plate(
     let system = ShellSystem::new(mesh, model, rest, boundary, loads).expect("plate system");
     (system, x0)
 }
+
+/// A long tube of radius `radius` (m) around z under uniform external pressure `p` (Pa,
+/// inward), `n_around × n_along` cells of about square shape (length `n_along` cells), thickness
+/// `h` (m), Young's modulus `young` (Pa), Poisson ratio `poisson`, StVK, default bending form.
+/// Every vertex is held along the axis (plane strain: the tube's cross-section is that of an
+/// infinitely long one), the vertices at θ = 0 and π in y and those at θ = ±π/2 in x (no rigid
+/// motion left — one line of each would leave a rotation about an axis off the tube's; all four
+/// are nodal lines of the tangential displacement of the two-lobed buckling mode cos 2θ). The pressure's volume is the tube's own ([`Loads::pressure_axis`] = z).
+/// Ring buckling under pressure that stays normal to the surface: p_cr = 3D/R³ with
+/// D = E h³/(12(1 − ν²)) (Timoshenko & Gere §7.3). `f` (N) pushes the vertex at θ = 0 of the
+/// middle ring inwards (an imperfection; 0: none). `n_around` must be a multiple of 4.
+/// Returns the system and the round start.
+#[allow(clippy::too_many_arguments)]
+pub fn pressurised_tube(
+    radius: f64,
+    n_around: usize,
+    n_along: usize,
+    h: f64,
+    young: f64,
+    poisson: f64,
+    p: f64,
+    f: f64,
+) -> (ShellSystem, Vec<Vector3<f64>>) {
+    use thinshell_mesh::VertexId;
+    assert!(n_around % 4 == 0, "n_around must be a multiple of 4");
+    let cell = std::f64::consts::TAU * radius / n_around as f64;
+    let length = cell * n_along as f64;
+    let mesh = generators::cylinder_patch(radius, std::f64::consts::TAU, length, n_around, n_along)
+        .expect("tube");
+    let x0 = mesh.positions().to_vec();
+    let sff = SffKind::default();
+    let rest = RestState::from_mesh(&mesh, &x0, sff).expect("rest forms of the tube");
+    // cylinder_patch numbers ring j's vertices j·n_around + i at angle 2π i / n_around.
+    let mut pinned = Vec::new();
+    for j in 0..=n_along {
+        for i in 0..n_around {
+            pinned.push((VertexId::new(j * n_around + i), 2));
+        }
+        for q in [0, n_around / 2] {
+            pinned.push((VertexId::new(j * n_around + q), 1));
+            pinned.push((VertexId::new(j * n_around + q + n_around / 4), 0));
+        }
+    }
+    let boundary = Boundary {
+        pinned_coordinates: pinned,
+        ..Boundary::default()
+    };
+    let mut point_forces = Vec::new();
+    if f != 0.0 {
+        point_forces.push((
+            VertexId::new(n_along / 2 * n_around),
+            Vector3::new(-f, 0.0, 0.0),
+        ));
+    }
+    let loads = Loads {
+        pressure: -p,
+        pressure_axis: Some(Vector3::z()),
+        point_forces,
+        ..Loads::default()
+    };
+    let material = Material {
+        thickness: h,
+        young,
+        poisson,
+        density: 1000.0,
+        viscosity: 0.0,
+        model: MaterialModel::StVK,
+    };
+    let model = ShellModel {
+        material,
+        terms: Terms::ELASTIC,
+        sff,
+    };
+    let system = ShellSystem::new(mesh, model, rest, boundary, loads).expect("tube system");
+    (system, x0)
+}

@@ -88,6 +88,12 @@ fn out_of_range_values_name_the_key() {
             "material.young",
             6,
         ),
+        (
+            "\"inertia\"]",
+            "\"inertia\", \"pressure\"]\n[pressure]\nvalue = 1.0\naxis = [0.0, 0.0, 0.0]",
+            "pressure.axis",
+            5,
+        ),
     ] {
         let e = err(&OK.replace(from, to));
         assert!(e.contains(&format!("`{key}`")), "{e}");

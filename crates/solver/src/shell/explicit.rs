@@ -7,7 +7,7 @@ use thinshell_energy::EvalOutput;
 
 use super::angles::AngleSettings;
 use super::integrator::{Integrator, StepKind, StepReport, check_dt, check_state};
-use super::loads::add_pressure_gradient;
+use super::loads::{add_pressure_gradient, unit_axis};
 use super::system::{ShellSystem, State};
 use crate::SolverError;
 
@@ -81,7 +81,13 @@ impl Integrator for ExplicitEuler {
             )?;
             (g, energies)
         };
-        add_pressure_gradient(&system.mesh, &state.x, system.pressure(), &mut g);
+        add_pressure_gradient(
+            &system.mesh,
+            &state.x,
+            system.pressure(),
+            unit_axis(&system.loads),
+            &mut g,
+        );
         let t1 = state.t + dt;
         let mut x1 = state.x.clone();
         let mut v1 = state.v.clone();

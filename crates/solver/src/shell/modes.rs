@@ -28,7 +28,7 @@ use faer::sparse::SparseColMat;
 use nalgebra::{DMatrix, Vector3};
 use thinshell_energy::{EvalOutput, HessianMode, ShellModel, Terms};
 
-use super::loads::add_pressure_hessian;
+use super::loads::{add_pressure_hessian, unit_axis};
 use super::system::ShellSystem;
 use crate::{Ordering, SolverError, SparseCholesky};
 
@@ -124,7 +124,14 @@ impl ShellSystem {
                 hessian: Some((&mut h, HessianMode::Exact)),
             },
         )?;
-        add_pressure_hessian(&self.mesh, &assembler, x, self.pressure(), &mut h)?;
+        add_pressure_hessian(
+            &self.mesh,
+            &assembler,
+            x,
+            self.pressure(),
+            unit_axis(&self.loads),
+            &mut h,
+        )?;
         Ok(h)
     }
 

@@ -7,7 +7,7 @@ use faer::sparse::SparseColMat;
 use nalgebra::Vector3;
 use thinshell_energy::{DampingState, EnergyError, EnergyTerms, EvalOutput, HessianMode};
 
-use super::loads::{add_pressure_gradient, add_pressure_hessian, enclosed_volume};
+use super::loads::{add_pressure_gradient, add_pressure_hessian, enclosed_volume, unit_axis};
 use super::system::{ShellSystem, State};
 use crate::{IterationUpdate, Objective, SolverError};
 
@@ -255,7 +255,7 @@ impl ShellObjective<'_> {
         let mut v = if p == 0.0 {
             0.0
         } else {
-            -p * enclosed_volume(&self.sys.mesh, &self.x_full)
+            -p * enclosed_volume(&self.sys.mesh, &self.x_full, unit_axis(&self.sys.loads))
         };
         for (d, &c) in coords.iter().enumerate() {
             v -= self.sys.f_ext.get(c).copied().unwrap_or(0.0) * u[d];
@@ -299,6 +299,7 @@ impl Objective for ShellObjective<'_> {
             &self.sys.mesh,
             &self.x_full,
             self.sys.pressure(),
+            unit_axis(&self.sys.loads),
             &mut self.grad_full,
         );
         if let Some(c) = &self.sys.contact {
@@ -475,6 +476,7 @@ impl ShellObjective<'_> {
             &self.sys.assembler,
             &self.x_full,
             self.sys.pressure(),
+            unit_axis(&self.sys.loads),
             h,
         )?;
         if self.sys.has_edge_unknowns() {
@@ -523,8 +525,8 @@ mod tests {
     use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
     use thinshell_mesh::generators;
 
-    /// Gradient and Hessian of the static and implicit objectives with pressure, gravity and a
-    /// point force against central differences.
+    /// Gradient and Hessian of the static and implicit objectives with pressure (both volume
+    /// measures), gravity and a point force against central differences.
     #[test]
     fn objective_derivatives_match_finite_differences() {
         let mesh = generators::icosphere(1.0, 1).unwrap();
@@ -546,6 +548,7 @@ mod tests {
                 Vector3::new(0.1, 0.2, -0.3),
             )],
             pressure: 7.0,
+            pressure_axis: None,
         };
         let boundary = Boundary {
             pinned_vertices: vec![thinshell_mesh::VertexId::new(0)],
@@ -561,7 +564,12 @@ mod tests {
             .map(|(i, p)| p * (1.0 + 0.05 * ((i as f64) * 0.7).sin()))
             .collect();
         let n = sys.dofs.n_free();
-        for inertia in [false, true] {
+        // Both volume measures of the pressure: the cone over the origin and a tube's.
+        for (axis, inertia) in [None, Some(Vector3::new(0.2, -0.1, 1.0))]
+            .into_iter()
+            .flat_map(|a| [(a, false), (a, true)])
+        {
+            sys.loads.pressure_axis = axis;
             let u0 = sys.gather(&x, &[]);
             let inertia = inertia.then(|| Inertia {
                 x_tilde: u0.iter().map(|v| v + 0.01).collect(),

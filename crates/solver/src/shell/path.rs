@@ -7,7 +7,7 @@ use nalgebra::Vector3;
 use thinshell_energy::HessianMode;
 use thinshell_mesh::VertexId;
 
-use super::loads::add_pressure_gradient;
+use super::loads::{add_pressure_gradient, unit_axis};
 use super::objective::ShellObjective;
 use super::system::ShellSystem;
 use crate::path::{LoadedObjective, PathControl, PathPoint, PathSettings, PathTracer};
@@ -205,7 +205,7 @@ impl LoadedObjective for ShellLoaded<'_> {
             let mut phi = self.obj.phi_full.clone();
             sys.scatter(u, &mut x, &mut phi);
             let mut g = vec![0.0; full.len()];
-            add_pressure_gradient(&sys.mesh, &x, -p0, &mut g);
+            add_pressure_gradient(&sys.mesh, &x, -p0, unit_axis(&sys.loads), &mut g);
             full.iter_mut().zip(&g).for_each(|(f, gv)| *f += gv);
         }
         let n_pos = sys.dofs.n_free_positions();

@@ -16,7 +16,9 @@ use super::integrator::{
 };
 use super::objective::ShellObjective;
 use super::system::{ShellSystem, State};
-use crate::{NewtonReport, NewtonSettings, NewtonWorkspace, SolverError, Stability, newton_solve};
+use crate::{
+    NewtonReport, NewtonSettings, NewtonWorkspace, Objective, SolverError, Stability, newton_solve,
+};
 
 /// Static equilibrium: minimise `E(x) − F_extᵀx` over the free dofs.
 #[derive(Debug)]
@@ -217,7 +219,7 @@ impl Integrator for Static {
                 _ => Err(e),
             },
         };
-        let report = match direct {
+        let mut report = match direct {
             Ok(r) => r,
             Err(e) if self.continuation && retryable(&e) => {
                 x.copy_from_slice(&start_x);
@@ -239,18 +241,40 @@ impl Integrator for Static {
             }
             Err(e) => return Err(e),
         };
-        let energies = system.energy_at(&x, &phi)?;
         // The stability test factorises the exact Hessian: not possible when the solve fell
         // back to CG because the factor does not fit in memory (reported as unknown).
         let direct = self
             .cache
             .get()
             .is_none_or(|ws| ws.linear_solver() == crate::LinearSolver::Direct);
-        let stability = if direct {
+        let mut stability = if direct {
             Some(self.stability(system, &x, &phi)?)
         } else {
             None
         };
+        // Saddles are not answers (issue #26): an unstable equilibrium is left along its mode
+        // and the solve goes on from there. Newton's own escapes test the Hessian with the
+        // small shift that makes factorisations robust, which hides the slightly negative
+        // eigenvalues of thin shells just past a critical load; the stability analysis does not.
+        for _ in 0..MAX_UNSTABLE_RESTARTS {
+            let Some(s) = stability.as_ref() else { break };
+            if !self.newton.escape_saddles || s.stable || !s.min_eigenvalue.is_finite() {
+                break;
+            }
+            let mut u = system.gather(&x, &phi);
+            let moved = {
+                let mut obj = self.objective(system, &x, &phi);
+                descend_along(&mut obj, &mut u, &s.mode)?
+            };
+            if !moved {
+                break;
+            }
+            system.scatter(&u, &mut x, &mut phi);
+            let next = self.solve_with_angles(system, &mut x, &mut phi)?;
+            report = report.then_escape(next);
+            stability = Some(self.stability(system, &x, &phi)?);
+        }
+        let energies = system.energy_at(&x, &phi)?;
         state.x = x;
         state.phi = phi;
         state.v.iter_mut().for_each(|v| *v = Vector3::zeros());
@@ -267,6 +291,64 @@ impl Integrator for Static {
             continuation_stages,
         })
     }
+}
+
+/// Unstable equilibria a static step leaves along their mode before it reports one as it is.
+const MAX_UNSTABLE_RESTARTS: usize = 3;
+
+/// Moves `u` along `±mode` (free unknowns, `‖mode‖∞ = 1`) to lower the objective: from a step
+/// of 1e-6 of the length scale, doubled until either sign lowers f by more than its round-off,
+/// then doubled along that sign while f keeps decreasing, within the length scale and the
+/// objective's step limit. Returns whether `u` moved. At a saddle f falls quadratically along
+/// the mode (for a symmetric one, on both sides alike) until the quartic terms take over.
+pub(crate) fn descend_along<O: Objective + ?Sized>(
+    obj: &mut O,
+    u: &mut [f64],
+    mode: &[f64],
+) -> Result<bool, SolverError> {
+    let length = obj.length_scale();
+    let f0 = obj.value(u)?;
+    // Evaluation round-off of f (as the Newton solver's `value_noise`, plus a margin: the
+    // potential of a pressure load is large against the energy a buckle releases).
+    let noise = 64.0 * f64::EPSILON * f0.abs().max(f64::MIN_POSITIVE);
+    let mut trial = u.to_vec();
+    let value = |t: f64, trial: &mut Vec<f64>, obj: &mut O| -> Result<f64, SolverError> {
+        for ((y, &a), &d) in trial.iter_mut().zip(u.iter()).zip(mode) {
+            *y = a + t * d;
+        }
+        let v = obj.value(trial)?;
+        Ok(if v.is_finite() { v } else { f64::INFINITY })
+    };
+    let scaled: Vec<f64> = mode.iter().map(|d| d * length).collect();
+    let limit_plus = length * obj.max_step(u, &scaled)?;
+    let minus: Vec<f64> = scaled.iter().map(|d| -d).collect();
+    let limit_minus = length * obj.max_step(u, &minus)?;
+    let mut t = 1e-6 * length;
+    let mut best: Option<(f64, f64)> = None;
+    while best.is_none() && t <= limit_plus.min(limit_minus) {
+        let (fp, fm) = (value(t, &mut trial, obj)?, value(-t, &mut trial, obj)?);
+        if fp.min(fm) < f0 - noise {
+            best = Some(if fp <= fm { (t, fp) } else { (-t, fm) });
+        } else {
+            t *= 2.0;
+        }
+    }
+    let Some((mut t, mut f)) = best else {
+        return Ok(false);
+    };
+    let limit = if t > 0.0 { limit_plus } else { limit_minus };
+    while (2.0 * t).abs() <= limit {
+        let f2 = value(2.0 * t, &mut trial, obj)?;
+        if f2 < f {
+            (t, f) = (2.0 * t, f2);
+        } else {
+            break;
+        }
+    }
+    for (a, &d) in u.iter_mut().zip(mode) {
+        *a += t * d;
+    }
+    Ok(true)
 }
 
 /// The checks shared by every static solve (equilibrium, path following): one edge angle per

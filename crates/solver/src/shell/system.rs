@@ -12,7 +12,7 @@ use super::angles::{AngleRelaxation, AngleReport, AngleSettings};
 use super::bc::Boundary;
 use super::contact::{Contact, ContactError, ContactRunState, ContactSettings, ContactStats};
 use super::contact_pattern::ContactPattern;
-use super::loads::{Loads, add_pressure_gradient};
+use super::loads::{Loads, add_pressure_gradient, unit_axis};
 use crate::SolverError;
 
 /// Dynamic state: positions (m), velocities (m/s), one entry per vertex; edge-director angles
@@ -551,7 +551,13 @@ impl ShellSystem {
                 hessian: None,
             },
         )?;
-        add_pressure_gradient(&self.mesh, x, self.pressure(), &mut g);
+        add_pressure_gradient(
+            &self.mesh,
+            x,
+            self.pressure(),
+            unit_axis(&self.loads),
+            &mut g,
+        );
         g.truncate(3 * x.len());
         Ok(g.iter()
             .zip(&self.f_ext)

@@ -282,6 +282,11 @@ fn default_gravity() -> [f64; 3] {
 pub struct PressureSpec {
     /// Pressure, Pa; positive pushes along the face normals.
     pub value: f64,
+    /// For an open tube whose ends stay in planes normal to this axis (through the origin):
+    /// the pressure's volume is the tube's own (`Loads::pressure_axis`). Default: none (the
+    /// cone over the origin, right for closed surfaces).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<[f64; 3]>,
 }
 
 /// A point force.

@@ -244,7 +244,15 @@ fn loads(s: &SceneFile, on: &dyn Fn(Effect) -> bool) -> Check {
                 "effect `pressure` needs a [pressure] section with `value`",
             ));
         }
-        (Some(p), true) => finite("pressure.value", p.value)?,
+        (Some(p), true) => {
+            finite("pressure.value", p.value)?;
+            if let Some(a) = &p.axis {
+                finite_all("pressure.axis", a)?;
+                if a.iter().all(|c| *c == 0.0) {
+                    return Err(problem("pressure.axis", "must be a nonzero vector"));
+                }
+            }
+        }
         (None, false) => {}
     }
     match (s.point_loads.is_empty(), on(Effect::PointLoads)) {

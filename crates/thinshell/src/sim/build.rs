@@ -215,6 +215,8 @@ fn loads_of(scene: &Scene, n: usize) -> Result<Loads, BuildError> {
     }
     if let Some(p) = s.pressure.as_ref().filter(|_| on(Effect::Pressure)) {
         loads.pressure = p.value;
+        // Checked finite and nonzero by the scene's validation.
+        loads.pressure_axis = p.axis.map(|a| Vector3::new(a[0], a[1], a[2]));
     }
     if on(Effect::PointLoads) {
         for (i, p) in s.point_loads.iter().enumerate() {
