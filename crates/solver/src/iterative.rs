@@ -97,7 +97,7 @@ impl Ic0 {
     }
 
     /// Factorises `h` (same pattern as [`new`](Self::new)), shifting its diagonal by `α·H_dd`
-    /// with α from 0, then [`IC_ALPHA_INITIAL`] growing ×10 until no pivot breaks down.
+    /// with α from 0, then `IC_ALPHA_INITIAL` growing ×10 until no pivot breaks down.
     /// Returns the attempts; errors if every attempt breaks down (a non-positive or non-finite
     /// diagonal entry, which no relative shift lifts).
     pub fn factorize(&mut self, h: SparseColMatRef<'_, usize, f64>) -> Result<usize, SolverError> {
