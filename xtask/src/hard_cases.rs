@@ -320,7 +320,7 @@ fn run_implicit(
     steps: usize,
     what: &str,
 ) -> Result<(usize, usize, usize, usize, Option<SolverError>)> {
-    let own = sys.hessian_mode;
+    let own = ie.newton.own_hessian;
     let (mut its, mut fb, mut halvings) = (0, 0, 0);
     for step in 0..steps {
         match ie.step(sys, state) {
@@ -367,7 +367,7 @@ fn growth(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
             let mut ie = ImplicitEuler::new(1e-2);
             ie.newton.hessian = policy;
             if robust {
-                ie.fallback_hessian = Some(HessianMode::GaussNewton);
+                ie.newton.fallback_hessian = Some(HessianMode::GaussNewton);
                 ie.max_halvings = 8;
             }
             let mut state = State::at_rest(x0);
@@ -454,7 +454,7 @@ fn strip(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
                 _ => {
                     st.newton.hessian = HessianPolicy::Fixed;
                     st.newton.watchdog = 0;
-                    st.fallback_hessian = Some(HessianMode::GaussNewton);
+                    st.newton.fallback_hessian = Some(HessianMode::GaussNewton);
                 }
             }
             verbose(&mut st);

@@ -134,7 +134,8 @@ fn drive(
     state: &mut State,
     steps: usize,
 ) -> Outcome {
-    let own = sys.hessian_mode;
+    // Every integrator here keeps the default own Hessian (exact); another mode is a fallback.
+    let own = HessianMode::Exact;
     let mut out = Outcome::default();
     for _ in 0..steps {
         let before = state.clone();
@@ -238,7 +239,7 @@ fn total_energy(sys: &mut ShellSystem, s: &State) -> f64 {
 /// failed solve, then up to 8 halvings of Δt.
 fn robust(dt: f64) -> ImplicitEuler {
     let mut ie = ImplicitEuler::new(dt);
-    ie.fallback_hessian = Some(HessianMode::GaussNewton);
+    ie.newton.fallback_hessian = Some(HessianMode::GaussNewton);
     ie.max_halvings = 8;
     ie
 }
@@ -377,7 +378,7 @@ fn static_plain_then_fallback(
     }
     let mut st = Static::default();
     tune(&mut st);
-    st.fallback_hessian = Some(HessianMode::GaussNewton);
+    st.newton.fallback_hessian = Some(HessianMode::GaussNewton);
     let mut state = State::at_rest(x0.to_vec());
     let fb = drive(&mut st, sys, &mut state, 1);
     println!("{}", fb.line(&format!("{name}, static, with fallback")));
@@ -846,7 +847,7 @@ fn crumpled_start_needs_regularisation() {
         let mut st = Static::default();
         exact(&mut st);
         st.newton.regularization = regularization.then(RegularizationParams::default);
-        st.fallback_hessian = Some(HessianMode::GaussNewton);
+        st.newton.fallback_hessian = Some(HessianMode::GaussNewton);
         let mut state = State::at_rest(x0.clone());
         let out = drive(&mut st, &mut sys, &mut state, 1);
         let what = format!(
@@ -879,7 +880,7 @@ fn implicit_fallbacks_in_order() {
     let mut ie = ImplicitEuler::new(1e-2);
     ie.newton.hessian = HessianPolicy::Fixed;
     ie.newton.regularization = None;
-    ie.fallback_hessian = Some(HessianMode::GaussNewton);
+    ie.newton.fallback_hessian = Some(HessianMode::GaussNewton);
     ie.max_halvings = 4;
     let mut state = State::at_rest(x0.clone());
     let out = drive(&mut ie, &mut dyn_sys, &mut state, 1);
@@ -1176,7 +1177,7 @@ fn thin_strip_with_aspect_16_triangles() {
     // ... and so does the Gauss–Newton fallback, which needs no shift.
     let (done, its, failure) = swelling_strip(&|s: &mut Static| {
         exact(s);
-        s.fallback_hessian = Some(HessianMode::GaussNewton);
+        s.newton.fallback_hessian = Some(HessianMode::GaussNewton);
     });
     println!("strip, Gauss-Newton fallback: {done} steps, iterations {its:?}");
     assert!(failure.is_none(), "{failure:?}");

@@ -119,7 +119,6 @@ pub(super) fn square(case: SquareCase, sff: SffKind, quick: bool) -> Result<Case
     } else {
         &[5, 10, 20, 50, 100, 200]
     };
-    sys.hessian_mode = HessianMode::Exact;
     for &dt in dts {
         let mut ie = ImplicitEuler::new(dt);
         ie.force_scale = Some(sys.force_scale());
@@ -730,7 +729,6 @@ pub(super) fn cantilever(sff: SffKind, quick: bool) -> Result<Case> {
         (HessianMode::Exact, false),
     ];
     let implicit_run = |sys: &mut ShellSystem, n: usize, k: Knobs| -> Result<(State, Cost)> {
-        sys.hessian_mode = k.hessian;
         let mut ie = ImplicitEuler::new(t_end / n as f64);
         ie.newton = k.settings(NewtonSettings::default().max_iterations);
         ie.force_scale = Some(weight);

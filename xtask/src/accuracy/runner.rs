@@ -50,6 +50,7 @@ impl Knobs {
             gradient_tolerance: self.tolerance,
             line_search: self.line_search,
             max_iterations,
+            own_hessian: self.hessian,
             ..NewtonSettings::default()
         }
     }
@@ -106,7 +107,6 @@ pub(super) fn static_solve(
     k: Knobs,
     max_iterations: usize,
 ) -> Cost {
-    sys.hessian_mode = k.hessian;
     let mut st = Static {
         newton: k.settings(max_iterations),
         // The knob's tolerance is a gradient test against the solver's one force scale, on top

@@ -2,6 +2,7 @@
 //! [`Default`] robust), and the per-iteration Hessian kind.
 
 use super::*;
+use thinshell_energy::HessianMode;
 
 /// Which Hessian each Newton iteration factorises.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -42,8 +43,18 @@ pub enum IterationHessian {
 pub struct NewtonSettings {
     /// Maximum number of Newton iterations (≥ 1).
     pub max_iterations: usize,
-    /// Which Hessian each iteration uses.
+    /// Which Hessian each iteration uses: the objective's own or its PSD one (the policy).
+    /// With [`own_hessian`](Self::own_hessian) and [`fallback_hessian`](Self::fallback_hessian)
+    /// the one place a solve's Hessian is chosen (passed per solve, not stored on the system).
     pub hessian: HessianPolicy,
+    /// What a shell objective's own Hessian is: exact (default), Gauss–Newton or projected per
+    /// face (the shell objectives read it per solve; other objectives ignore it).
+    pub own_hessian: HessianMode,
+    /// Shell integrators ([`Static`](crate::Static), [`ImplicitEuler`](crate::ImplicitEuler)):
+    /// the own-Hessian mode a failed solve is retried with, from the last good iterate, before
+    /// any other fallback (`None`, the default: no retry; scenes turn it on, see
+    /// docs/robustness.md).
+    pub fallback_hessian: Option<HessianMode>,
     /// Converged when `‖∇f‖∞ ≤ gradient_tolerance · force_scale` (dimensionless, > 0), for
     /// objectives with [`Objective::gradient_test`] only.
     pub gradient_tolerance: f64,
@@ -154,6 +165,8 @@ impl Default for NewtonSettings {
         Self {
             max_iterations: 100,
             hessian: HessianPolicy::Adaptive,
+            own_hessian: HessianMode::Exact,
+            fallback_hessian: None,
             gradient_tolerance: 1e-8,
             // Positions to 1e-12 of the body's size (angles to about 1e-12 × its size in edge
             // lengths): far below discretisation error; where round-off is above it, the

@@ -129,7 +129,8 @@ impl Integrator for ExplicitEuler {
             dt,
             newton: None,
             halvings: 0,
-            hessian: system.hessian_mode,
+            // No Hessian: reported as exact.
+            hessian: thinshell_energy::HessianMode::Exact,
             energies,
             stable: None,
             contact: system.contact_stats(&state.x),

@@ -8,7 +8,7 @@
 //! then turns Newton into a slow gradient method. The Gauss–Newton Hessian is positive
 //! semi-definite by construction and keeps the curvature information of the forms.
 
-use thinshell_energy::{EnergyTerms, HessianMode};
+use thinshell_energy::EnergyTerms;
 
 use super::integrator::{
     Integrator, NewtonCache, StepKind, StepReport, check_dt, check_state, fallback_mode,
@@ -31,9 +31,6 @@ pub struct ImplicitEuler {
     pub force_scale: Option<f64>,
     /// Times Δt may be halved when Newton fails (0: no adaptivity).
     pub max_halvings: usize,
-    /// Hessian mode tried at the same Δt, from the last good iterate, when the solve with the
-    /// system's mode fails, before Δt is halved (`None`: no retry).
-    pub fallback_hessian: Option<HessianMode>,
     /// The cached Newton workspace ([`Default`]: empty).
     pub cache: NewtonCache,
 }
@@ -70,7 +67,6 @@ impl ImplicitEuler {
             },
             force_scale: None,
             max_halvings: 0,
-            fallback_hessian: None,
             cache: NewtonCache::default(),
         }
     }
@@ -86,7 +82,8 @@ impl ImplicitEuler {
         let mut x1 = state.x.clone();
         system.boundary.apply_prescribed(&mut x1, t1)?;
         let mut phi1 = state.phi.clone();
-        let mut obj = ShellObjective::incremental(system, state, &x1, dt, self.force_scale)?;
+        let mut obj = ShellObjective::incremental(system, state, &x1, dt, self.force_scale)?
+            .with_hessian(self.newton.own_hessian);
         let mut u = obj.prediction().map(<[f64]>::to_vec).unwrap_or_default();
         // Start from the given point (a retry), else the inertial prediction x̃ unless it is an
         // invalid (e.g. inverted) configuration; then from xⁿ.
@@ -160,21 +157,21 @@ impl Integrator for ImplicitEuler {
         check_state(system, state)?;
         let mut dt = self.dt;
         let mut halvings = 0;
-        let own = system.hessian_mode;
+        let own = self.newton.own_hessian;
         loop {
             let mut hessian = own;
             let mut result = self.try_step(system, state, dt, None);
-            if let (Err(e), Some(mode)) = (&result, fallback_mode(system, self.fallback_hessian)) {
+            if let (Err(e), Some(mode)) = (&result, fallback_mode(&self.newton)) {
                 if retryable(e) {
                     // As in `Static`: from the last good iterate, then from the usual start.
                     let from_last = retry_start(&result);
-                    system.hessian_mode = mode;
+                    self.newton.own_hessian = mode;
                     hessian = mode;
                     result = self.try_step(system, state, dt, from_last.as_deref());
                     if result.is_err() && from_last.is_some() {
                         result = self.try_step(system, state, dt, None);
                     }
-                    system.hessian_mode = own;
+                    self.newton.own_hessian = own;
                 }
             }
             match result {

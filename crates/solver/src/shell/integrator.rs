@@ -26,8 +26,10 @@ pub struct StepReport {
     pub newton: Option<NewtonReport>,
     /// Halvings of Δt before the step succeeded.
     pub halvings: usize,
-    /// Hessian of the solve that succeeded: the system's own mode, or the integrator's fallback
-    /// mode when the first solve failed (`ShellSystem::hessian_mode` for explicit steps).
+    /// Own-Hessian mode of the solve that succeeded: the settings' own
+    /// ([`NewtonSettings::own_hessian`](crate::NewtonSettings::own_hessian)), or their fallback
+    /// when the first solve failed (exact for explicit steps, which have none); per iteration,
+    /// [`NewtonReport::hessians`](crate::NewtonReport::hessians) says which Hessian was used.
     pub hessian: HessianMode,
     /// Energy terms (J) at the end of the step (implicit, static) or its start (explicit).
     pub energies: EnergyTerms,
@@ -306,10 +308,9 @@ pub(crate) fn retryable(e: &SolverError) -> bool {
     )
 }
 
-/// The fallback mode when it differs from the system's own.
-pub(crate) fn fallback_mode(
-    system: &ShellSystem,
-    fallback: Option<HessianMode>,
-) -> Option<HessianMode> {
-    fallback.filter(|&m| m != system.hessian_mode)
+/// The fallback mode of `settings` when it differs from their own.
+pub(crate) fn fallback_mode(settings: &crate::NewtonSettings) -> Option<HessianMode> {
+    settings
+        .fallback_hessian
+        .filter(|&m| m != settings.own_hessian)
 }

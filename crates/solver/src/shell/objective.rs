@@ -42,6 +42,8 @@ pub(crate) struct ShellObjective<'a> {
     /// Self-contact pairs of the last Hessian whose couplings were not in its pattern (added
     /// block-diagonally, see [`Contact::add_hessian`](super::contact::Contact::add_hessian)).
     pub(crate) approximated_pairs: usize,
+    /// What [`Objective::hessian`] assembles ([`NewtonSettings::own_hessian`](crate::NewtonSettings::own_hessian)).
+    mode: HessianMode,
 }
 
 impl<'a> ShellObjective<'a> {
@@ -81,6 +83,7 @@ impl<'a> ShellObjective<'a> {
             last_shift: 0.0,
             last_terms: EnergyTerms::default(),
             approximated_pairs: 0,
+            mode: HessianMode::Exact,
         };
         objective.adapt_contact_stiffness();
         objective
@@ -136,6 +139,12 @@ impl<'a> ShellObjective<'a> {
 
     /// The static potential `E(x) − F_extᵀx − p·V(x)` with the diagonal shift `hessian_shift`
     /// (relative to the mean |H_dd|, Hessian only) against rigid-motion null spaces.
+    /// The same objective with its own Hessian assembled in `mode` (default exact).
+    pub(crate) fn with_hessian(mut self, mode: HessianMode) -> Self {
+        self.mode = mode;
+        self
+    }
+
     pub(crate) fn statics(
         sys: &'a mut ShellSystem,
         x: &[Vector3<f64>],
@@ -218,7 +227,7 @@ impl ShellObjective<'_> {
         gradient: bool,
         hessian: Option<&mut SparseColMat<usize, f64>>,
     ) -> Result<EnergyTerms, EnergyError> {
-        let mode = self.sys.hessian_mode;
+        let mode = self.mode;
         self.eval_mode(u, gradient, hessian, mode)
     }
 
@@ -322,7 +331,7 @@ impl Objective for ShellObjective<'_> {
     }
 
     fn hessian(&mut self, u: &[f64], h: &mut SparseColMat<usize, f64>) -> Result<(), SolverError> {
-        let mode = self.sys.hessian_mode;
+        let mode = self.mode;
         self.hessian_in_mode(u, h, mode)
     }
 

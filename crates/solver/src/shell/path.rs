@@ -21,8 +21,8 @@ use crate::{Objective, SolverError};
 /// Start from an equilibrium at the system's current load factor (e.g. the reference
 /// configuration at λ = 0) and call [`ShellPath::step`] repeatedly; each call returns the
 /// next converged [`PathPoint`] and leaves its positions, edge angles and load factor in
-/// `x`, `phi` and the system. The tangent is the exact Hessian (the system's
-/// [`hessian_mode`](ShellSystem::hessian_mode) is set to exact during a step), plus the
+/// `x`, `phi` and the system. The tangent is the exact Hessian (whatever
+/// [`NewtonSettings::own_hessian`](crate::NewtonSettings::own_hessian) says), plus the
 /// rigid-motion shift of a static solve.
 ///
 /// A shallow arch strip under a central point load, traced over its limit point (load
@@ -130,17 +130,16 @@ impl ShellPath {
         }
         super::statics::check_static_inputs(system, phi, self.hessian_shift)?;
         let mut u = system.gather(x, phi);
-        let own = std::mem::replace(&mut system.hessian_mode, HessianMode::Exact);
         let lambda0 = system.load_factor();
         let result = (|| {
             let reference = system.loads.forces(&system.mass)?;
-            let obj = ShellObjective::statics(system, x, phi, self.hessian_shift, self.force_scale);
+            let obj = ShellObjective::statics(system, x, phi, self.hessian_shift, self.force_scale)
+                .with_hessian(HessianMode::Exact);
             let mut loaded = ShellLoaded { obj, reference };
             let point = self.tracer.step(&mut loaded, &mut u);
             loaded.obj.sys.scatter(&u, x, phi);
             point
         })();
-        system.hessian_mode = own;
         if result.is_err() {
             // The tracer restored u and λ; make sure the system agrees.
             let _ = system.set_load_factor(lambda0);

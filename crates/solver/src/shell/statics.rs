@@ -4,7 +4,7 @@
 //! `κ·mean|H_dd|` of the Hessian diagonal only (the gradient is exact, so the equilibrium is
 //! unchanged; the iterates simply do not drift along rigid modes), plus Newton's regularisation
 //! when needed; optionally a retry with a fallback Hessian from the last good iterate (see
-//! [`Static::fallback_hessian`]).
+//! [`NewtonSettings::fallback_hessian`]).
 
 use nalgebra::Vector3;
 use thinshell_energy::HessianMode;
@@ -32,9 +32,6 @@ pub struct Static {
     /// or at round-off only (scale-free, see [`newton_solve`]); residuals are reported relative
     /// to [`ShellSystem::force_scale`].
     pub force_scale: Option<f64>,
-    /// Hessian mode [`Integrator::step`] retries with, from the last good iterate, when the
-    /// solve with the system's mode fails (`None`: no retry).
-    pub fallback_hessian: Option<HessianMode>,
     /// Whether [`Integrator::step`] retries a failed solve by rest-state continuation from
     /// the start (default `true`): rest forms from the start's own forms to the system's, loads
     /// from 0 to the system's load factor, in sub-steps (`shell/homotopy.rs`). A far start
@@ -52,7 +49,6 @@ impl Default for Static {
             newton: NewtonSettings::default(),
             hessian_shift: 1e-10,
             force_scale: None,
-            fallback_hessian: None,
             continuation: true,
             cache: NewtonCache::default(),
         }
@@ -103,6 +99,7 @@ impl Static {
         phi: &[f64],
     ) -> ShellObjective<'a> {
         ShellObjective::statics(system, x, phi, self.hessian_shift, self.force_scale)
+            .with_hessian(self.newton.own_hessian)
     }
 
     /// Whether positions `x` and edge angles `phi` (rad, one per edge; empty without edge
@@ -130,14 +127,12 @@ impl Static {
         phi: &[f64],
     ) -> Result<Stability, SolverError> {
         let u = system.gather(x, phi);
-        let own = std::mem::replace(&mut system.hessian_mode, HessianMode::Exact);
-        let mut obj = self.objective(system, x, phi);
-        let result = self
-            .cache
+        let mut obj = self
+            .objective(system, x, phi)
+            .with_hessian(HessianMode::Exact);
+        self.cache
             .fit(&obj, &self.newton)
-            .and_then(|ws| ws.stability(&mut obj, &u));
-        system.hessian_mode = own;
-        result
+            .and_then(|ws| ws.stability(&mut obj, &u))
     }
 }
 
@@ -188,15 +183,15 @@ impl Integrator for Static {
         let mut x = state.x.clone();
         let mut phi = state.phi.clone();
         system.boundary.apply_prescribed(&mut x, state.t)?;
-        let mut hessian = system.hessian_mode;
+        let mut hessian = self.newton.own_hessian;
         // `solve_with_angles` leaves its last iterate in `x`, `phi`, failed or not.
         let (start_x, start_phi) = (x.clone(), phi.clone());
         let mut continuation_stages = 0;
         let direct = match self.solve_with_angles(system, &mut x, &mut phi) {
             Ok(r) => Ok(r),
-            Err(e) => match fallback_mode(system, self.fallback_hessian) {
+            Err(e) => match fallback_mode(&self.newton) {
                 Some(mode) if retryable(&e) => {
-                    let own = std::mem::replace(&mut system.hessian_mode, mode);
+                    let own = std::mem::replace(&mut self.newton.own_hessian, mode);
                     hessian = mode;
                     // First from the best point found (line search never increased E), then,
                     // if that fails too, from the start: the failed path may have led into a
@@ -213,7 +208,7 @@ impl Integrator for Static {
                         }
                         retry = self.solve_with_angles(system, &mut x, &mut phi);
                     }
-                    system.hessian_mode = own;
+                    self.newton.own_hessian = own;
                     retry
                 }
                 _ => Err(e),

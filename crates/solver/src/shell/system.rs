@@ -3,8 +3,8 @@
 
 use nalgebra::Vector3;
 use thinshell_energy::{
-    Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, HessianMode, RestState,
-    ShellModel, Terms, lumped_mass,
+    Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, RestState, ShellModel,
+    Terms, lumped_mass,
 };
 use thinshell_mesh::Mesh;
 
@@ -58,8 +58,6 @@ pub struct ShellSystem {
     pub boundary: Boundary,
     /// External loads at load factor 1 (see [`ShellSystem::set_load_factor`]).
     pub loads: Loads,
-    /// Hessian mode used by Newton (exact, Gauss–Newton, projected).
-    pub hessian_mode: HessianMode,
     pub(crate) dofs: DofMap,
     pub(crate) mass: Vec<f64>,
     /// External forces (N) at the current load factor: `λ · loads.forces(mass)`.
@@ -179,7 +177,6 @@ impl ShellSystem {
             rest,
             boundary,
             loads,
-            hessian_mode: HessianMode::Exact,
             dofs,
             mass,
             f_ext,

@@ -285,7 +285,7 @@ fn newton_of(scene: &Scene, defaults: NewtonSettings) -> Result<NewtonSettings, 
             FallbackSpec::Off => thinshell_solver::IterativeFallback::Off,
         };
     }
-    settings.hessian = hessian_of(nw.hessian).1;
+    (settings.own_hessian, settings.hessian) = hessian_of(nw.hessian);
     settings.validate().map_err(|source| BuildError::Solver {
         origin: scene.origin.clone(),
         source,
@@ -298,7 +298,6 @@ fn newton_of(scene: &Scene, defaults: NewtonSettings) -> Result<NewtonSettings, 
 fn integrator_of(
     scene: &Scene,
     system: &ShellSystem,
-    hessian_mode: HessianMode,
 ) -> Result<Box<dyn Integrator + Send>, BuildError> {
     let it = &scene.file.integrator;
     let dt = it.dt.unwrap_or(1.0);
@@ -307,25 +306,27 @@ fn integrator_of(
     let force_scale = it.newton.tolerance.map(|_| system.force_scale());
     // A failed exact or adaptive solve is retried with the Gauss–Newton Hessian
     // (docs/robustness.md), a safety net the adaptive Newton rarely needs.
-    let fallback = (hessian_mode == HessianMode::Exact).then_some(HessianMode::GaussNewton);
+    let with_fallback = |mut newton: NewtonSettings, on: bool| {
+        newton.fallback_hessian =
+            (on && newton.own_hessian == HessianMode::Exact).then_some(HessianMode::GaussNewton);
+        newton
+    };
     Ok(match it.kind {
         IntegratorKind::Static => {
             let defaults = run_loop_static();
             Box::new(Static {
-                newton: newton_of(scene, defaults.newton)?,
+                newton: with_fallback(newton_of(scene, defaults.newton)?, true),
                 force_scale,
-                fallback_hessian: fallback,
                 ..defaults
             })
         }
         IntegratorKind::Implicit => {
             let defaults = ImplicitEuler::new(dt);
             Box::new(ImplicitEuler {
-                newton: newton_of(scene, defaults.newton)?,
+                // With `adaptive_dt`, before halving Δt.
+                newton: with_fallback(newton_of(scene, defaults.newton)?, it.adaptive_dt),
                 force_scale,
                 max_halvings: if it.adaptive_dt { 8 } else { 0 },
-                // With `adaptive_dt`, before halving Δt.
-                fallback_hessian: fallback.filter(|_| it.adaptive_dt),
                 ..defaults
             })
         }
@@ -389,7 +390,6 @@ impl Simulation {
             (true, None) if on(Effect::Growth) => LoadRamp::None,
             (true, None) => LoadRamp::Linear,
         };
-        let (hessian_mode, _) = hessian_of(it.newton.hessian);
         // Bad keys are rejected whatever the integrator, before anything else is built.
         newton_of(scene, NewtonSettings::default())?;
         let mut builder = SimulationBuilder::new(mesh, model)
@@ -399,8 +399,7 @@ impl Simulation {
             .boundary(boundary)
             .loads(loads)
             .steps(steps)
-            .load_ramp(load_ramp)
-            .hessian_mode(hessian_mode);
+            .load_ramp(load_ramp);
         builder.origin = origin.clone();
         builder.effects = Some(s.effects.clone());
         builder.dt = dt;
@@ -428,10 +427,7 @@ impl Simulation {
             )?;
             builder = builder.contact(settings);
         }
-        builder.finish(
-            |system| integrator_of(scene, system, hessian_mode),
-            s.path.as_ref(),
-        )
+        builder.finish(|system| integrator_of(scene, system), s.path.as_ref())
     }
 }
 
@@ -481,7 +477,6 @@ pub struct SimulationBuilder {
     dt: f64,
     steps: usize,
     load_ramp: Option<LoadRamp>,
-    hessian_mode: HessianMode,
     /// A scene's effects list; derived from the values otherwise.
     effects: Option<Vec<Effect>>,
 }
@@ -505,7 +500,6 @@ impl SimulationBuilder {
             dt: 1.0,
             steps: 1,
             load_ramp: None,
-            hessian_mode: HessianMode::Exact,
             effects: None,
         }
     }
@@ -599,13 +593,6 @@ impl SimulationBuilder {
     /// full loads).
     pub fn load_ramp(mut self, ramp: LoadRamp) -> Self {
         self.load_ramp = Some(ramp);
-        self
-    }
-
-    /// The Hessian the system assembles for the solver (default exact; the solver's adaptive
-    /// policy decides per iteration).
-    pub fn hessian_mode(mut self, mode: HessianMode) -> Self {
-        self.hessian_mode = mode;
         self
     }
 
@@ -733,7 +720,6 @@ impl SimulationBuilder {
             // Clamps hold the directors of the start state (model.md §1.3).
             system.set_clamp_reference(&x).map_err(solver_err)?;
         }
-        system.hessian_mode = self.hessian_mode;
         if let Some(settings) = &self.contact {
             system.set_contact(settings, &x).map_err(solver_err)?;
         }
