@@ -129,14 +129,18 @@ impl Outcome {
 pub(crate) fn richardson(points: [(f64, f64); 3]) -> Option<(f64, f64)> {
     let [(h1, v1), (h2, v2), (h3, v3)] = points;
     let (d12, d23) = (v1 - v2, v2 - v3);
-    if !(h1 > h2 && h2 > h3 && h3 > 0.0) || !(d12 * d23 > 0.0) || !d12.is_finite() {
+    let refined = h1 > h2 && h2 > h3 && h3 > 0.0;
+    // False for NaN too: a missing value is not extrapolated.
+    let monotone = d12 * d23 > 0.0 && d12.is_finite();
+    if !(refined && monotone) {
         return None;
     }
     // (v1 − v2)/(v2 − v3) = (h1^p − h2^p)/(h2^p − h3^p) is increasing in p: bisect.
     let target = d12 / d23;
     let ratio = |p: f64| (h1.powf(p) - h2.powf(p)) / (h2.powf(p) - h3.powf(p));
     let (mut lo, mut hi) = (0.5_f64, 4.0_f64);
-    if !(ratio(lo) <= target && target <= ratio(hi)) {
+    let bracketed = ratio(lo) <= target && target <= ratio(hi);
+    if !bracketed {
         return None;
     }
     for _ in 0..100 {
