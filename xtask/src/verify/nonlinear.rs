@@ -585,3 +585,20 @@ fn quadratic_at(p: [(f64, f64); 3], x: f64) -> f64 {
         + y1 * (x - x0) * (x - x2) / ((x1 - x0) * (x1 - x2))
         + y2 * (x - x0) * (x - x1) / ((x2 - x0) * (x2 - x1))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The roof's read-outs are exact on a parabola: the turning point of λ = 0.74 − 0.01 (W −
+    /// 10.8)² sampled at uneven W, and its value at the reference's 11.3.
+    #[test]
+    fn roof_read_outs_are_exact_on_a_parabola() {
+        let lam = |w: f64| 0.74 - 0.01 * (w - 10.8).powi(2);
+        let pts = [10.3, 10.9, 11.6].map(|w| (w, lam(w)));
+        let (w, l) = turning_point(pts);
+        assert!((w - 10.8).abs() < 1e-12 && (l - 0.74).abs() < 1e-12, "{w} {l}");
+        let at = quadratic_at(pts, ROOF_LIMIT_W);
+        assert!((at - lam(ROOF_LIMIT_W)).abs() < 1e-12, "{at}");
+    }
+}
