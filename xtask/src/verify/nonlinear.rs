@@ -597,7 +597,10 @@ mod tests {
         let lam = |w: f64| 0.74 - 0.01 * (w - 10.8).powi(2);
         let pts = [10.3, 10.9, 11.6].map(|w| (w, lam(w)));
         let (w, l) = turning_point(pts);
-        assert!((w - 10.8).abs() < 1e-12 && (l - 0.74).abs() < 1e-12, "{w} {l}");
+        assert!(
+            (w - 10.8).abs() < 1e-12 && (l - 0.74).abs() < 1e-12,
+            "{w} {l}"
+        );
         let at = quadratic_at(pts, ROOF_LIMIT_W);
         assert!((at - lam(ROOF_LIMIT_W)).abs() < 1e-12, "{at}");
     }
