@@ -99,6 +99,13 @@ enum Task {
         /// Only the cases whose name or group contains this text.
         #[arg(long)]
         only: Option<String>,
+        /// Only the bending forms whose name contains this text (e.g. `tan`).
+        #[arg(long)]
+        form: Option<String>,
+        /// Levels to run, `a..b` (0 is the coarsest; default: the case's own series). A study
+        /// option: levels beyond a case's series are finer meshes of the same family.
+        #[arg(long)]
+        levels: Option<String>,
     },
     /// Issue #17's performance figures (per-face evaluation, gather, factorisation, orderings,
     /// Newton iterations and their growth, implicit steps per form) in interleaved rounds.
@@ -200,11 +207,17 @@ fn main() -> ExitCode {
             docs_dir,
             json,
             only,
-        } => verify::run(&verify::Options {
-            quick,
-            docs_dir: docs_dir.unwrap_or_else(|| workspace_root().join("docs")),
-            json_path: json.unwrap_or_else(|| out_dir().join("verify.json")),
-            only,
+            form,
+            levels,
+        } => verify::parse_levels(levels.as_deref()).and_then(|levels| {
+            verify::run(&verify::Options {
+                quick,
+                docs_dir: docs_dir.unwrap_or_else(|| workspace_root().join("docs")),
+                json_path: json.unwrap_or_else(|| out_dir().join("verify.json")),
+                only,
+                form,
+                levels,
+            })
         }),
         Task::Perf {
             quick,

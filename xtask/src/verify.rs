@@ -10,6 +10,7 @@
 //! [`nonlinear`] (the cases, one file per group), [`report`] (`verification.md`, the plots, the
 //! JSON). This file holds the case table, the shared records and [`run`].
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -35,6 +36,29 @@ pub struct Options {
     pub json_path: PathBuf,
     /// Only the cases whose name or group contains this text.
     pub only: Option<String>,
+    /// Only the bending forms whose name contains this text.
+    pub form: Option<String>,
+    /// Levels `a..b` instead of each case's series (a study option; `None`: the series).
+    pub levels: Option<std::ops::Range<usize>>,
+}
+
+/// Parses `--levels a..b` (or a single level `a`).
+pub fn parse_levels(text: Option<&str>) -> Result<Option<std::ops::Range<usize>>> {
+    let Some(text) = text else { return Ok(None) };
+    let parse = |t: &str| {
+        t.trim()
+            .parse::<usize>()
+            .with_context(|| format!("--levels {text:?}: {t:?} is not a level number"))
+    };
+    let range = match text.split_once("..") {
+        Some((a, b)) => parse(a)?..parse(b)?,
+        None => {
+            let a = parse(text)?;
+            a..a + 1
+        }
+    };
+    anyhow::ensure!(!range.is_empty(), "--levels {text:?} selects no level");
+    Ok(Some(range))
 }
 
 /// One compared number: a measured value against its reference.
@@ -97,6 +121,76 @@ impl Outcome {
     }
 }
 
+/// Richardson extrapolation of one quantity from its last three levels, (h, value) with
+/// h ∝ faces^(−1/2) decreasing: the limit L of v = L + C h^p with the observed order p fitted
+/// to the three values (ratios of h need not be equal). `None` unless the differences keep
+/// their sign (monotone convergence) and 0.5 ≤ p ≤ 4: outside that range the three values are
+/// not in the asymptotic regime and an extrapolation would be a guess.
+pub(crate) fn richardson(points: [(f64, f64); 3]) -> Option<(f64, f64)> {
+    let [(h1, v1), (h2, v2), (h3, v3)] = points;
+    let (d12, d23) = (v1 - v2, v2 - v3);
+    let refined = h1 > h2 && h2 > h3 && h3 > 0.0;
+    // False for NaN too: a missing value is not extrapolated.
+    let monotone = d12 * d23 > 0.0 && d12.is_finite();
+    if !(refined && monotone) {
+        return None;
+    }
+    // (v1 − v2)/(v2 − v3) = (h1^p − h2^p)/(h2^p − h3^p) is increasing in p: bisect.
+    let target = d12 / d23;
+    let ratio = |p: f64| (h1.powf(p) - h2.powf(p)) / (h2.powf(p) - h3.powf(p));
+    let (mut lo, mut hi) = (0.5_f64, 4.0_f64);
+    let bracketed = ratio(lo) <= target && target <= ratio(hi);
+    if !bracketed {
+        return None;
+    }
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if ratio(mid) < target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let p = 0.5 * (lo + hi);
+    let limit = v3 - d23 * h3.powf(p) / (h2.powf(p) - h3.powf(p));
+    Some((limit, p))
+}
+
+/// The Richardson-extrapolated error of one form's series (its last three levels): the largest
+/// error over the quantities, each quantity taken at its extrapolated limit where
+/// [`richardson`] gives one and at its finest value otherwise. Returns (error, number of
+/// quantities extrapolated, number of quantities); `None` with fewer than three levels or a
+/// missing value.
+pub(crate) fn extrapolated_error(runs: &[&Run]) -> Option<(f64, usize, usize)> {
+    let last: Vec<&&Run> = runs.iter().rev().take(3).collect();
+    if last.len() < 3 {
+        return None;
+    }
+    let (r3, r2, r1) = (last[0], last[1], last[2]);
+    let n = r3.outcome.quantities.len();
+    if n == 0 || [r1, r2].iter().any(|r| r.outcome.quantities.len() != n) {
+        return None;
+    }
+    let h = |r: &Run| (r.outcome.faces as f64).powf(-0.5);
+    let (mut worst, mut extrapolated) = (0.0_f64, 0);
+    for i in 0..n {
+        let q = &r3.outcome.quantities[i];
+        let v = |r: &Run| r.outcome.quantities[i].measured;
+        if !(v(r1).is_finite() && v(r2).is_finite() && q.measured.is_finite()) {
+            return None;
+        }
+        let value = match richardson([(h(r1), v(r1)), (h(r2), v(r2)), (h(r3), q.measured)]) {
+            Some((limit, _)) => {
+                extrapolated += 1;
+                limit
+            }
+            None => q.measured,
+        };
+        worst = worst.max((value - q.reference).abs() / q.scale);
+    }
+    Some((worst, extrapolated, n))
+}
+
 /// A case of the suite.
 pub(crate) struct Spec {
     pub(crate) name: &'static str,
@@ -107,8 +201,11 @@ pub(crate) struct Spec {
     pub(crate) tolerance: f64,
     /// Tolerance on the error of the coarsest level (`--quick`).
     pub(crate) quick_tolerance: f64,
-    /// Number of refinement levels of the full run (level 0 is the coarsest).
+    /// The full run's levels are `first_level..levels` (level 0 is the coarsest, the only one
+    /// of `--quick`): a case whose coarse meshes are far from the asymptotic range starts finer.
     pub(crate) levels: usize,
+    /// The first level of the full run (see `levels`).
+    pub(crate) first_level: usize,
     /// Reference load paths to plot: (name, (displacement, load factor) points).
     pub(crate) reference_curves: fn() -> Vec<Curve>,
     /// Runs one level with one form.
@@ -152,18 +249,37 @@ impl CaseResult {
             .collect()
     }
 
+    /// The default form's line of the summary: its error on the finest mesh against the
+    /// tolerance, and the Richardson-extrapolated error of its last three levels beside it.
+    pub(crate) fn default_form(&self) -> String {
+        let form = SffKind::default().name();
+        let runs: Vec<&Run> = self.runs.iter().filter(|r| r.form == form).collect();
+        let Some(finest) = runs.last() else {
+            return "not run".into();
+        };
+        let e = finest.outcome.error();
+        let mut line = format!(
+            "{} {}",
+            if e <= self.tolerance {
+                "**pass**"
+            } else {
+                "**miss**"
+            },
+            percent(e)
+        );
+        if let Some((x, k, n)) = extrapolated_error(&runs) {
+            let _ = write!(line, "; extrapolated {}", percent(x));
+            if k < n {
+                let _ = write!(line, " ({k} of {n} values)");
+            }
+        }
+        line
+    }
+
     /// The one-line verdict.
     pub(crate) fn verdict(&self) -> String {
         let finest = self.finest();
-        let pct = |e: f64| {
-            if e.is_finite() && e >= 1e-4 {
-                format!("{:.2} %", 100.0 * e)
-            } else if e.is_finite() {
-                format!("{:.1e} %", 100.0 * e)
-            } else {
-                "no answer".to_string()
-            }
-        };
+        let pct = percent;
         let tol = pct(self.tolerance);
         if finest.iter().all(|f| f.2) {
             format!("**pass**: every form within {tol} on the finest mesh")
@@ -191,6 +307,17 @@ impl CaseResult {
     }
 }
 
+/// An error in percent for the verdicts (two decimals, or one significant digit below 0.01 %).
+fn percent(e: f64) -> String {
+    if e.is_finite() && e >= 1e-4 {
+        format!("{:.2} %", 100.0 * e)
+    } else if e.is_finite() {
+        format!("{:.1e} %", 100.0 * e)
+    } else {
+        "no answer".to_string()
+    }
+}
+
 /// The cases, in the report's order.
 pub(crate) fn specs() -> Vec<&'static Spec> {
     let mut all: Vec<&'static Spec> = Vec::new();
@@ -212,10 +339,21 @@ pub fn run(opts: &Options) -> Result<()> {
         {
             continue;
         }
-        let levels = if opts.quick { 1 } else { spec.levels };
+        let levels = match &opts.levels {
+            Some(r) => r.clone(),
+            None if opts.quick => 0..1,
+            None => spec.first_level..spec.levels,
+        };
         let mut runs = Vec::new();
         for sff in SffKind::ALL {
-            for level in 0..levels {
+            if !opts
+                .form
+                .as_ref()
+                .is_none_or(|f| sff.name().contains(f.as_str()))
+            {
+                continue;
+            }
+            for level in levels.clone() {
                 let t = Instant::now();
                 let outcome = (spec.run)(sff, level)
                     .with_context(|| format!("{} ({}, level {level})", spec.name, sff.name()))?;
@@ -270,6 +408,8 @@ mod tests {
             docs_dir: base.join(format!("run{k}")).join("docs"),
             json_path: base.join(format!("run{k}")).join("verify.json"),
             only: only.map(str::to_string),
+            form: None,
+            levels: None,
         };
         let all = opts(0, None);
         run(&all)?;
@@ -308,6 +448,22 @@ mod tests {
         assert_eq!(mask_timings(&reports[0]), mask_timings(&reports[1]));
         std::fs::remove_dir_all(&base)?;
         Ok(())
+    }
+
+    /// Richardson extrapolation recovers the limit and order of v = L + C h^p from three
+    /// unevenly refined levels, and declines non-monotone or out-of-range sequences.
+    #[test]
+    fn richardson_recovers_limit_and_order() {
+        let v = |h: f64| 2.0 + 3.0 * h.powf(1.7);
+        let hs = [0.3, 0.2, 0.13];
+        let pts = hs.map(|h| (h, v(h)));
+        let (limit, p) = richardson(pts).expect("monotone sequence");
+        assert!((limit - 2.0).abs() < 1e-9, "limit {limit}");
+        assert!((p - 1.7).abs() < 1e-9, "order {p}");
+        // A sign change of the differences: no extrapolation.
+        assert!(richardson([(0.3, 1.0), (0.2, 1.1), (0.1, 1.05)]).is_none());
+        // Order beyond 4 (differences falling by far more than h^4 predicts): declined.
+        assert!(richardson([(0.2, 1.0), (0.1, 1.001), (0.05, 1.001_000_01)]).is_none());
     }
 
     /// Masking removes exactly the runtime line and the timing column.

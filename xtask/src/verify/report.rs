@@ -150,10 +150,12 @@ fn case_markdown(md: &mut String, c: &CaseResult, plot: &str) {
     let s = c.spec;
     let _ = writeln!(
         md,
-        "### {}\n\n{}\n\nVerdict: {}\n",
+        "### {}\n\n{}\n\nVerdict: {}\n\nDefault form ({}): {}\n",
         s.name,
         s.description,
-        c.verdict()
+        c.verdict(),
+        SffKind::default().name(),
+        c.default_form()
     );
     let _ = writeln!(
         md,
@@ -263,17 +265,28 @@ fn markdown(results: &[CaseResult], quick: bool, total_s: f64, plots: &[String])
          against the previous level, p = ln(e₁/e₂) / ln(h₁/h₂) with h ∝ faces^(−1/2) (it is \
          meaningless when the error changes sign or has reached the reference's own precision). \
          The verdict compares each form's error on its finest mesh with the case's tolerance. \
+         *Extrapolated* is the error of the Richardson limit of the last three levels: each \
+         compared value v fitted by v = L + C h^p through its three values (observed order p), \
+         L taken where the three converge monotonically with 0.5 ≤ p ≤ 4 and the finest value \
+         otherwise (\"k of n values\" says how many were extrapolated); where the reference is \
+         itself a limit known to a few digits it says what this model converges to. \
          *Wall (s)* is the time of the whole run (set-up and every solve) on a shared 2-core \
          machine: the timings are the only text that changes from one run to the next.\n\n",
     );
-    md.push_str("## Summary\n\n| case | group | tolerance | verdict |\n|---|---|---:|---|\n");
+    let _ = write!(
+        md,
+        "## Summary\n\n| case | group | tolerance | default form ({}): finest mesh | every form |\n\
+         |---|---|---:|---|---|\n",
+        SffKind::default().name()
+    );
     for c in results {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} |",
             c.spec.name,
             c.spec.group,
             pct(c.tolerance),
+            c.default_form(),
             c.verdict()
         );
     }
