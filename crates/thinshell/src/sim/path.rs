@@ -233,8 +233,8 @@ impl Simulation {
     }
 }
 
-/// The `steps.csv` columns a path-following run adds after `load_factor` (other runs add
-/// none, so that `load_factor` stays their last column): `stable` (1 / 0),
+/// The `steps.csv` columns a path-following run adds after the common ones
+/// ([`crate::output::STEPS_CSV_COLUMNS`]; other runs add none), before contact's: `stable` (1 / 0),
 /// `negative_eigenvalues` (of the Hessian at fixed load; empty where singular),
 /// `load_increment`, `step_length`, `cutbacks`, `potential_J` and one `u_<vertex>_<axis>_m`
 /// per monitored coordinate. Empty or starting with a comma.
