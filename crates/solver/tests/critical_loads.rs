@@ -86,6 +86,17 @@ fn critical_load(stability: impl Fn(f64) -> Stability, p_ref: f64, lo: f64, hi: 
     p_ref * (lo + (hi - lo) * a / (a - b))
 }
 
+/// Asserts refinement errors (absolute, four levels halving h) that fall at every level, end
+/// below `finest` and have a mean observed order `log2(e0/e3)/3` above `order`.
+fn assert_converges(errors: &[f64], finest: f64, order: f64) {
+    let orders: Vec<f64> = errors.windows(2).map(|e| (e[0] / e[1]).log2()).collect();
+    let mean_order = (errors[0] / errors[3]).log2() / 3.0;
+    println!("observed orders {orders:.2?}, mean {mean_order:.2}");
+    assert!(errors.windows(2).all(|e| e[1] < e[0]), "{errors:?}");
+    assert!(errors[3] < finest, "{errors:?}");
+    assert!(mean_order > order, "{orders:?}, mean {mean_order}");
+}
+
 #[test]
 fn euler_strut_critical_load_converges_under_refinement() {
     let p_e = euler_load();
@@ -100,12 +111,7 @@ fn euler_strut_critical_load_converges_under_refinement() {
     // observed (2026-12-02) −6.27e-3, −8.43e-4, −2.62e-4, −7.43e-5 (orders 2.89, 1.69, 1.82;
     // mean 2.13). The assertions: the error falls at every refinement, the finest is
     // below 1e-3, and the mean order over the four levels, log2(e0/e3)/3, is above 1.8.
-    let orders: Vec<f64> = errors.windows(2).map(|e| (e[0] / e[1]).log2()).collect();
-    let mean_order = (errors[0] / errors[3]).log2() / 3.0;
-    println!("observed orders {orders:.2?}, mean {mean_order:.2}");
-    assert!(errors.windows(2).all(|e| e[1] < e[0]), "{errors:?}");
-    assert!(errors[3] < 1e-3, "{errors:?}");
-    assert!(mean_order > 1.8, "{orders:?}, mean {mean_order}");
+    assert_converges(&errors, 1e-3, 1.8);
     // Bracketed within 1 %: stable just below Euler's load, unstable just above.
     let below = strut_stability(32, 2, 0.99 * p_e);
     let above = strut_stability(32, 2, 1.01 * p_e);
@@ -143,12 +149,7 @@ fn simply_supported_plate_critical_compression_converges_under_refinement() {
     // −3.75e-2, −1.45e-2, −3.96e-3, −1.35e-3 (orders 1.38, 1.87, 1.56; mean 1.60). The
     // assertions: the error falls at every refinement, the finest is below 3e-3, and the mean
     // order over the four levels, log2(e0/e3)/3, is above 1.5.
-    let orders: Vec<f64> = errors.windows(2).map(|e| (e[0] / e[1]).log2()).collect();
-    let mean_order = (errors[0] / errors[3]).log2() / 3.0;
-    println!("observed orders {orders:.2?}, mean {mean_order:.2}");
-    assert!(errors.windows(2).all(|e| e[1] < e[0]), "{errors:?}");
-    assert!(errors[3] < 3e-3, "{errors:?}");
-    assert!(mean_order > 1.5, "{orders:?}, mean {mean_order}");
+    assert_converges(&errors, 3e-3, 1.5);
 }
 
 #[test]
@@ -215,12 +216,7 @@ fn tube_critical_pressure_converges_under_refinement() {
     // Observed (2026-12-02): −3.6e-3, −1.5e-3, −4.3e-4, −1.3e-4 from below (orders about 1.3,
     // 1.8, 1.7). The assertions: the error falls at every refinement, the finest is below 1e-3,
     // and the mean order over the four levels is above 1.3.
-    let orders: Vec<f64> = errors.windows(2).map(|e| (e[0] / e[1]).log2()).collect();
-    let mean_order = (errors[0] / errors[3]).log2() / 3.0;
-    println!("observed orders {orders:.2?}, mean {mean_order:.2}");
-    assert!(errors.windows(2).all(|e| e[1] < e[0]), "{errors:?}");
-    assert!(errors[3] < 1e-3, "{errors:?}");
-    assert!(mean_order > 1.3, "{orders:?}, mean {mean_order}");
+    assert_converges(&errors, 1e-3, 1.3);
     // Bracketed within 3 % on the finer mesh: stable below, unstable above.
     let (below, above) = (stability(64, 0.97 * p_ref), stability(64, 1.03 * p_ref));
     assert!(

@@ -387,21 +387,32 @@ pub fn compressed_plate(
         point_forces: forces,
         ..Loads::default()
     };
-    let material = Material {
-        thickness: h,
-        young,
-        poisson,
-        density: 1000.0,
-        viscosity: 0.0,
-        model: MaterialModel::StVK,
-    };
-    let model = ShellModel {
-        material,
-        terms: Terms::ELASTIC,
-        sff,
-    };
-    let system = ShellSystem::new(mesh, model, rest, boundary, loads).expect("plate system");
+    let system = elastic_system(mesh, rest, (h, young, poisson), boundary, loads);
     (system, x0)
+}
+
+/// The elastic (no inertia, no damping) StVK system of the critical-load fixtures, default
+/// form: `(h, E, ν)` in m, Pa, –; density 1000 kg/m³ (unused by static solves).
+fn elastic_system(
+    mesh: Mesh,
+    rest: RestState,
+    (h, young, poisson): (f64, f64, f64),
+    boundary: Boundary,
+    loads: Loads,
+) -> ShellSystem {
+    let model = ShellModel {
+        material: Material {
+            thickness: h,
+            young,
+            poisson,
+            density: 1000.0,
+            viscosity: 0.0,
+            model: MaterialModel::StVK,
+        },
+        terms: Terms::ELASTIC,
+        sff: SffKind::default(),
+    };
+    ShellSystem::new(mesh, model, rest, boundary, loads).expect("elastic system of a fixture")
 }
 
 /// A long tube of radius `radius` (m) around z under uniform external pressure `p` (Pa,
@@ -463,19 +474,6 @@ pub fn pressurised_tube(
         point_forces,
         ..Loads::default()
     };
-    let material = Material {
-        thickness: h,
-        young,
-        poisson,
-        density: 1000.0,
-        viscosity: 0.0,
-        model: MaterialModel::StVK,
-    };
-    let model = ShellModel {
-        material,
-        terms: Terms::ELASTIC,
-        sff,
-    };
-    let system = ShellSystem::new(mesh, model, rest, boundary, loads).expect("tube system");
+    let system = elastic_system(mesh, rest, (h, young, poisson), boundary, loads);
     (system, x0)
 }
