@@ -41,9 +41,9 @@ pub(crate) fn state_energy(
     let model = ShellModel {
         terms: Terms {
             damping: false,
-            ..system.model.terms
+            ..system.model().terms
         },
-        ..system.model
+        ..*system.model()
     };
     let mut assembler = system.assembler_for(&model)?;
     let mut gradient = vec![0.0; assembler.n_coordinates()];

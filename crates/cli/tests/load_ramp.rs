@@ -264,7 +264,7 @@ fn ramp_reaches_the_elastica_and_a_one_shot_solve_fails_or_agrees() {
         let mut x = once.positions().to_vec();
         // Prescribed motion at λ = 1 of a one-step scene: time N·Δt = 1 s (x₀ − Δ).
         once.system()
-            .boundary
+            .boundary()
             .apply_prescribed(&mut x, 1.0)
             .unwrap();
         let mut solver = Static::default();

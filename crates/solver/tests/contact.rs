@@ -161,7 +161,7 @@ fn intersecting_start_is_an_error_naming_the_pair() {
 fn drop_onto(obstacle: Obstacle, lift: f64, steps: usize) -> [f64; 7] {
     let (mut sys, x0) = sheet(10, lift);
     let x0: Vec<V> = x0.iter().map(|p| p - V::new(0.05, 0.05, 0.0)).collect();
-    let h = sys.model.material.thickness;
+    let h = sys.model().material.thickness;
     let settings = ContactSettings {
         obstacles: vec![obstacle.clone()],
         self_contact: true,
@@ -439,7 +439,7 @@ fn stacked_sheets_static_contact_converges_quadratically_and_carries_the_weight(
 #[test]
 fn adaptive_stiffness_carries_the_weight_at_half_the_activation_distance() {
     let (mut sys, _) = sheet(10, 0.0);
-    let h = sys.model.material.thickness;
+    let h = sys.model().material.thickness;
     let d_hat = 1e-3;
     let mut x: Vec<V> = sys
         .mesh
@@ -546,7 +546,7 @@ fn contact_rejects_non_finite_input_and_stays_finite_on_degenerate_faces() {
     // alone everything stays finite; with self-contact the collapsed vertex touches the faces
     // around its twin: an explicit +∞ energy and an error naming the pair, not a NaN.
     let mut x = x0.clone();
-    let h = sys.model.material.thickness;
+    let h = sys.model().material.thickness;
     for y in &mut x {
         y.z = 0.5 * h + 2e-4;
     }

@@ -158,7 +158,7 @@ fn brute_force(
 /// at the end and its peak (m²/s²), and the final upward contact force over the weight.
 fn drop_onto_mesh(y: Vec<V>, y_faces: Vec<[usize; 3]>, lift: f64, steps: usize) -> [f64; 4] {
     let (mut sys, x0) = sheet(10, lift);
-    let h = sys.model.material.thickness;
+    let h = sys.model().material.thickness;
     let settings = ContactSettings {
         obstacles: vec![Obstacle::Mesh {
             vertices: y.clone(),
@@ -298,10 +298,10 @@ fn mesh_obstacle_errors_name_the_problem() {
 /// smallest vertex gap and whether the brute-force checks found a crossing (mesh obstacles).
 fn pressed_static(obstacle: Obstacle, top: f64) -> [f64; 4] {
     let (sys0, _) = sheet(10, 0.0);
-    let h = sys0.model.material.thickness;
+    let h = sys0.model().material.thickness;
     let d_hat = 1e-3;
     let mesh = sys0.mesh.clone();
-    let model = sys0.model;
+    let model = *sys0.model();
     let rest = sys0.rest.clone();
     let centre = mesh
         .positions()

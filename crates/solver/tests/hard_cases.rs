@@ -220,9 +220,9 @@ fn kinetic(sys: &ShellSystem, s: &State) -> f64 {
 fn total_energy(sys: &mut ShellSystem, s: &State) -> f64 {
     let terms = Terms {
         damping: false,
-        ..sys.model.terms
+        ..sys.model().terms
     };
-    let mut m = sys.model;
+    let mut m = *sys.model();
     m.terms = terms;
     let mut probe = ShellSystem::new(
         sys.mesh.clone(),
@@ -401,10 +401,10 @@ fn edge_stretch(mesh: &Mesh, x: &[Vector3<f64>]) -> f64 {
 
 /// The same system without the damping term (static solves have none).
 fn without_damping(sys: &ShellSystem) -> ShellSystem {
-    let mut m = sys.model;
+    let mut m = *sys.model();
     m.terms.damping = false;
     let b = Boundary {
-        pinned_vertices: sys.boundary.pinned_vertices.clone(),
+        pinned_vertices: sys.boundary().pinned_vertices.clone(),
         ..Default::default()
     };
     let loads = Loads {
@@ -416,7 +416,7 @@ fn without_damping(sys: &ShellSystem) -> ShellSystem {
 
 /// The same free system with damped paper and the damping term.
 fn with_damping(sys: &ShellSystem) -> ShellSystem {
-    let mut m = sys.model;
+    let mut m = *sys.model();
     m.terms.damping = true;
     m.material = Material {
         viscosity: m.material.young * 1e-3,
@@ -1190,7 +1190,10 @@ fn crumpled_start_with_edge_directors() {
     let (base, x0) = crumpled();
     let sff = SffKind::EdgeDirector(thinshell_energy::DirectorVariant::Sin);
     let rest = RestState::from_mesh(&base.mesh, base.mesh.positions(), sff).unwrap();
-    let m = ShellModel { sff, ..base.model };
+    let m = ShellModel {
+        sff,
+        ..*base.model()
+    };
     let mut sys = ShellSystem::new(
         base.mesh.clone(),
         m,

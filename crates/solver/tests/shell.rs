@@ -219,20 +219,26 @@ fn explicit_blows_up_above_its_stability_limit_implicit_does_not() {
 
 #[test]
 fn implicit_with_damping_and_prescribed_motion() {
-    let (mut sys, pinned) = pinned_sheet(true);
-    // Drive one corner upwards at 1 mm/s; every other pin stays put.
+    let (sys, pinned) = pinned_sheet(true);
+    // Drive one corner upwards at 1 mm/s; every other pin stays put. The boundary is fixed at
+    // construction: a new system with the changed one.
     let corner = pinned[0];
     let p0 = sys.mesh.positions()[corner.idx()];
-    sys.boundary.pinned_vertices.retain(|v| *v != corner);
-    sys.boundary.prescribed.push(thinshell_solver::Prescribed {
+    let mut boundary = thinshell_solver::Boundary {
+        pinned_vertices: sys.boundary().pinned_vertices.clone(),
+        pinned_coordinates: sys.boundary().pinned_coordinates.clone(),
+        ..Default::default()
+    };
+    assert!(sys.boundary().prescribed.is_empty() && sys.boundary().clamped_edges.is_empty());
+    boundary.pinned_vertices.retain(|v| *v != corner);
+    boundary.prescribed.push(thinshell_solver::Prescribed {
         vertex: corner,
         position: Box::new(move |t| p0 + Vector3::new(0.0, 0.0, 1e-3 * t)),
     });
-    let (mesh, model, rest, boundary, loads) = (
+    let (mesh, model, rest, loads) = (
         sys.mesh.clone(),
-        sys.model,
+        *sys.model(),
         sys.rest.clone(),
-        std::mem::take(&mut sys.boundary),
         sys.loads.clone(),
     );
     let mut sys = ShellSystem::new(mesh, model, rest, boundary, loads).unwrap();

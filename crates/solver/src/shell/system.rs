@@ -50,12 +50,14 @@ impl State {
 pub struct ShellSystem {
     /// The mesh (connectivity; its positions are the reference configuration).
     pub mesh: Mesh,
-    /// Material, active terms, second fundamental form.
-    pub model: ShellModel,
+    /// Material, active terms, second fundamental form (read with [`ShellSystem::model`]: the
+    /// unknowns, masses and assembler are built from it).
+    pub(crate) model: ShellModel,
     /// Rest forms per face.
     pub rest: RestState,
-    /// Held coordinates and prescribed motion.
-    pub boundary: Boundary,
+    /// Held coordinates and prescribed motion (read with [`ShellSystem::boundary`]: the
+    /// unknowns are built from it).
+    pub(crate) boundary: Boundary,
     /// External loads at load factor 1 (see [`ShellSystem::set_load_factor`]).
     pub loads: Loads,
     pub(crate) dofs: DofMap,
@@ -100,6 +102,18 @@ impl std::fmt::Debug for ShellSystem {
 }
 
 impl ShellSystem {
+    /// Material, active terms and bending form, as given to [`ShellSystem::new`] (fixed: a
+    /// different model needs a new system).
+    pub fn model(&self) -> &ShellModel {
+        &self.model
+    }
+
+    /// Held coordinates, clamps and prescribed motion, as given to [`ShellSystem::new`] (fixed:
+    /// the free unknowns are built from them).
+    pub fn boundary(&self) -> &Boundary {
+        &self.boundary
+    }
+
     /// Holds the directors of the clamped edges as they are at `x_ref` (m, one position per
     /// vertex) instead of at the mesh's positions (model.md §1.3): for a start state that is not
     /// the mesh's own shape. No effect without edge-director unknowns. Errors on a wrong length

@@ -55,7 +55,7 @@ impl Simulation {
         );
         let system = sim.system();
         let has_loads = system.loads != thinshell_solver::Loads::default()
-            || !system.boundary.prescribed.is_empty();
+            || !system.boundary().prescribed.is_empty();
         if sim.is_path_following() {
             text += &format!(
                 "path following: {} steps from load factor 0 (docs/path_following.md)\n",

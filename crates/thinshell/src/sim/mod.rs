@@ -386,7 +386,7 @@ impl Simulation {
     }
     /// The energy terms evaluated.
     pub fn model(&self) -> &ShellModel {
-        &self.system.model
+        &self.system.model()
     }
 
     /// The shell system (mesh, model, rest state, boundary conditions, loads).
@@ -543,7 +543,7 @@ impl Simulation {
                 previous_rest = Some(before);
             }
             if let Some(mass) = g
-                .update_mass(&self.system.mesh, &self.system.model.material)
+                .update_mass(&self.system.mesh, &self.system.model().material)
                 .map_err(|e| fail(e.into()))?
             {
                 self.system.set_mass(mass).map_err(|e| fail(e.into()))?;

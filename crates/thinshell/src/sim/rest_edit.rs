@@ -143,9 +143,9 @@ fn elastic_faces(
     let model = ShellModel {
         terms: Terms {
             damping: false,
-            ..system.model.terms
+            ..system.model().terms
         },
-        ..system.model
+        ..*system.model()
     };
     let n_angles = if ShellSystem::has_edge_unknowns_for(&model) {
         system.mesh.n_edges()
