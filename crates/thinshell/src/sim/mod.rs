@@ -386,7 +386,7 @@ impl Simulation {
     }
     /// The energy terms evaluated.
     pub fn model(&self) -> &ShellModel {
-        &self.system.model()
+        self.system.model()
     }
 
     /// The shell system (mesh, model, rest state, boundary conditions, loads).
