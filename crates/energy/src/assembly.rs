@@ -34,6 +34,26 @@ use thinshell_mesh::{FaceId, Mesh, VertexId};
 /// Nonzeros per parallel work item of the Hessian gather.
 const GATHER_CHUNK: usize = 2048;
 
+/// Work (in units of one face's energy, about 0.15 µs on one core) below which an evaluation
+/// runs on the calling thread instead of rayon's pool. Handing work to the pool from outside
+/// it wakes a worker and puts the caller to sleep until the worker is done: tens of µs on an
+/// idle machine, and up to a scheduler time slice (milliseconds) when other processes keep the
+/// cores busy, which made the seed's 184-face squares (five pool calls per implicit step of
+/// about 0.7 ms) two to three times slower on a loaded machine. Faces write their own slots
+/// and every sum has a fixed order, so both paths give bit-identical results.
+const PARALLEL_MIN_WORK: usize = 1 << 14;
+
+/// Work units per face of an evaluation (see [`PARALLEL_MIN_WORK`]): about the measured ratios
+/// of the per-face cost of energy only, energy + gradient and energy + gradient + Hessian
+/// (docs/performance.md).
+fn face_work(want: Want) -> usize {
+    match (want.gradient, want.hessian) {
+        (false, None) => 1,
+        (true, None) => 3,
+        (_, Some(_)) => 16,
+    }
+}
+
 /// Where [`Assembler::evaluate`] writes derivatives (the energy is always returned).
 #[derive(Debug, Default)]
 pub struct EvalOutput<'a> {
@@ -279,11 +299,21 @@ impl Assembler {
             hessian: hessian.as_ref().map(|(_, mode)| *mode),
         };
 
+        let parallel = n_faces.saturating_mul(face_work(want)) >= PARALLEL_MIN_WORK
+            && rayon::current_num_threads() > 1;
+
         // One monomorphised per-face loop per form (adding a form adds an arm here).
         match model.sff {
-            SffKind::MidEdgeAverage => {
-                self.evaluate_faces(&MidEdgeAverage, model, x, phi, rest, damping, want)?
-            }
+            SffKind::MidEdgeAverage => self.evaluate_faces(
+                &MidEdgeAverage,
+                model,
+                x,
+                phi,
+                rest,
+                damping,
+                want,
+                parallel,
+            )?,
             SffKind::EdgeDirector(variant) => self.evaluate_faces(
                 &EdgeDirector { variant },
                 model,
@@ -292,6 +322,7 @@ impl Assembler {
                 rest,
                 damping,
                 want,
+                parallel,
             )?,
         }
         self.has_hessian = want.hessian.is_some();
@@ -305,10 +336,10 @@ impl Assembler {
                 acc
             });
         if let Some(g) = gradient {
-            self.gather_gradient(g);
+            self.gather_gradient(g, parallel);
         }
         if let Some((h, _)) = hessian {
-            self.gather_hessian_values(h.val_mut());
+            self.gather_hessian_values(h.val_mut(), parallel);
         }
         Ok(total)
     }
@@ -327,6 +358,7 @@ impl Assembler {
         rest: &RestState,
         damping: Option<&DampingState>,
         want: Want,
+        parallel: bool,
     ) -> Result<(), EnergyError>
     where
         F: SecondFundamentalForm<N> + ?Sized,
@@ -337,30 +369,39 @@ impl Assembler {
         if !want.gradient && want.hessian.is_none() {
             // Energy only (every line-search trial): the lean kernel, no per-face buffers.
             let constants = EnergyConstants::new(&model.material);
-            let bad_face = self
-                .energies
-                .par_iter_mut()
-                .enumerate()
-                .map(|(f, energy)| {
-                    let stencil = if with_angles {
-                        stencils.stencil_at(f, x, phi)
-                    } else {
-                        stencils.stencil(f, x)
-                    };
-                    let (face_rest, face_damping) = face_data(rest, damping, f);
-                    *energy = eval_face_energy(
-                        form,
-                        &model.material,
-                        &constants,
-                        &stencil,
-                        &face_rest,
-                        face_damping.as_ref(),
-                        model.terms,
-                    );
-                    (!energy.total().is_finite()).then_some(f)
-                })
-                .flatten()
-                .min();
+            let face = |(f, energy): (usize, &mut EnergyTerms)| {
+                let stencil = if with_angles {
+                    stencils.stencil_at(f, x, phi)
+                } else {
+                    stencils.stencil(f, x)
+                };
+                let (face_rest, face_damping) = face_data(rest, damping, f);
+                *energy = eval_face_energy(
+                    form,
+                    &model.material,
+                    &constants,
+                    &stencil,
+                    &face_rest,
+                    face_damping.as_ref(),
+                    model.terms,
+                );
+                (!energy.total().is_finite()).then_some(f)
+            };
+            let bad_face = if parallel {
+                self.energies
+                    .par_iter_mut()
+                    .enumerate()
+                    .map(face)
+                    .flatten()
+                    .min()
+            } else {
+                self.energies
+                    .iter_mut()
+                    .enumerate()
+                    .map(face)
+                    .flatten()
+                    .min()
+            };
             return match bad_face {
                 Some(f) => Err(EnergyError::NonFinite {
                     face: FaceId::new(f),
@@ -380,70 +421,85 @@ impl Assembler {
                 (a == 0).then_some(18 + s - 6)
             }
         };
-        let bad_face = self
-            .grad_buffer
-            .par_chunks_mut(grad_stride)
-            .zip(self.hess_buffer.par_chunks_mut(hess_stride))
-            .zip(self.energies.par_iter_mut())
-            .enumerate()
-            .map_init(FaceEval::<N>::default, |fe, (f, ((grad, hess), energy))| {
-                let stencil = if with_angles {
-                    stencils.stencil_at(f, x, phi)
-                } else {
-                    stencils.stencil(f, x)
-                };
-                let (face_rest, face_damping) = face_data(rest, damping, f);
-                eval_face(
-                    form,
-                    &model.material,
-                    &stencil,
-                    &face_rest,
-                    face_damping.as_ref(),
-                    model.terms,
-                    want,
-                    fe,
-                );
-                *energy = fe.energy;
-                let mut finite = fe.energy.total().is_finite();
-                if copy_gradient {
-                    let g = fe.gradient.as_slice();
-                    grad[..3 * vertex_slots].copy_from_slice(&g[..3 * vertex_slots]);
-                    for s in 6..slots {
-                        grad[3 * s] = g[18 + s - 6];
-                        grad[3 * s + 1] = 0.0;
-                        grad[3 * s + 2] = 0.0;
-                    }
-                    finite &= all_finite(grad);
+        let face = |fe: &mut FaceEval<N>,
+                    (f, ((grad, hess), energy)): (
+            usize,
+            ((&mut [f64], &mut [f64]), &mut EnergyTerms),
+        )| {
+            let stencil = if with_angles {
+                stencils.stencil_at(f, x, phi)
+            } else {
+                stencils.stencil(f, x)
+            };
+            let (face_rest, face_damping) = face_data(rest, damping, f);
+            eval_face(
+                form,
+                &model.material,
+                &stencil,
+                &face_rest,
+                face_damping.as_ref(),
+                model.terms,
+                want,
+                fe,
+            );
+            *energy = fe.energy;
+            let mut finite = fe.energy.total().is_finite();
+            if copy_gradient {
+                let g = fe.gradient.as_slice();
+                grad[..3 * vertex_slots].copy_from_slice(&g[..3 * vertex_slots]);
+                for s in 6..slots {
+                    grad[3 * s] = g[18 + s - 6];
+                    grad[3 * s + 1] = 0.0;
+                    grad[3 * s + 2] = 0.0;
                 }
-                if want.hessian.is_some() {
-                    // nalgebra is column-major: column 3 s2 + c holds rows 3 s1 .. 3 s1 + 3.
-                    let h = fe.hessian.as_slice();
-                    for s1 in 0..slots {
-                        for s2 in 0..=s1 {
-                            let b = &mut hess[9 * pair(s1, s2)..9 * pair(s1, s2) + 9];
-                            if s1 < 6 {
-                                for c in 0..3 {
-                                    let col = N * (3 * s2 + c) + 3 * s1;
-                                    b[3 * c..3 * c + 3].copy_from_slice(&h[col..col + 3]);
-                                }
-                                continue;
-                            }
+                finite &= all_finite(grad);
+            }
+            if want.hessian.is_some() {
+                // nalgebra is column-major: column 3 s2 + c holds rows 3 s1 .. 3 s1 + 3.
+                let h = fe.hessian.as_slice();
+                for s1 in 0..slots {
+                    for s2 in 0..=s1 {
+                        let b = &mut hess[9 * pair(s1, s2)..9 * pair(s1, s2) + 9];
+                        if s1 < 6 {
                             for c in 0..3 {
-                                for a in 0..3 {
-                                    b[3 * c + a] = match (local(s1, a), local(s2, c)) {
-                                        (Some(i), Some(j)) => h[N * j + i],
-                                        _ => 0.0,
-                                    };
-                                }
+                                let col = N * (3 * s2 + c) + 3 * s1;
+                                b[3 * c..3 * c + 3].copy_from_slice(&h[col..col + 3]);
+                            }
+                            continue;
+                        }
+                        for c in 0..3 {
+                            for a in 0..3 {
+                                b[3 * c + a] = match (local(s1, a), local(s2, c)) {
+                                    (Some(i), Some(j)) => h[N * j + i],
+                                    _ => 0.0,
+                                };
                             }
                         }
                     }
-                    finite &= all_finite(hess);
                 }
-                (!finite).then_some(f)
-            })
-            .flatten()
-            .min();
+                finite &= all_finite(hess);
+            }
+            (!finite).then_some(f)
+        };
+        let bad_face = if parallel {
+            self.grad_buffer
+                .par_chunks_mut(grad_stride)
+                .zip(self.hess_buffer.par_chunks_mut(hess_stride))
+                .zip(self.energies.par_iter_mut())
+                .enumerate()
+                .map_init(FaceEval::<N>::default, face)
+                .flatten()
+                .min()
+        } else {
+            let mut fe = FaceEval::<N>::default();
+            self.grad_buffer
+                .chunks_mut(grad_stride)
+                .zip(self.hess_buffer.chunks_mut(hess_stride))
+                .zip(self.energies.iter_mut())
+                .enumerate()
+                .filter_map(|item| face(&mut fe, item))
+                .min()
+        };
         match bad_face {
             Some(f) => Err(EnergyError::NonFinite {
                 face: FaceId::new(f),
@@ -452,18 +508,19 @@ impl Assembler {
         }
     }
 
-    /// Gradient gather: each vertex (and edge) sums its face slots in the precomputed order.
-    fn gather_gradient(&self, gradient: &mut [f64]) {
+    /// Gradient gather: each vertex (and edge) sums its face slots in the precomputed order;
+    /// in parallel or on the calling thread (the same sums either way).
+    fn gather_gradient(&self, gradient: &mut [f64], parallel: bool) {
         let p = &self.pattern;
         let buf = &self.grad_buffer;
         let (positions, angles) = gradient.split_at_mut(3 * self.n_vertices);
-        angles.par_iter_mut().enumerate().for_each(|(e, g)| {
+        let edge = |(e, g): (usize, &mut f64)| {
             let node = p.n_vertices + e;
             *g = p.grad_src[p.grad_ptr[node]..p.grad_ptr[node + 1]]
                 .iter()
                 .fold(0.0, |s, &src| s + buf[src as usize]);
-        });
-        positions.par_chunks_mut(3).enumerate().for_each(|(v, g)| {
+        };
+        let vertex = |(v, g): (usize, &mut [f64])| {
             let mut s = [0.0; 3];
             for &src in &p.grad_src[p.grad_ptr[v]..p.grad_ptr[v + 1]] {
                 let src = src as usize;
@@ -472,37 +529,50 @@ impl Assembler {
                 s[2] += buf[src + 2];
             }
             g.copy_from_slice(&s);
-        });
+        };
+        if parallel {
+            angles.par_iter_mut().enumerate().for_each(edge);
+            positions.par_chunks_mut(3).enumerate().for_each(vertex);
+        } else {
+            angles.iter_mut().enumerate().for_each(edge);
+            positions.chunks_mut(3).enumerate().for_each(vertex);
+        }
     }
 
-    /// Hessian gather: each nonzero sums its face-block entries in the precomputed order.
-    fn gather_hessian_values(&self, values: &mut [f64]) {
+    /// Hessian gather: each nonzero sums its face-block entries in the precomputed order; in
+    /// parallel or on the calling thread (the same sums either way).
+    fn gather_hessian_values(&self, values: &mut [f64], parallel: bool) {
         let p = &self.pattern;
         let buf = &self.hess_buffer;
-        values
-            .par_chunks_mut(GATHER_CHUNK)
-            .enumerate()
-            .for_each(|(chunk, vals)| {
-                let start = chunk * GATHER_CHUNK;
-                for (i, val) in vals.iter_mut().enumerate() {
-                    let k = start + i;
-                    let blk = p.nz_block[k] as usize;
-                    // Row-major entry e = 3a + c; face blocks are stored column-major.
-                    let e = p.nz_entry[k] as usize;
-                    let e_col_major = 3 * (e % 3) + e / 3;
-                    let mut s = 0.0;
-                    for &src in &p.block_src[p.block_ptr[blk]..p.block_ptr[blk + 1]] {
-                        let base = (src & !TRANSPOSED) as usize;
-                        let off = if src & TRANSPOSED != 0 {
-                            e
-                        } else {
-                            e_col_major
-                        };
-                        s += buf[base + off];
-                    }
-                    *val = s;
+        let chunk = |(chunk, vals): (usize, &mut [f64])| {
+            let start = chunk * GATHER_CHUNK;
+            for (i, val) in vals.iter_mut().enumerate() {
+                let k = start + i;
+                let blk = p.nz_block[k] as usize;
+                // Row-major entry e = 3a + c; face blocks are stored column-major.
+                let e = p.nz_entry[k] as usize;
+                let e_col_major = 3 * (e % 3) + e / 3;
+                let mut s = 0.0;
+                for &src in &p.block_src[p.block_ptr[blk]..p.block_ptr[blk + 1]] {
+                    let base = (src & !TRANSPOSED) as usize;
+                    let off = if src & TRANSPOSED != 0 {
+                        e
+                    } else {
+                        e_col_major
+                    };
+                    s += buf[base + off];
                 }
-            });
+                *val = s;
+            }
+        };
+        if parallel {
+            values
+                .par_chunks_mut(GATHER_CHUNK)
+                .enumerate()
+                .for_each(chunk);
+        } else {
+            values.chunks_mut(GATHER_CHUNK).enumerate().for_each(chunk);
+        }
     }
 
     /// Refills `hessian`'s values from the per-face blocks of the last [`Assembler::evaluate`]
@@ -516,7 +586,11 @@ impl Assembler {
         if !self.has_hessian {
             return Err(EnergyError::NoHessianEvaluated);
         }
-        self.gather_hessian_values(hessian.val_mut());
+        let parallel = self.energies.len().saturating_mul(face_work(Want {
+            gradient: true,
+            hessian: Some(HessianMode::Exact),
+        })) >= PARALLEL_MIN_WORK;
+        self.gather_hessian_values(hessian.val_mut(), parallel);
         Ok(())
     }
 
