@@ -570,8 +570,35 @@ impl Assembler {
                 .par_chunks_mut(GATHER_CHUNK)
                 .enumerate()
                 .for_each(chunk);
-        } else {
-            values.chunks_mut(GATHER_CHUNK).enumerate().for_each(chunk);
+            return;
+        }
+        // On the calling thread, block by block: each face block's nine entries are read once
+        // and contiguously (the per-nonzero loop re-reads a block's source list for each of its
+        // entries; blocks write scattered positions, hence not the parallel path). Every entry
+        // sums its sources in the same order from 0, so the bits are those of the loop above.
+        for (blk, offsets) in p.block_offsets.iter().enumerate() {
+            // Row-major entries e = 3a + c; face blocks are stored column-major.
+            let mut acc = [0.0f64; 9];
+            for &src in &p.block_src[p.block_ptr[blk]..p.block_ptr[blk + 1]] {
+                let base = (src & !TRANSPOSED) as usize;
+                let b = &buf[base..base + 9];
+                if src & TRANSPOSED != 0 {
+                    for (a, v) in acc.iter_mut().zip(b) {
+                        *a += v;
+                    }
+                } else {
+                    for r in 0..3 {
+                        for c in 0..3 {
+                            acc[3 * r + c] += b[3 * c + r];
+                        }
+                    }
+                }
+            }
+            for (&o, &a) in offsets.iter().zip(&acc) {
+                if o != NONE {
+                    values[o as usize] = a;
+                }
+            }
         }
     }
 

@@ -432,7 +432,14 @@ fn calling_thread_and_pool_paths_agree_bit_for_bit() {
                 )
                 .unwrap();
             (
-                bits(&[e.stretch, e.bend, eg.stretch, eg.bend, egh.stretch, egh.bend]),
+                bits(&[
+                    e.stretch,
+                    e.bend,
+                    eg.stretch,
+                    eg.bend,
+                    egh.stretch,
+                    egh.bend,
+                ]),
                 bits(&g),
                 bits(&gh),
                 bits(h.val()),
