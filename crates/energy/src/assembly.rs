@@ -34,14 +34,19 @@ use thinshell_mesh::{FaceId, Mesh, VertexId};
 /// Nonzeros per parallel work item of the Hessian gather.
 const GATHER_CHUNK: usize = 2048;
 
-/// Work (in units of one face's energy, about 0.15 µs on one core) below which an evaluation
-/// runs on the calling thread instead of rayon's pool. Handing work to the pool from outside
-/// it wakes a worker and puts the caller to sleep until the worker is done: tens of µs on an
-/// idle machine, and up to a scheduler time slice (milliseconds) when other processes keep the
-/// cores busy, which made the seed's 184-face squares (five pool calls per implicit step of
-/// about 0.7 ms) two to three times slower on a loaded machine. Faces write their own slots
-/// and every sum has a fixed order, so both paths give bit-identical results.
-const PARALLEL_MIN_WORK: usize = 1 << 14;
+/// Work (in units of one face's energy, about 0.15 µs on one core) below which a face pass
+/// runs on the calling thread instead of rayon's pool. Handing work to the pool from outside it
+/// wakes a worker and puts the caller to sleep until the worker is done, tens of µs on an idle
+/// machine: more than the energy and gradient passes of the seed's 184-face square take
+/// (about 30 and 75 µs), less than its Hessian pass (about 450 µs), which stays parallel.
+/// Faces write their own slots and every sum has a fixed order, so both paths give
+/// bit-identical results.
+const PARALLEL_MIN_WORK: usize = 2048;
+
+/// Gathered entries (gradient coordinates or Hessian nonzeros) below which a gather runs on
+/// the calling thread: a gather costs a few ns per entry, so the pool's hand-off pays only
+/// for tens of thousands of entries.
+const PARALLEL_MIN_GATHER: usize = 1 << 14;
 
 /// Work units per face of an evaluation (see [`PARALLEL_MIN_WORK`]): about the measured ratios
 /// of the per-face cost of energy only, energy + gradient and energy + gradient + Hessian
@@ -336,10 +341,12 @@ impl Assembler {
                 acc
             });
         if let Some(g) = gradient {
-            self.gather_gradient(g, parallel);
+            self.gather_gradient(g, parallel && g.len() >= PARALLEL_MIN_GATHER);
         }
         if let Some((h, _)) = hessian {
-            self.gather_hessian_values(h.val_mut(), parallel);
+            let values = h.val_mut();
+            let parallel = parallel && values.len() >= PARALLEL_MIN_GATHER;
+            self.gather_hessian_values(values, parallel);
         }
         Ok(total)
     }
@@ -613,10 +620,8 @@ impl Assembler {
         if !self.has_hessian {
             return Err(EnergyError::NoHessianEvaluated);
         }
-        let parallel = self.energies.len().saturating_mul(face_work(Want {
-            gradient: true,
-            hessian: Some(HessianMode::Exact),
-        })) >= PARALLEL_MIN_WORK;
+        let parallel =
+            hessian.val().len() >= PARALLEL_MIN_GATHER && rayon::current_num_threads() > 1;
         self.gather_hessian_values(hessian.val_mut(), parallel);
         Ok(())
     }
