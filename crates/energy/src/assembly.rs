@@ -9,8 +9,12 @@
 //! 2. gathers: every gradient coordinate and every nonzero sums its contributions in the
 //!    precomputed order, in parallel over coordinates / nonzeros.
 //!
+//! Small passes (below `PARALLEL_MIN_WORK` face work or `PARALLEL_MIN_GATHER` entries) run on
+//! the calling thread instead: handing them to rayon's pool costs more than they take.
+//!
 //! No thread ever adds into shared memory, so results are bit-identical for any number of
-//! threads, and nothing is allocated per evaluation beyond rayon's bookkeeping.
+//! threads (and on either path), and nothing is allocated per evaluation beyond rayon's
+//! bookkeeping.
 
 mod pattern;
 
