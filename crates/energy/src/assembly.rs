@@ -406,12 +406,7 @@ impl Assembler {
                     .flatten()
                     .min()
             } else {
-                self.energies
-                    .iter_mut()
-                    .enumerate()
-                    .map(face)
-                    .flatten()
-                    .min()
+                self.energies.iter_mut().enumerate().filter_map(face).min()
             };
             return match bad_face {
                 Some(f) => Err(EnergyError::NonFinite {
@@ -432,11 +427,7 @@ impl Assembler {
                 (a == 0).then_some(18 + s - 6)
             }
         };
-        let face = |fe: &mut FaceEval<N>,
-                    (f, ((grad, hess), energy)): (
-            usize,
-            ((&mut [f64], &mut [f64]), &mut EnergyTerms),
-        )| {
+        let face = |fe: &mut FaceEval<N>, (f, ((grad, hess), energy)): FaceSlots<'_>| {
             let stencil = if with_angles {
                 stencils.stencil_at(f, x, phi)
             } else {
@@ -759,6 +750,9 @@ impl Assembler {
         (f.idx() < self.stencils.n_faces()).then(|| self.stencils.vertices(f.idx()))
     }
 }
+
+/// One face's index and its slots of the per-face buffers: gradient, Hessian blocks, energies.
+type FaceSlots<'a> = (usize, ((&'a mut [f64], &'a mut [f64]), &'a mut EnergyTerms));
 
 /// Rest forms and (when damping) previous-step forms of face `f`.
 fn face_data(
