@@ -9,8 +9,12 @@
 //! 2. gathers: every gradient coordinate and every nonzero sums its contributions in the
 //!    precomputed order, in parallel over coordinates / nonzeros.
 //!
+//! Small passes (below `PARALLEL_MIN_WORK` face work or `PARALLEL_MIN_GATHER` entries) run on
+//! the calling thread instead: handing them to rayon's pool costs more than they take.
+//!
 //! No thread ever adds into shared memory, so results are bit-identical for any number of
-//! threads, and nothing is allocated per evaluation beyond rayon's bookkeeping.
+//! threads (and on either path), and nothing is allocated per evaluation beyond rayon's
+//! bookkeeping.
 
 mod pattern;
 
@@ -33,6 +37,31 @@ use thinshell_mesh::{FaceId, Mesh, VertexId};
 
 /// Nonzeros per parallel work item of the Hessian gather.
 const GATHER_CHUNK: usize = 2048;
+
+/// Work (in units of one face's energy, about 0.15 µs on one core) below which a face pass
+/// runs on the calling thread instead of rayon's pool. Handing work to the pool from outside it
+/// wakes a worker and puts the caller to sleep until the worker is done, tens of µs on an idle
+/// machine: more than the energy and gradient passes of the seed's 184-face square take
+/// (about 30 and 75 µs), less than its Hessian pass (about 450 µs), which stays parallel.
+/// Faces write their own slots and every sum has a fixed order, so both paths give
+/// bit-identical results.
+const PARALLEL_MIN_WORK: usize = 2048;
+
+/// Gathered entries (gradient coordinates or Hessian nonzeros) below which a gather runs on
+/// the calling thread: a gather costs a few ns per entry, so the pool's hand-off pays only
+/// for tens of thousands of entries.
+const PARALLEL_MIN_GATHER: usize = 1 << 14;
+
+/// Work units per face of an evaluation (see [`PARALLEL_MIN_WORK`]): about the measured ratios
+/// of the per-face cost of energy only, energy + gradient and energy + gradient + Hessian
+/// (docs/performance.md).
+fn face_work(want: Want) -> usize {
+    match (want.gradient, want.hessian) {
+        (false, None) => 1,
+        (true, None) => 3,
+        (_, Some(_)) => 16,
+    }
+}
 
 /// Where [`Assembler::evaluate`] writes derivatives (the energy is always returned).
 #[derive(Debug, Default)]
@@ -279,11 +308,21 @@ impl Assembler {
             hessian: hessian.as_ref().map(|(_, mode)| *mode),
         };
 
+        let parallel = n_faces.saturating_mul(face_work(want)) >= PARALLEL_MIN_WORK
+            && rayon::current_num_threads() > 1;
+
         // One monomorphised per-face loop per form (adding a form adds an arm here).
         match model.sff {
-            SffKind::MidEdgeAverage => {
-                self.evaluate_faces(&MidEdgeAverage, model, x, phi, rest, damping, want)?
-            }
+            SffKind::MidEdgeAverage => self.evaluate_faces(
+                &MidEdgeAverage,
+                model,
+                x,
+                phi,
+                rest,
+                damping,
+                want,
+                parallel,
+            )?,
             SffKind::EdgeDirector(variant) => self.evaluate_faces(
                 &EdgeDirector { variant },
                 model,
@@ -292,6 +331,7 @@ impl Assembler {
                 rest,
                 damping,
                 want,
+                parallel,
             )?,
         }
         self.has_hessian = want.hessian.is_some();
@@ -305,10 +345,12 @@ impl Assembler {
                 acc
             });
         if let Some(g) = gradient {
-            self.gather_gradient(g);
+            self.gather_gradient(g, parallel && g.len() >= PARALLEL_MIN_GATHER);
         }
         if let Some((h, _)) = hessian {
-            self.gather_hessian_values(h.val_mut());
+            let values = h.val_mut();
+            let parallel = parallel && values.len() >= PARALLEL_MIN_GATHER;
+            self.gather_hessian_values(values, parallel);
         }
         Ok(total)
     }
@@ -327,6 +369,7 @@ impl Assembler {
         rest: &RestState,
         damping: Option<&DampingState>,
         want: Want,
+        parallel: bool,
     ) -> Result<(), EnergyError>
     where
         F: SecondFundamentalForm<N> + ?Sized,
@@ -337,30 +380,34 @@ impl Assembler {
         if !want.gradient && want.hessian.is_none() {
             // Energy only (every line-search trial): the lean kernel, no per-face buffers.
             let constants = EnergyConstants::new(&model.material);
-            let bad_face = self
-                .energies
-                .par_iter_mut()
-                .enumerate()
-                .map(|(f, energy)| {
-                    let stencil = if with_angles {
-                        stencils.stencil_at(f, x, phi)
-                    } else {
-                        stencils.stencil(f, x)
-                    };
-                    let (face_rest, face_damping) = face_data(rest, damping, f);
-                    *energy = eval_face_energy(
-                        form,
-                        &model.material,
-                        &constants,
-                        &stencil,
-                        &face_rest,
-                        face_damping.as_ref(),
-                        model.terms,
-                    );
-                    (!energy.total().is_finite()).then_some(f)
-                })
-                .flatten()
-                .min();
+            let face = |(f, energy): (usize, &mut EnergyTerms)| {
+                let stencil = if with_angles {
+                    stencils.stencil_at(f, x, phi)
+                } else {
+                    stencils.stencil(f, x)
+                };
+                let (face_rest, face_damping) = face_data(rest, damping, f);
+                *energy = eval_face_energy(
+                    form,
+                    &model.material,
+                    &constants,
+                    &stencil,
+                    &face_rest,
+                    face_damping.as_ref(),
+                    model.terms,
+                );
+                (!energy.total().is_finite()).then_some(f)
+            };
+            let bad_face = if parallel {
+                self.energies
+                    .par_iter_mut()
+                    .enumerate()
+                    .map(face)
+                    .flatten()
+                    .min()
+            } else {
+                self.energies.iter_mut().enumerate().filter_map(face).min()
+            };
             return match bad_face {
                 Some(f) => Err(EnergyError::NonFinite {
                     face: FaceId::new(f),
@@ -380,70 +427,81 @@ impl Assembler {
                 (a == 0).then_some(18 + s - 6)
             }
         };
-        let bad_face = self
-            .grad_buffer
-            .par_chunks_mut(grad_stride)
-            .zip(self.hess_buffer.par_chunks_mut(hess_stride))
-            .zip(self.energies.par_iter_mut())
-            .enumerate()
-            .map_init(FaceEval::<N>::default, |fe, (f, ((grad, hess), energy))| {
-                let stencil = if with_angles {
-                    stencils.stencil_at(f, x, phi)
-                } else {
-                    stencils.stencil(f, x)
-                };
-                let (face_rest, face_damping) = face_data(rest, damping, f);
-                eval_face(
-                    form,
-                    &model.material,
-                    &stencil,
-                    &face_rest,
-                    face_damping.as_ref(),
-                    model.terms,
-                    want,
-                    fe,
-                );
-                *energy = fe.energy;
-                let mut finite = fe.energy.total().is_finite();
-                if copy_gradient {
-                    let g = fe.gradient.as_slice();
-                    grad[..3 * vertex_slots].copy_from_slice(&g[..3 * vertex_slots]);
-                    for s in 6..slots {
-                        grad[3 * s] = g[18 + s - 6];
-                        grad[3 * s + 1] = 0.0;
-                        grad[3 * s + 2] = 0.0;
-                    }
-                    finite &= all_finite(grad);
+        let face = |fe: &mut FaceEval<N>, (f, ((grad, hess), energy)): FaceSlots<'_>| {
+            let stencil = if with_angles {
+                stencils.stencil_at(f, x, phi)
+            } else {
+                stencils.stencil(f, x)
+            };
+            let (face_rest, face_damping) = face_data(rest, damping, f);
+            eval_face(
+                form,
+                &model.material,
+                &stencil,
+                &face_rest,
+                face_damping.as_ref(),
+                model.terms,
+                want,
+                fe,
+            );
+            *energy = fe.energy;
+            let mut finite = fe.energy.total().is_finite();
+            if copy_gradient {
+                let g = fe.gradient.as_slice();
+                grad[..3 * vertex_slots].copy_from_slice(&g[..3 * vertex_slots]);
+                for s in 6..slots {
+                    grad[3 * s] = g[18 + s - 6];
+                    grad[3 * s + 1] = 0.0;
+                    grad[3 * s + 2] = 0.0;
                 }
-                if want.hessian.is_some() {
-                    // nalgebra is column-major: column 3 s2 + c holds rows 3 s1 .. 3 s1 + 3.
-                    let h = fe.hessian.as_slice();
-                    for s1 in 0..slots {
-                        for s2 in 0..=s1 {
-                            let b = &mut hess[9 * pair(s1, s2)..9 * pair(s1, s2) + 9];
-                            if s1 < 6 {
-                                for c in 0..3 {
-                                    let col = N * (3 * s2 + c) + 3 * s1;
-                                    b[3 * c..3 * c + 3].copy_from_slice(&h[col..col + 3]);
-                                }
-                                continue;
-                            }
+                finite &= all_finite(grad);
+            }
+            if want.hessian.is_some() {
+                // nalgebra is column-major: column 3 s2 + c holds rows 3 s1 .. 3 s1 + 3.
+                let h = fe.hessian.as_slice();
+                for s1 in 0..slots {
+                    for s2 in 0..=s1 {
+                        let b = &mut hess[9 * pair(s1, s2)..9 * pair(s1, s2) + 9];
+                        if s1 < 6 {
                             for c in 0..3 {
-                                for a in 0..3 {
-                                    b[3 * c + a] = match (local(s1, a), local(s2, c)) {
-                                        (Some(i), Some(j)) => h[N * j + i],
-                                        _ => 0.0,
-                                    };
-                                }
+                                let col = N * (3 * s2 + c) + 3 * s1;
+                                b[3 * c..3 * c + 3].copy_from_slice(&h[col..col + 3]);
+                            }
+                            continue;
+                        }
+                        for c in 0..3 {
+                            for a in 0..3 {
+                                b[3 * c + a] = match (local(s1, a), local(s2, c)) {
+                                    (Some(i), Some(j)) => h[N * j + i],
+                                    _ => 0.0,
+                                };
                             }
                         }
                     }
-                    finite &= all_finite(hess);
                 }
-                (!finite).then_some(f)
-            })
-            .flatten()
-            .min();
+                finite &= all_finite(hess);
+            }
+            (!finite).then_some(f)
+        };
+        let bad_face = if parallel {
+            self.grad_buffer
+                .par_chunks_mut(grad_stride)
+                .zip(self.hess_buffer.par_chunks_mut(hess_stride))
+                .zip(self.energies.par_iter_mut())
+                .enumerate()
+                .map_init(FaceEval::<N>::default, face)
+                .flatten()
+                .min()
+        } else {
+            let mut fe = FaceEval::<N>::default();
+            self.grad_buffer
+                .chunks_mut(grad_stride)
+                .zip(self.hess_buffer.chunks_mut(hess_stride))
+                .zip(self.energies.iter_mut())
+                .enumerate()
+                .filter_map(|item| face(&mut fe, item))
+                .min()
+        };
         match bad_face {
             Some(f) => Err(EnergyError::NonFinite {
                 face: FaceId::new(f),
@@ -452,18 +510,19 @@ impl Assembler {
         }
     }
 
-    /// Gradient gather: each vertex (and edge) sums its face slots in the precomputed order.
-    fn gather_gradient(&self, gradient: &mut [f64]) {
+    /// Gradient gather: each vertex (and edge) sums its face slots in the precomputed order;
+    /// in parallel or on the calling thread (the same sums either way).
+    fn gather_gradient(&self, gradient: &mut [f64], parallel: bool) {
         let p = &self.pattern;
         let buf = &self.grad_buffer;
         let (positions, angles) = gradient.split_at_mut(3 * self.n_vertices);
-        angles.par_iter_mut().enumerate().for_each(|(e, g)| {
+        let edge = |(e, g): (usize, &mut f64)| {
             let node = p.n_vertices + e;
             *g = p.grad_src[p.grad_ptr[node]..p.grad_ptr[node + 1]]
                 .iter()
                 .fold(0.0, |s, &src| s + buf[src as usize]);
-        });
-        positions.par_chunks_mut(3).enumerate().for_each(|(v, g)| {
+        };
+        let vertex = |(v, g): (usize, &mut [f64])| {
             let mut s = [0.0; 3];
             for &src in &p.grad_src[p.grad_ptr[v]..p.grad_ptr[v + 1]] {
                 let src = src as usize;
@@ -472,37 +531,77 @@ impl Assembler {
                 s[2] += buf[src + 2];
             }
             g.copy_from_slice(&s);
-        });
+        };
+        if parallel {
+            angles.par_iter_mut().enumerate().for_each(edge);
+            positions.par_chunks_mut(3).enumerate().for_each(vertex);
+        } else {
+            angles.iter_mut().enumerate().for_each(edge);
+            positions.chunks_mut(3).enumerate().for_each(vertex);
+        }
     }
 
-    /// Hessian gather: each nonzero sums its face-block entries in the precomputed order.
-    fn gather_hessian_values(&self, values: &mut [f64]) {
+    /// Hessian gather: each nonzero sums its face-block entries in the precomputed order; in
+    /// parallel or on the calling thread (the same sums either way).
+    fn gather_hessian_values(&self, values: &mut [f64], parallel: bool) {
         let p = &self.pattern;
         let buf = &self.hess_buffer;
-        values
-            .par_chunks_mut(GATHER_CHUNK)
-            .enumerate()
-            .for_each(|(chunk, vals)| {
-                let start = chunk * GATHER_CHUNK;
-                for (i, val) in vals.iter_mut().enumerate() {
-                    let k = start + i;
-                    let blk = p.nz_block[k] as usize;
-                    // Row-major entry e = 3a + c; face blocks are stored column-major.
-                    let e = p.nz_entry[k] as usize;
-                    let e_col_major = 3 * (e % 3) + e / 3;
-                    let mut s = 0.0;
-                    for &src in &p.block_src[p.block_ptr[blk]..p.block_ptr[blk + 1]] {
-                        let base = (src & !TRANSPOSED) as usize;
-                        let off = if src & TRANSPOSED != 0 {
-                            e
-                        } else {
-                            e_col_major
-                        };
-                        s += buf[base + off];
-                    }
-                    *val = s;
+        let chunk = |(chunk, vals): (usize, &mut [f64])| {
+            let start = chunk * GATHER_CHUNK;
+            for (i, val) in vals.iter_mut().enumerate() {
+                let k = start + i;
+                let blk = p.nz_block[k] as usize;
+                // Row-major entry e = 3a + c; face blocks are stored column-major.
+                let e = p.nz_entry[k] as usize;
+                let e_col_major = 3 * (e % 3) + e / 3;
+                let mut s = 0.0;
+                for &src in &p.block_src[p.block_ptr[blk]..p.block_ptr[blk + 1]] {
+                    let base = (src & !TRANSPOSED) as usize;
+                    let off = if src & TRANSPOSED != 0 {
+                        e
+                    } else {
+                        e_col_major
+                    };
+                    s += buf[base + off];
                 }
-            });
+                *val = s;
+            }
+        };
+        if parallel {
+            values
+                .par_chunks_mut(GATHER_CHUNK)
+                .enumerate()
+                .for_each(chunk);
+            return;
+        }
+        // On the calling thread, block by block: each face block's nine entries are read once
+        // and contiguously (the per-nonzero loop re-reads a block's source list for each of its
+        // entries; blocks write scattered positions, hence not the parallel path). Every entry
+        // sums its sources in the same order from 0, so the bits are those of the loop above.
+        for (blk, offsets) in p.block_offsets.iter().enumerate() {
+            // Row-major entries e = 3a + c; face blocks are stored column-major.
+            let mut acc = [0.0f64; 9];
+            for &src in &p.block_src[p.block_ptr[blk]..p.block_ptr[blk + 1]] {
+                let base = (src & !TRANSPOSED) as usize;
+                let b = &buf[base..base + 9];
+                if src & TRANSPOSED != 0 {
+                    for (a, v) in acc.iter_mut().zip(b) {
+                        *a += v;
+                    }
+                } else {
+                    for r in 0..3 {
+                        for c in 0..3 {
+                            acc[3 * r + c] += b[3 * c + r];
+                        }
+                    }
+                }
+            }
+            for (&o, &a) in offsets.iter().zip(&acc) {
+                if o != NONE {
+                    values[o as usize] = a;
+                }
+            }
+        }
     }
 
     /// Refills `hessian`'s values from the per-face blocks of the last [`Assembler::evaluate`]
@@ -516,7 +615,9 @@ impl Assembler {
         if !self.has_hessian {
             return Err(EnergyError::NoHessianEvaluated);
         }
-        self.gather_hessian_values(hessian.val_mut());
+        let parallel =
+            hessian.val().len() >= PARALLEL_MIN_GATHER && rayon::current_num_threads() > 1;
+        self.gather_hessian_values(hessian.val_mut(), parallel);
         Ok(())
     }
 
@@ -649,6 +750,9 @@ impl Assembler {
         (f.idx() < self.stencils.n_faces()).then(|| self.stencils.vertices(f.idx()))
     }
 }
+
+/// One face's index and its slots of the per-face buffers: gradient, Hessian blocks, energies.
+type FaceSlots<'a> = (usize, ((&'a mut [f64], &'a mut [f64]), &'a mut EnergyTerms));
 
 /// Rest forms and (when damping) previous-step forms of face `f`.
 fn face_data(

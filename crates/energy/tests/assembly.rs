@@ -378,6 +378,79 @@ fn bit_identical_for_any_thread_count() {
     assert_eq!(one, two);
 }
 
+/// Every path (energy only, energy + gradient, with the Hessian) gives the same bits on one
+/// rayon thread — where the assembler runs on the calling thread — and on two, on a mesh large
+/// enough (20 480 faces) for each path to go parallel there.
+#[test]
+fn calling_thread_and_pool_paths_agree_bit_for_bit() {
+    let mesh = generators::icosphere(1.0, 5).unwrap();
+    let rest = RestState::from_mesh(&mesh, mesh.positions(), SffKind::MidEdgeAverage).unwrap();
+    let mut rng = SplitMix64::new(7);
+    let x: Vec<_> = mesh
+        .positions()
+        .iter()
+        .map(|p| p * 0.98 + rng.vector3(0.005))
+        .collect();
+    let dofs = DofMap::all_free(mesh.n_vertices());
+    let m = model(ELASTIC);
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut asm = Assembler::new(&mesh, &dofs, ELASTIC).unwrap();
+            let e = asm
+                .evaluate(&m, &x, &rest, None, EvalOutput::default())
+                .unwrap();
+            let mut g = vec![0.0; 3 * mesh.n_vertices()];
+            let eg = asm
+                .evaluate(
+                    &m,
+                    &x,
+                    &rest,
+                    None,
+                    EvalOutput {
+                        gradient: Some(&mut g),
+                        hessian: None,
+                    },
+                )
+                .unwrap();
+            let mut gh = vec![0.0; 3 * mesh.n_vertices()];
+            let mut h = asm.hessian_template();
+            let egh = asm
+                .evaluate(
+                    &m,
+                    &x,
+                    &rest,
+                    None,
+                    EvalOutput {
+                        gradient: Some(&mut gh),
+                        hessian: Some((&mut h, HessianMode::Exact)),
+                    },
+                )
+                .unwrap();
+            (
+                bits(&[
+                    e.stretch,
+                    e.bend,
+                    eg.stretch,
+                    eg.bend,
+                    egh.stretch,
+                    egh.bend,
+                ]),
+                bits(&g),
+                bits(&gh),
+                bits(h.val()),
+            )
+        })
+    };
+    let one = run(1);
+    assert!(one.1.iter().any(|&b| f64::from_bits(b) != 0.0));
+    assert_eq!(one, run(2));
+}
+
 /// The pattern is exactly the union of the stencils' dof pairs (lower triangle, free dofs),
 /// with every diagonal present and `diagonal_offsets` pointing at it; stretching only uses
 /// the face vertices.

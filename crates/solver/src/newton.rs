@@ -937,6 +937,15 @@ pub fn newton_solve<O: Objective + ?Sized>(
             {
                 converged!('newton, Convergence::Gradient);
             }
+            // The limit at the new iterate: a relative one grows with the move just made (the
+            // one of the iteration's start, before any move, left the estimate unable to end
+            // an implicit step, which then assembled one more Hessian only to stop there).
+            let step_limit = current_step_limit(
+                settings.step_tolerance * length_scale,
+                settings,
+                x,
+                x_start.as_deref(),
+            );
             let t = Instant::now();
             let solved = estimate_correction(ws, settings, &mut rec)?;
             rec.timings.solve += t.elapsed();

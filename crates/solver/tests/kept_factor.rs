@@ -138,6 +138,10 @@ fn five_steps(cancelled: Option<usize>) -> Vec<u64> {
     let (mut sys, mut state) = shrinking_sphere(3, SffKind::MidEdgeAverage);
     // A small step: the factor of one step serves the next ones (as in the seed's protocol).
     let mut ie = ImplicitEuler::new(1e-5);
+    // The absolute step tolerance only, so that every step takes a second pass through the
+    // Newton loop, where the cancel set after the first iteration is seen (with the relative
+    // tolerance these steps end after one iteration, by the correction estimate).
+    ie.newton.relative_step_tolerance = 0.0;
     for step in 0..5 {
         if cancelled == Some(step) {
             let cancel = Arc::new(AtomicBool::new(false));
