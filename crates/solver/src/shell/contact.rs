@@ -582,25 +582,40 @@ impl Contact {
         (d.distance - self.offset_obstacle, d.normal)
     }
 
-    /// The contact energy (J) at positions `x`; +∞ when a pair touches or crosses.
+    /// The contact energy (J) at positions `x`; +∞ when a pair is within the CCD's minimum
+    /// separation (offset + 10⁻³ d̂) or crosses. The barrier is finite down to a gap of 0, but
+    /// a state the CCD would refuse to start from must not be accepted by a step that the CCD
+    /// did not limit (Newton's unshifted step at a saddle, for one): +∞ makes it fail the
+    /// finiteness checks instead.
     pub fn energy(&self, x: &[V]) -> f64 {
         let all = self.candidates(x);
         let c = &all.near;
         let g = self.geometry();
+        let gm = self.mesh_geometry();
+        let xi = self.separation;
         let mut e = 0.0;
+        let mut add = |pts: &PairPoints, kind: PairKind, geometry: BarrierGeometry| {
+            if !(pair_gap(pts, kind, geometry.offset) > xi) {
+                e = f64::INFINITY;
+            } else {
+                e += pair_energy(pts, kind, geometry);
+            }
+        };
         for &[v, f] in &c.point_triangle {
-            e += pair_energy(&self.pt_points(x, v, f), PairKind::PointTriangle, g);
+            add(&self.pt_points(x, v, f), PairKind::PointTriangle, g);
         }
         for (&[i, j], &t) in c.edge_edge.iter().zip(&all.near_threshold) {
-            e += pair_energy(&self.ee_points(x, i, j), ee_kind(t), g);
+            add(&self.ee_points(x, i, j), ee_kind(t), g);
         }
-        let gm = self.mesh_geometry();
-        self.for_mesh_pairs(x, &all.mesh_near, |_, pts, kind| {
-            e += pair_energy(&pts, kind, gm)
-        });
+        self.for_mesh_pairs(x, &all.mesh_near, |_, pts, kind| add(&pts, kind, gm));
         for o in &self.obstacles {
             for y in x {
-                e += barrier(self.obstacle_gap(o, y).0, self.activation).0;
+                let gap = self.obstacle_gap(o, y).0;
+                if !(gap > xi) {
+                    e = f64::INFINITY;
+                } else {
+                    e += barrier(gap, self.activation).0;
+                }
             }
         }
         self.stiffness * e
