@@ -124,6 +124,8 @@ pub struct Contact {
     cache_reach: f64,
     /// The last broad phase of [`Contact::candidates_for`].
     cache: CandidateCache,
+    /// [`Obstacle::describe`] of every obstacle, in the settings' order.
+    descriptions: Vec<String>,
 }
 
 /// The mesh obstacles of a contact term merged into one fixed mesh.
@@ -297,6 +299,7 @@ impl Contact {
             rest: p.to_vec(),
             cache_reach: (1.0 + PATTERN_REACH) * activation,
             cache: CandidateCache::default(),
+            descriptions: settings.obstacles.iter().map(Obstacle::describe).collect(),
         })
     }
 
@@ -946,6 +949,30 @@ impl Contact {
             }
         }
         (n, active)
+    }
+
+    /// A few lines saying what the term keeps apart and how (for `thinshell check`): d̂, κ
+    /// (fixed or adaptive, with its current value), self-contact, the thickness offsets and one
+    /// line per obstacle.
+    pub fn describe(&self) -> String {
+        let kappa = match self.adaptive {
+            Some(_) => format!("adaptive, now {:e} J/m²", self.stiffness),
+            None => format!("{:e} J/m² (fixed)", self.stiffness),
+        };
+        let mut text = format!(
+            "contact: d̂ = {:e} m, κ {kappa}, self-contact {}, thickness offset {:e} m between sheets, {:e} m to obstacles\n",
+            self.activation,
+            if self.self_contact { "on" } else { "off" },
+            self.offset_self,
+            self.offset_obstacle,
+        );
+        if self.descriptions.is_empty() {
+            text += "obstacles: none\n";
+        }
+        for (k, d) in self.descriptions.iter().enumerate() {
+            text += &format!("obstacle {k}: {d}\n");
+        }
+        text
     }
 
     /// Whether the shell is kept from passing through itself.
