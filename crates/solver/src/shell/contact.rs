@@ -624,6 +624,40 @@ impl Contact {
         self.stiffness * e
     }
 
+    /// [`ContactStats::min_gap`] at positions `x` (m) without the energy: the smallest gap of
+    /// the active self and mesh-obstacle pairs and of every vertex against an analytic
+    /// obstacle (+∞ if none).
+    pub fn min_gap(&self, x: &[V]) -> f64 {
+        let all = self.candidates(x);
+        let mut gap = f64::INFINITY;
+        let mut see = |g: f64, obstacle: bool| {
+            if obstacle || g < self.activation {
+                gap = gap.min(g);
+            }
+        };
+        for &[v, f] in &all.near.point_triangle {
+            see(
+                point_triangle_distance2(&self.pt_points(x, v, f)).0.sqrt() - self.offset_self,
+                false,
+            );
+        }
+        for &[i, j] in &all.near.edge_edge {
+            see(
+                edge_edge_distance2(&self.ee_points(x, i, j)).0.sqrt() - self.offset_self,
+                false,
+            );
+        }
+        self.for_mesh_pairs(x, &all.mesh_near, |_, pts, kind| {
+            see(pair_gap(&pts, kind, self.offset_obstacle), false);
+        });
+        for o in &self.obstacles {
+            for y in x {
+                see(self.obstacle_gap(o, y).0, true);
+            }
+        }
+        gap
+    }
+
     /// Active pairs, the smallest gap and the energy at positions `x` (the Hessian counters
     /// are left 0).
     pub fn stats(&self, x: &[V]) -> ContactStats {

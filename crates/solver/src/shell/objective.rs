@@ -110,7 +110,7 @@ impl<'a> ShellObjective<'a> {
             a.initialised = true;
         }
         if let Some(c) = &mut self.sys.contact {
-            let gap = c.stats(&x).min_gap;
+            let gap = c.min_gap(&x);
             if a.initialised {
                 kappa = a.update(kappa, gap, d_hat);
             }
@@ -176,7 +176,7 @@ impl<'a> ShellObjective<'a> {
             .sys
             .contact
             .as_ref()
-            .map_or(f64::INFINITY, |c| c.stats(&x).min_gap);
+            .map_or(f64::INFINITY, |c| c.min_gap(&x));
         let last = std::mem::replace(&mut self.iteration_gap, gap);
         if !(gap < super::contact_stiffness::COLLAPSE_FRACTION * d_hat && gap < last) {
             return false;
