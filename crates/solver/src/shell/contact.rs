@@ -480,7 +480,8 @@ impl Contact {
                 Some(e) => dist(x0).max(dist(e)),
                 None => dist(x0),
             };
-            !(d - 2.0 * moved(ids) - offset > limit)
+            let bound = d - 2.0 * moved(ids) - offset;
+            bound.is_nan() || bound <= limit
         };
         let pt = |x: &[V], v: usize, f: usize| {
             point_triangle_distance2(&self.pt_points(x, v, f)).0.sqrt()
@@ -598,7 +599,8 @@ impl Contact {
         let xi = self.separation;
         let mut e = 0.0;
         let mut add = |pts: &PairPoints, kind: PairKind, geometry: BarrierGeometry| {
-            if !(pair_gap(pts, kind, geometry.offset) > xi) {
+            let gap = pair_gap(pts, kind, geometry.offset);
+            if gap.is_nan() || gap <= xi {
                 e = f64::INFINITY;
             } else {
                 e += pair_energy(pts, kind, geometry);
@@ -614,7 +616,7 @@ impl Contact {
         for o in &self.obstacles {
             for y in x {
                 let gap = self.obstacle_gap(o, y).0;
-                if !(gap > xi) {
+                if gap.is_nan() || gap <= xi {
                     e = f64::INFINITY;
                 } else {
                     e += barrier(gap, self.activation).0;
@@ -1056,7 +1058,8 @@ impl Contact {
                 None => (dist(x), 0.0),
             };
             // A margin of 10⁻⁶ for rounding; a NaN distance keeps the pair.
-            !(d - m > (1.0 + 1e-6) * limit)
+            let bound = d - m;
+            bound.is_nan() || bound <= (1.0 + 1e-6) * limit
         };
         let mut out = Vec::with_capacity(3 * c.point_triangle.len() + 4 * c.edge_edge.len());
         let mut couple = |a: usize, b: usize| out.push([a.min(b), a.max(b)]);
