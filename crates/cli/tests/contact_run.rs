@@ -74,3 +74,33 @@ fn run_writes_contact_columns_and_summary() {
     );
     assert_eq!(c["max_active_pairs"].as_f64(), Some(max_pairs), "{c}");
 }
+
+/// `thinshell check` of a contact scene names the contact settings and lists every obstacle in
+/// the scene's order: the pyramid mesh (5 vertices, 6 faces in `data/meshes/pyramid.obj`), then
+/// the floor plane at z = −0.023 m.
+#[test]
+fn check_lists_the_obstacles() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_thinshell"))
+        .arg("check")
+        .arg(data_path("scenes/sheet_on_pyramid.toml"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("contact: d̂ = ") && text.contains("κ adaptive"),
+        "{text}"
+    );
+    assert!(
+        text.contains("obstacle 0: triangle mesh, 5 vertices, 6 faces\n"),
+        "{text}"
+    );
+    assert!(
+        text.contains("obstacle 1: plane through (0e0, 0e0, -2.3e-2) m, normal (0e0, 0e0, 1e0)\n"),
+        "{text}"
+    );
+}

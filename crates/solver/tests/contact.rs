@@ -101,6 +101,8 @@ fn contact_gradient_matches_fd() {
     let c = sys.contact.as_ref().unwrap();
     let stats = c.stats(&x);
     assert!(stats.active_pairs > 50, "{stats:?}");
+    // The within-solve stiffness update's gap is the statistics' gap, bit for bit.
+    assert_eq!(c.min_gap(&x).to_bits(), stats.min_gap.to_bits());
     let flat: Vec<f64> = x.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
     let unflat = |v: &[f64]| -> Vec<V> { v.chunks(3).map(|c| V::new(c[0], c[1], c[2])).collect() };
     let mut g = vec![0.0; flat.len()];

@@ -22,7 +22,7 @@ use thinshell_energy::contact::{
 use thinshell_energy::linalg::project_psd;
 use thinshell_mesh::Mesh;
 
-use super::contact_pattern::entry;
+use super::contact_pattern::{PATTERN_REACH, entry};
 use super::contact_stiffness::AdaptiveStiffness;
 pub use super::obstacle::Obstacle;
 use crate::SolverError;
@@ -118,8 +118,14 @@ pub struct Contact {
     edges: Vec<[usize; 2]>,
     /// Reference positions for the edge–edge mollifier thresholds.
     rest: Vec<V>,
-    /// The last broad phase of [`Contact::candidates`].
+    /// How far beyond the offsets the cached broad phase's boxes are grown (m): (1 +
+    /// [`PATTERN_REACH`])·d̂, so that one broad phase serves the barrier (d̂) with a slack of d̂
+    /// per vertex and a rebuild of the Hessian pattern (its reach).
+    cache_reach: f64,
+    /// The last broad phase of [`Contact::candidates_for`].
     cache: CandidateCache,
+    /// [`Obstacle::describe`] of every obstacle, in the settings' order.
+    descriptions: Vec<String>,
 }
 
 /// The mesh obstacles of a contact term merged into one fixed mesh.
@@ -169,13 +175,31 @@ impl ObstacleMeshes {
 /// obstacles.
 #[derive(Debug, Default)]
 struct Candidates {
+    /// Self pairs whose boxes overlap (the broad phase's answer, for the CCD and the Hessian
+    /// pattern, which filter it to their own box growth).
     own: CandidatePairs,
+    /// Pairs against the mesh obstacles whose boxes overlap.
     mesh: CrossPairs,
+    /// The pairs of `own` that can be active wherever the cache qualifies for the barrier
+    /// ([`Contact::near_pairs`]): the barrier's loops visit only these.
+    near: CandidatePairs,
+    /// The mollifier threshold of each of `near.edge_edge` (m⁴, from the reference positions).
+    near_threshold: Vec<f64>,
+    /// The pairs of `mesh` that can be active, likewise.
+    mesh_near: CrossPairs,
 }
 
-/// The positions and candidate pairs of the last barrier broad phase (a clone starts empty).
+/// The motion and candidate pairs of the last broad phase (a clone starts empty).
 #[derive(Default)]
-struct CandidateCache(Mutex<Option<(Vec<V>, Arc<Candidates>)>>);
+struct CandidateCache(Mutex<Option<CacheEntry>>);
+
+/// A broad phase of the motion `start` → `end` (`None`: at `start`) with boxes grown by offset
+/// + [`Contact::cache_reach`].
+struct CacheEntry {
+    start: Vec<V>,
+    end: Option<Vec<V>>,
+    pairs: Arc<Candidates>,
+}
 
 impl Clone for CandidateCache {
     fn clone(&self) -> Self {
@@ -273,7 +297,9 @@ impl Contact {
             faces: mesh.faces().iter().map(|f| f.map(|v| v.idx())).collect(),
             edges,
             rest: p.to_vec(),
+            cache_reach: (1.0 + PATTERN_REACH) * activation,
             cache: CandidateCache::default(),
+            descriptions: settings.obstacles.iter().map(Obstacle::describe).collect(),
         })
     }
 
@@ -357,75 +383,201 @@ impl Contact {
         self.meshes.owner[w]
     }
 
-    /// The self pairs that may be active at `x`: a superset of those whose boxes, grown by
-    /// offset + d̂, overlap (inactive extras add exactly 0 to every sum, so the results do not
-    /// depend on it). Reused from the last broad phase while no vertex has moved more than
-    /// d̂/2 since it: a pair's distance changes by at most twice the largest vertex
-    /// displacement, and the cached pairs were found with boxes grown by offset + 2 d̂.
+    /// The self and mesh-obstacle pairs that may be active at `x`: a superset of those whose
+    /// boxes, grown by offset + d̂, overlap (inactive extras add exactly 0 to every sum, so the
+    /// results do not depend on it); see [`Contact::candidates_for`].
     fn candidates(&self, x: &[V]) -> Arc<Candidates> {
+        self.candidates_for(x, None, self.activation)
+    }
+
+    /// A superset of the pairs the broad phase finds for the motion `x0` → `x1` (`None`: at
+    /// `x0`) with boxes grown by offset + `reach` (m; at most [`Contact::cache_reach`]): the
+    /// cached candidates when they qualify ([`Contact::cached_for`]), else a new broad phase of
+    /// this motion with boxes grown by offset + `cache_reach`, kept for the next calls. One
+    /// broad phase of a Newton step's motion serves the CCD, every line-search trial on it and
+    /// the next iterates' barrier, as in IPC.
+    fn candidates_for(&self, x0: &[V], x1: Option<&[V]>, reach: f64) -> Arc<Candidates> {
         if !self.self_contact && self.meshes.is_empty() {
             return Arc::default();
         }
-        let slack = 0.5 * self.activation;
-        let mut cache = self.cache.0.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((x_ref, pairs)) = cache.as_ref()
-            && x_ref.len() == x.len()
-            && x_ref
-                .iter()
-                .zip(x)
-                .all(|(a, b)| (a - b).norm_squared() <= slack * slack)
-        {
-            return Arc::clone(pairs);
+        if let Some(c) = self.cached_for(x0, x1, reach) {
+            return c;
         }
-        // Pairs against a fixed obstacle change their distance by at most the vertex
-        // displacement, so the same reuse rule holds for them with room to spare.
+        let dx: Option<Vec<V>> = x1.map(|e| e.iter().zip(x0).map(|(b, a)| b - a).collect());
+        let own = if self.self_contact {
+            candidate_pairs(
+                x0,
+                dx.as_deref(),
+                &self.faces,
+                &self.edges,
+                self.offset_self + self.cache_reach,
+            )
+        } else {
+            CandidatePairs::default()
+        };
+        let mesh = if self.meshes.is_empty() {
+            CrossPairs::default()
+        } else {
+            candidate_pairs_against(
+                x0,
+                dx.as_deref(),
+                &self.faces,
+                &self.edges,
+                self.meshes.view(),
+                self.offset_obstacle + self.cache_reach,
+            )
+        };
+        let (near, mesh_near) = self.near_pairs(x0, x1, &own, &mesh);
+        let near_threshold = near
+            .edge_edge
+            .iter()
+            .map(|&[i, j]| mollifier_threshold(&self.ee_points(&self.rest, i, j)))
+            .collect();
         let pairs = Arc::new(Candidates {
-            own: if self.self_contact {
-                candidate_pairs(
-                    x,
-                    None,
-                    &self.faces,
-                    &self.edges,
-                    self.offset_self + self.activation + 2.0 * slack,
-                )
-            } else {
-                CandidatePairs::default()
-            },
-            mesh: if self.meshes.is_empty() {
-                CrossPairs::default()
-            } else {
-                candidate_pairs_against(
-                    x,
-                    None,
-                    &self.faces,
-                    &self.edges,
-                    self.meshes.view(),
-                    self.offset_obstacle + self.activation + 2.0 * slack,
-                )
-            },
+            own,
+            mesh,
+            near,
+            near_threshold,
+            mesh_near,
         });
-        *cache = Some((x.to_vec(), Arc::clone(&pairs)));
+        if reach <= self.cache_reach {
+            let mut cache = self.cache.0.lock().unwrap_or_else(|e| e.into_inner());
+            *cache = Some(CacheEntry {
+                start: x0.to_vec(),
+                end: x1.map(<[V]>::to_vec),
+                pairs: Arc::clone(&pairs),
+            });
+        }
         pairs
     }
 
-    /// The cached candidates (see [`Contact::candidates`]) when they contain every pair the
-    /// broad phase finds with boxes grown by offset + `reach` at `x` (m), swept or not: the
-    /// cache's boxes were grown by offset + 2 d̂ at its positions, and every box of `x` lies
-    /// within the largest vertex displacement since of its cached box (per axis, so grown
-    /// boxes that overlap now overlapped then once the growth covers twice that). For a short
-    /// CCD step (`reach` = ξ + 2 |Δx|max) this saves its broad phase.
-    fn cached_candidates_within(&self, x: &[V], reach: f64) -> Option<Arc<Candidates>> {
+    /// The pairs of `own` and `mesh` (found for the motion `x0` → `x1`) that can be active at
+    /// any configuration the cache serves the barrier at: each vertex within δ of its segment,
+    /// d̂ + 2δ ≤ `cache_reach` ([`Contact::cached_for`]). A pair's distance changes by at most
+    /// the displacement of its point plus the largest of its triangle's (or the sum of the two
+    /// edges' largest), so with d₀, d₁ its distances at the ends and M the largest displacement
+    /// of its vertices along the motion, its distance there is at least max(d₀, d₁) − 2M − 2δ:
+    /// a pair is kept unless max(d₀, d₁) − 2M − offset exceeds `cache_reach` (with a margin
+    /// of 10⁻⁶ for rounding; a NaN distance keeps it).
+    fn near_pairs(
+        &self,
+        x0: &[V],
+        x1: Option<&[V]>,
+        own: &CandidatePairs,
+        mesh: &CrossPairs,
+    ) -> (CandidatePairs, CrossPairs) {
+        let limit = (1.0 + 1e-6) * self.cache_reach;
+        let moved = |ids: &[usize]| {
+            x1.map_or(0.0, |e| {
+                ids.iter()
+                    .map(|&v| (e[v] - x0[v]).norm())
+                    .fold(0.0, f64::max)
+            })
+        };
+        // `dist(x)`: the pair's distance at positions x.
+        let keep = |ids: &[usize], offset: f64, dist: &dyn Fn(&[V]) -> f64| {
+            let d = match x1 {
+                Some(e) => dist(x0).max(dist(e)),
+                None => dist(x0),
+            };
+            let bound = d - 2.0 * moved(ids) - offset;
+            bound.is_nan() || bound <= limit
+        };
+        let pt = |x: &[V], v: usize, f: usize| {
+            point_triangle_distance2(&self.pt_points(x, v, f)).0.sqrt()
+        };
+        let ee =
+            |x: &[V], i: usize, j: usize| edge_edge_distance2(&self.ee_points(x, i, j)).0.sqrt();
+        let near = CandidatePairs {
+            point_triangle: own
+                .point_triangle
+                .iter()
+                .copied()
+                .filter(|&[v, f]| {
+                    let t = self.faces[f];
+                    keep(&[v, t[0], t[1], t[2]], self.offset_self, &|x| pt(x, v, f))
+                })
+                .collect(),
+            edge_edge: own
+                .edge_edge
+                .iter()
+                .copied()
+                .filter(|&[i, j]| {
+                    let (a, b) = (self.edges[i], self.edges[j]);
+                    keep(&[a[0], a[1], b[0], b[1]], self.offset_self, &|x| {
+                        ee(x, i, j)
+                    })
+                })
+                .collect(),
+        };
+        let o = &self.meshes;
+        let off = self.offset_obstacle;
+        let mesh_near = CrossPairs {
+            vertex_face: mesh
+                .vertex_face
+                .iter()
+                .copied()
+                .filter(|&[v, k]| {
+                    let t = o.faces[k].map(|w| o.points[w]);
+                    keep(&[v], off, &|x| {
+                        point_triangle_distance2(&[x[v], t[0], t[1], t[2]]).0.sqrt()
+                    })
+                })
+                .collect(),
+            face_vertex: mesh
+                .face_vertex
+                .iter()
+                .copied()
+                .filter(|&[w, k]| {
+                    let t = self.faces[k];
+                    keep(&t, off, &|x| {
+                        point_triangle_distance2(&[o.points[w], x[t[0]], x[t[1]], x[t[2]]])
+                            .0
+                            .sqrt()
+                    })
+                })
+                .collect(),
+            edge_edge: mesh
+                .edge_edge
+                .iter()
+                .copied()
+                .filter(|&[i, j]| {
+                    let (a, b) = (self.edges[i], o.edges[j]);
+                    keep(&a, off, &|x| {
+                        edge_edge_distance2(&[x[a[0]], x[a[1]], o.points[b[0]], o.points[b[1]]])
+                            .0
+                            .sqrt()
+                    })
+                })
+                .collect(),
+        };
+        (near, mesh_near)
+    }
+
+    /// The cached candidates when they contain every pair the broad phase finds for the motion
+    /// `x0` → `x1` with boxes grown by offset + `reach` (m). With δ the largest distance of a
+    /// vertex's positions at `x0` and `x1` from its cached segment (start → end), every box of
+    /// the new motion lies within δ (per axis) of its cached swept box — the δ-neighbourhood of
+    /// a segment is convex —, so two boxes grown by offset + `reach` that overlap now overlapped
+    /// in the cache once its growth covers `reach` + 2δ: `reach` + 2δ ≤ `cache_reach`.
+    fn cached_for(&self, x0: &[V], x1: Option<&[V]>, reach: f64) -> Option<Arc<Candidates>> {
         let cache = self.cache.0.lock().unwrap_or_else(|e| e.into_inner());
-        let (x_ref, pairs) = cache.as_ref()?;
-        if x_ref.len() != x.len() {
+        let entry = cache.as_ref()?;
+        if entry.start.len() != x0.len() || x1.is_some_and(|e| e.len() != x0.len()) {
             return None;
         }
-        let moved = x_ref
-            .iter()
-            .zip(x)
-            .map(|(a, b)| (a - b).norm())
-            .fold(0.0, f64::max);
-        (reach + 2.0 * moved <= 2.0 * self.activation).then(|| Arc::clone(pairs))
+        let room = 0.5 * (self.cache_reach - reach);
+        if room.is_nan() || room < 0.0 {
+            return None;
+        }
+        let room2 = room * room;
+        let end = entry.end.as_deref().unwrap_or(&entry.start);
+        let within = |k: usize, y: &V| segment_distance2(&entry.start[k], &end[k], y) <= room2;
+        let ok = match x1 {
+            Some(x1) => (0..x0.len()).all(|k| within(k, &x0[k]) && within(k, &x1[k])),
+            None => (0..x0.len()).all(|k| within(k, &x0[k])),
+        };
+        ok.then(|| Arc::clone(&entry.pairs))
     }
 
     /// Gap (m) of vertex position `y` to obstacle `o`, and its unit gradient direction.
@@ -434,35 +586,85 @@ impl Contact {
         (d.distance - self.offset_obstacle, d.normal)
     }
 
-    /// The contact energy (J) at positions `x`; +∞ when a pair touches or crosses.
+    /// The contact energy (J) at positions `x`; +∞ when a pair is within the CCD's minimum
+    /// separation (offset + 10⁻³ d̂) or crosses. The barrier is finite down to a gap of 0, but
+    /// a state the CCD would refuse to start from must not be accepted by a step that the CCD
+    /// did not limit (Newton's unshifted step at a saddle, for one): +∞ makes it fail the
+    /// finiteness checks instead.
     pub fn energy(&self, x: &[V]) -> f64 {
         let all = self.candidates(x);
-        let c = &all.own;
+        let c = &all.near;
         let g = self.geometry();
-        let mut e = 0.0;
-        for &[v, f] in &c.point_triangle {
-            e += pair_energy(&self.pt_points(x, v, f), PairKind::PointTriangle, g);
-        }
-        for &[i, j] in &c.edge_edge {
-            e += pair_energy(&self.ee_points(x, i, j), self.ee_kind(i, j), g);
-        }
         let gm = self.mesh_geometry();
-        self.for_mesh_pairs(x, &all.mesh, |_, pts, kind| {
-            e += pair_energy(&pts, kind, gm)
-        });
+        let xi = self.separation;
+        let mut e = 0.0;
+        let mut add = |pts: &PairPoints, kind: PairKind, geometry: BarrierGeometry| {
+            let gap = pair_gap(pts, kind, geometry.offset);
+            if gap.is_nan() || gap <= xi {
+                e = f64::INFINITY;
+            } else {
+                e += pair_energy(pts, kind, geometry);
+            }
+        };
+        for &[v, f] in &c.point_triangle {
+            add(&self.pt_points(x, v, f), PairKind::PointTriangle, g);
+        }
+        for (&[i, j], &t) in c.edge_edge.iter().zip(&all.near_threshold) {
+            add(&self.ee_points(x, i, j), ee_kind(t), g);
+        }
+        self.for_mesh_pairs(x, &all.mesh_near, |_, pts, kind| add(&pts, kind, gm));
         for o in &self.obstacles {
             for y in x {
-                e += barrier(self.obstacle_gap(o, y).0, self.activation).0;
+                let gap = self.obstacle_gap(o, y).0;
+                if gap.is_nan() || gap <= xi {
+                    e = f64::INFINITY;
+                } else {
+                    e += barrier(gap, self.activation).0;
+                }
             }
         }
         self.stiffness * e
+    }
+
+    /// [`ContactStats::min_gap`] at positions `x` (m) without the energy: the smallest gap of
+    /// the active self and mesh-obstacle pairs and of every vertex against an analytic
+    /// obstacle (+∞ if none).
+    pub fn min_gap(&self, x: &[V]) -> f64 {
+        let all = self.candidates(x);
+        let mut gap = f64::INFINITY;
+        let mut see = |g: f64, obstacle: bool| {
+            if obstacle || g < self.activation {
+                gap = gap.min(g);
+            }
+        };
+        for &[v, f] in &all.near.point_triangle {
+            see(
+                point_triangle_distance2(&self.pt_points(x, v, f)).0.sqrt() - self.offset_self,
+                false,
+            );
+        }
+        for &[i, j] in &all.near.edge_edge {
+            see(
+                edge_edge_distance2(&self.ee_points(x, i, j)).0.sqrt() - self.offset_self,
+                false,
+            );
+        }
+        self.for_mesh_pairs(x, &all.mesh_near, |_, pts, kind| {
+            see(pair_gap(&pts, kind, self.offset_obstacle), false);
+        });
+        for o in &self.obstacles {
+            for y in x {
+                see(self.obstacle_gap(o, y).0, true);
+            }
+        }
+        gap
     }
 
     /// Active pairs, the smallest gap and the energy at positions `x` (the Hessian counters
     /// are left 0).
     pub fn stats(&self, x: &[V]) -> ContactStats {
         let all = self.candidates(x);
-        let c = &all.own;
+        let c = &all.near;
         let g = self.geometry();
         let mut s = ContactStats {
             min_gap: f64::INFINITY,
@@ -488,16 +690,16 @@ impl Contact {
                 false,
             );
         }
-        for &[i, j] in &c.edge_edge {
+        for (&[i, j], &t) in c.edge_edge.iter().zip(&all.near_threshold) {
             let pts = self.ee_points(x, i, j);
             see(
                 edge_edge_distance2(&pts).0.sqrt() - self.offset_self,
-                pair_energy(&pts, self.ee_kind(i, j), g),
+                pair_energy(&pts, ee_kind(t), g),
                 false,
             );
         }
         let gm = self.mesh_geometry();
-        self.for_mesh_pairs(x, &all.mesh, |_, pts, kind| {
+        self.for_mesh_pairs(x, &all.mesh_near, |_, pts, kind| {
             // Like self pairs, mesh-obstacle pairs enter the smallest gap only when active.
             see(
                 pair_gap(&pts, kind, self.offset_obstacle),
@@ -526,17 +728,17 @@ impl Contact {
                 out[v] = out[v].min(gap);
             }
         };
-        for &[v, f] in &all.own.point_triangle {
+        for &[v, f] in &all.near.point_triangle {
             let t = self.faces[f];
             let d = point_triangle_distance2(&self.pt_points(x, v, f)).0.sqrt();
             see(&[v, t[0], t[1], t[2]], d - self.offset_self);
         }
-        for &[i, j] in &all.own.edge_edge {
+        for &[i, j] in &all.near.edge_edge {
             let (a, b) = (self.edges[i], self.edges[j]);
             let d = edge_edge_distance2(&self.ee_points(x, i, j)).0.sqrt();
             see(&[a[0], a[1], b[0], b[1]], d - self.offset_self);
         }
-        self.for_mesh_pairs(x, &all.mesh, |ids, pts, kind| {
+        self.for_mesh_pairs(x, &all.mesh_near, |ids, pts, kind| {
             let gap = pair_gap(&pts, kind, self.offset_obstacle);
             let shell: Vec<usize> = ids.iter().flatten().copied().collect();
             see(&shell, gap);
@@ -565,7 +767,7 @@ impl Contact {
     /// vertex–obstacle pair's always.
     fn for_active(&self, x: &[V], project: bool, mut f: impl FnMut(&[usize], &[f64], &[f64])) {
         let all = self.candidates(x);
-        let c = &all.own;
+        let c = &all.near;
         let g = self.geometry();
         let mut pair = |ids: [usize; 4], pts: PairPoints, kind: PairKind| {
             if let PairBarrier::Active(d) = pair_barrier(&pts, kind, g, project) {
@@ -580,16 +782,16 @@ impl Contact {
                 PairKind::PointTriangle,
             );
         }
-        for &[i, j] in &c.edge_edge {
+        for (&[i, j], &t) in c.edge_edge.iter().zip(&all.near_threshold) {
             let (a, b) = (self.edges[i], self.edges[j]);
             pair(
                 [a[0], a[1], b[0], b[1]],
                 self.ee_points(x, i, j),
-                self.ee_kind(i, j),
+                ee_kind(t),
             );
         }
         let gm = self.mesh_geometry();
-        self.for_mesh_pairs(x, &all.mesh, |ids, pts, kind| {
+        self.for_mesh_pairs(x, &all.mesh_near, |ids, pts, kind| {
             let PairBarrier::Active(d) = pair_barrier(&pts, kind, gm, false) else {
                 return;
             };
@@ -730,7 +932,7 @@ impl Contact {
         let mut n = vec![0.0; 3 * x.len()];
         let mut active = 0;
         let all = self.candidates(x);
-        let c = &all.own;
+        let c = &all.near;
         let mut add = |ids: [usize; 4], pts: PairPoints, (d2, ty)| {
             let d: f64 = f64::sqrt(d2);
             if d - self.offset_self < self.activation && d > 0.0 {
@@ -753,7 +955,7 @@ impl Contact {
             let pts = self.ee_points(x, i, j);
             add([a[0], a[1], b[0], b[1]], pts, edge_edge_distance2(&pts));
         }
-        self.for_mesh_pairs(x, &all.mesh, |ids, pts, kind| {
+        self.for_mesh_pairs(x, &all.mesh_near, |ids, pts, kind| {
             let (d2, ty) = match kind {
                 PairKind::PointTriangle => point_triangle_distance2(&pts),
                 PairKind::EdgeEdge { .. } => edge_edge_distance2(&pts),
@@ -785,6 +987,30 @@ impl Contact {
         (n, active)
     }
 
+    /// A few lines saying what the term keeps apart and how (for `thinshell check`): d̂, κ
+    /// (fixed or adaptive, with its current value), self-contact, the thickness offsets and one
+    /// line per obstacle.
+    pub fn describe(&self) -> String {
+        let kappa = match self.adaptive {
+            Some(_) => format!("adaptive, now {:e} J/m²", self.stiffness),
+            None => format!("{:e} J/m² (fixed)", self.stiffness),
+        };
+        let mut text = format!(
+            "contact: d̂ = {:e} m, κ {kappa}, self-contact {}, thickness offset {:e} m between sheets, {:e} m to obstacles\n",
+            self.activation,
+            if self.self_contact { "on" } else { "off" },
+            self.offset_self,
+            self.offset_obstacle,
+        );
+        if self.descriptions.is_empty() {
+            text += "obstacles: none\n";
+        }
+        for (k, d) in self.descriptions.iter().enumerate() {
+            text += &format!("obstacle {k}: {d}\n");
+        }
+        text
+    }
+
     /// Whether the shell is kept from passing through itself.
     pub fn self_contact(&self) -> bool {
         self.self_contact
@@ -793,24 +1019,63 @@ impl Contact {
     /// Vertex pairs `[a, b]` (a < b) of every self pair that may come within `reach` (m) of
     /// the offset over the straight motion `x` → `x_end` (bounding boxes of the swept
     /// primitives; `x_end` `None`: at `x`). Empty without self-contact.
+    ///
+    /// Of the pairs whose boxes overlap, only those whose distance can get that close are
+    /// kept: along a straight motion a pair's distance is at least (d₀ + d₁)/2 − M, with d₀, d₁ its distances
+    /// at the ends and M the largest displacement of its vertices (it changes by at most 2M·t
+    /// from either end; see [`Contact::near_pairs`]). The box test alone also couples the
+    /// in-plane neighbours of every vertex, which are an edge length apart.
     pub(crate) fn couplings(&self, x: &[V], x_end: Option<&[V]>, reach: f64) -> Vec<[usize; 2]> {
         if !self.self_contact {
             return Vec::new();
         }
         let dx: Option<Vec<V>> = x_end.map(|e| e.iter().zip(x).map(|(b, a)| b - a).collect());
-        let c = candidate_pairs(
-            x,
-            dx.as_deref(),
-            &self.faces,
-            &self.edges,
-            self.offset_self + reach,
-        );
+        let inflate = self.offset_self + reach;
+        // Exactly the broad phase's pairs either way, so the pattern does not depend on the
+        // cache's history.
+        let c = if reach <= self.cache_reach {
+            let all = self.candidates_for(x, x_end, reach);
+            filter_candidate_pairs(
+                &all.own,
+                x,
+                dx.as_deref(),
+                &self.faces,
+                &self.edges,
+                inflate,
+            )
+        } else {
+            candidate_pairs(x, dx.as_deref(), &self.faces, &self.edges, inflate)
+        };
+        let limit = self.offset_self + reach;
+        let close = |ids: [usize; 4], dist: &dyn Fn(&[V]) -> f64| {
+            let (d, m) = match x_end {
+                Some(e) => (
+                    0.5 * (dist(x) + dist(e)),
+                    ids.iter()
+                        .map(|&v| (e[v] - x[v]).norm())
+                        .fold(0.0, f64::max),
+                ),
+                None => (dist(x), 0.0),
+            };
+            // A margin of 10⁻⁶ for rounding; a NaN distance keeps the pair.
+            let bound = d - m;
+            bound.is_nan() || bound <= (1.0 + 1e-6) * limit
+        };
         let mut out = Vec::with_capacity(3 * c.point_triangle.len() + 4 * c.edge_edge.len());
         let mut couple = |a: usize, b: usize| out.push([a.min(b), a.max(b)]);
         for &[v, f] in &c.point_triangle {
-            self.faces[f].iter().for_each(|&t| couple(v, t));
+            let t = self.faces[f];
+            let pt = |y: &[V]| point_triangle_distance2(&self.pt_points(y, v, f)).0.sqrt();
+            if close([v, t[0], t[1], t[2]], &pt) {
+                t.iter().for_each(|&t| couple(v, t));
+            }
         }
         for &[i, j] in &c.edge_edge {
+            let (a, b) = (self.edges[i], self.edges[j]);
+            let ee = |y: &[V]| edge_edge_distance2(&self.ee_points(y, i, j)).0.sqrt();
+            if !close([a[0], a[1], b[0], b[1]], &ee) {
+                continue;
+            }
             for a in self.edges[i] {
                 self.edges[j].iter().for_each(|&b| couple(a, b));
             }
@@ -828,10 +1093,10 @@ impl Contact {
         first_non_finite(x1, "end of the step")?;
         let dx: Vec<V> = x0.iter().zip(x1).map(|(a, b)| b - a).collect();
         let mut alpha = 1.0f64;
-        let step = dx.iter().map(V::norm).fold(0.0, f64::max);
-        // The same pairs either way (the cache holds them all when it qualifies), so the step
-        // does not depend on the cache's history.
-        let cached = self.cached_candidates_within(x0, self.separation + 2.0 * step);
+        // A superset of the step's pairs, filtered to exactly the broad phase's (so the step
+        // does not depend on the cache's history); the broad phase of a new motion is kept for
+        // the line search's trials and the next iterate.
+        let all = self.candidates_for(x0, Some(x1), self.separation);
         if !self.meshes.is_empty() {
             let xi = self.offset_obstacle + self.separation;
             let settings = CcdSettings {
@@ -839,10 +1104,7 @@ impl Contact {
                 ..CcdSettings::default()
             };
             let (faces, edges, mesh) = (&self.faces, &self.edges, self.meshes.view());
-            let c = match &cached {
-                Some(c) => filter_cross_pairs(&c.mesh, x0, Some(&dx), faces, edges, mesh, xi),
-                None => candidate_pairs_against(x0, Some(&dx), faces, edges, mesh, xi),
-            };
+            let c = filter_cross_pairs(&all.mesh, x0, Some(&dx), faces, edges, mesh, xi);
             let mut touching = None;
             self.for_mesh_pairs(x0, &c, |ids, pts, kind| {
                 if touching.is_some() {
@@ -868,12 +1130,7 @@ impl Contact {
                 min_separation: xi,
                 ..CcdSettings::default()
             };
-            let c = match &cached {
-                Some(c) => {
-                    filter_candidate_pairs(&c.own, x0, Some(&dx), &self.faces, &self.edges, xi)
-                }
-                None => candidate_pairs(x0, Some(&dx), &self.faces, &self.edges, xi),
-            };
+            let c = filter_candidate_pairs(&all.own, x0, Some(&dx), &self.faces, &self.edges, xi);
             for &[v, f] in &c.point_triangle {
                 let t = self.faces[f];
                 let d = [dx[v], dx[t[0]], dx[t[1]], dx[t[2]]];
@@ -1084,6 +1341,25 @@ impl Contact {
         }
         Ok(())
     }
+}
+
+/// The kind of a self edge–edge pair with mollifier threshold `t` (m⁴).
+fn ee_kind(t: f64) -> PairKind {
+    PairKind::EdgeEdge {
+        mollifier_threshold: t,
+    }
+}
+
+/// The squared distance (m²) from `y` to the segment `a` → `b`.
+fn segment_distance2(a: &V, b: &V, y: &V) -> f64 {
+    let d = b - a;
+    let l2 = d.norm_squared();
+    let t = if l2 > 0.0 {
+        ((y - a).dot(&d) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (y - (a + d * t)).norm_squared()
 }
 
 /// An error naming the first vertex of `x` with a non-finite coordinate (NaN bounding boxes

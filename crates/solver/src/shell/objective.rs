@@ -44,6 +44,9 @@ pub(crate) struct ShellObjective<'a> {
     pub(crate) approximated_pairs: usize,
     /// What [`Objective::hessian`] assembles ([`NewtonSettings::own_hessian`](crate::NewtonSettings::own_hessian)).
     mode: HessianMode,
+    /// The smallest contact gap at the last iteration's start (m; +∞ without contact), for
+    /// the within-solve stiffness update ([`ShellObjective::raise_contact_stiffness`]).
+    iteration_gap: f64,
 }
 
 impl<'a> ShellObjective<'a> {
@@ -84,6 +87,7 @@ impl<'a> ShellObjective<'a> {
             last_terms: EnergyTerms::default(),
             approximated_pairs: 0,
             mode: HessianMode::Exact,
+            iteration_gap: f64::INFINITY,
         };
         objective.adapt_contact_stiffness();
         objective
@@ -102,38 +106,95 @@ impl<'a> ShellObjective<'a> {
             return;
         };
         let x = self.x_full.clone();
-        if !a.initialised {
-            let Some((n, active)) = self.sys.contact.as_ref().map(|c| c.gap_gradient_sum(&x))
-            else {
-                return;
-            };
-            if active > 0 {
-                let u = self.sys.gather(&x, &self.phi_full);
-                let mut g = vec![0.0; self.n_dofs()];
-                let contact = self.sys.contact.take();
-                let value = self.gradient(&u, &mut g);
-                self.sys.contact = contact;
-                if value.is_ok_and(f64::is_finite) {
-                    let coords = self.sys.dofs.free_coordinates();
-                    let n_pos = self.sys.dofs.n_free_positions();
-                    let (mut pressing, mut n2) = (0.0, 0.0);
-                    for (d, &c) in coords.iter().enumerate().take(n_pos) {
-                        pressing += g[d] * n[c];
-                        n2 += n[c] * n[c];
-                    }
-                    if let Some(k) = a.initial(pressing, n2, d_hat) {
-                        kappa = k;
-                        a.initialised = true;
-                    }
-                }
-            }
+        if !a.initialised
+            && let Some(k) = self.balanced_contact_stiffness(&x)
+        {
+            kappa = k;
+            a.initialised = true;
         }
         if let Some(c) = &mut self.sys.contact {
+            let gap = c.min_gap(&x);
             if a.initialised {
-                kappa = a.update(kappa, c.stats(&x).min_gap, d_hat);
+                kappa = a.update(kappa, gap, d_hat);
             }
+            self.iteration_gap = gap;
             c.stiffness = kappa;
             c.adaptive = Some(a);
+        }
+    }
+
+    /// κ₀ at positions `x` (`contact_stiffness.rs`): the stiffness that carries the load pressing
+    /// the active pairs together (the gradient of the objective without contact) at the gap
+    /// d̂/2; `None` without active pairs or when nothing presses them.
+    fn balanced_contact_stiffness(&mut self, x: &[Vector3<f64>]) -> Option<f64> {
+        let (a, d_hat) = self
+            .sys
+            .contact
+            .as_ref()
+            .and_then(|c| c.adaptive.map(|a| (a, c.activation)))?;
+        let (n, active) = self.sys.contact.as_ref()?.gap_gradient_sum(x);
+        if active == 0 {
+            return None;
+        }
+        let u = self.sys.gather(x, &self.phi_full);
+        let mut g = vec![0.0; self.n_dofs()];
+        let contact = self.sys.contact.take();
+        let value = self.gradient(&u, &mut g);
+        self.sys.contact = contact;
+        if !value.is_ok_and(f64::is_finite) {
+            return None;
+        }
+        let coords = self.sys.dofs.free_coordinates();
+        let n_pos = self.sys.dofs.n_free_positions();
+        let (mut pressing, mut n2) = (0.0, 0.0);
+        for (d, &c) in coords.iter().enumerate().take(n_pos) {
+            pressing += g[d] * n[c];
+            n2 += n[c] * n[c];
+        }
+        a.initial(pressing, n2, d_hat)
+    }
+
+    /// IPC's barrier-stiffness update within a solve (Li et al. 2020, §4.3), for the adaptive
+    /// stiffness: when the smallest gap at iterate `u` is below [`COLLAPSE_FRACTION`]·d̂ and
+    /// smaller than at the previous iteration, κ is raised to the larger of 2κ and the κ₀ that
+    /// balances the current load at d̂/2 (at most κ_max). Without it a solve whose start does
+    /// not yet carry its load (a shell moved against an obstacle, a load applied at once)
+    /// keeps the κ of its start and can press a pair to within the CCD's minimum separation
+    /// (`contact_indentation.rs`). Returns whether κ changed.
+    ///
+    /// [`COLLAPSE_FRACTION`]: super::contact_stiffness::COLLAPSE_FRACTION
+    fn raise_contact_stiffness(&mut self, u: &[f64]) -> bool {
+        let Some((a, kappa, d_hat)) = self
+            .sys
+            .contact
+            .as_ref()
+            .and_then(|c| c.adaptive.map(|a| (a, c.stiffness, c.activation)))
+        else {
+            return false;
+        };
+        let mut x = self.x_full.clone();
+        let mut phi = self.phi_full.clone();
+        self.sys.scatter(u, &mut x, &mut phi);
+        let gap = self
+            .sys
+            .contact
+            .as_ref()
+            .map_or(f64::INFINITY, |c| c.min_gap(&x));
+        let last = std::mem::replace(&mut self.iteration_gap, gap);
+        if !(gap < super::contact_stiffness::COLLAPSE_FRACTION * d_hat && gap < last) {
+            return false;
+        }
+        let balanced = self.balanced_contact_stiffness(&x);
+        let raised = balanced.unwrap_or(0.0).max(2.0 * kappa).min(a.max);
+        match &mut self.sys.contact {
+            Some(c) if raised > kappa => {
+                c.stiffness = raised;
+                if let Some(s) = &mut c.adaptive {
+                    s.initialised |= balanced.is_some();
+                }
+                true
+            }
+            _ => false,
         }
     }
 
@@ -380,24 +441,29 @@ impl Objective for ShellObjective<'_> {
         super::rigid::free_rigid_modes(&self.sys.dofs, &x, self.sys.contact.is_none(), rotations)
     }
 
-    /// With self-contact: when the last Hessian had to approximate pairs outside its pattern
-    /// (they came near during the solve), widen the pattern around the current iterate so that
-    /// the next Hessian holds them exactly (`contact_pattern.rs`; a new symbolic
-    /// factorisation).
+    /// With the adaptive contact stiffness: raises κ when the smallest gap collapses within the
+    /// solve ([`ShellObjective::raise_contact_stiffness`]). With self-contact: when the last
+    /// Hessian had to approximate pairs outside its pattern (they came near during the solve),
+    /// widen the pattern around the current iterate so that the next Hessian holds them exactly
+    /// (`contact_pattern.rs`; a new symbolic factorisation).
     fn begin_iteration(
         &mut self,
         u: &[f64],
         _iteration: usize,
     ) -> Result<IterationUpdate, SolverError> {
+        let value_changed = self.raise_contact_stiffness(u);
         if self.approximated_pairs == 0 {
-            return Ok(IterationUpdate::default());
+            return Ok(IterationUpdate {
+                value_changed,
+                pattern_changed: false,
+            });
         }
         self.approximated_pairs = 0;
         let mut x = self.x_full.clone();
         let mut phi = self.phi_full.clone();
         self.sys.scatter(u, &mut x, &mut phi);
         Ok(IterationUpdate {
-            value_changed: false,
+            value_changed,
             pattern_changed: self.sys.refresh_contact_pattern(&x, None),
         })
     }

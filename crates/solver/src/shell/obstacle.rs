@@ -61,6 +61,25 @@ pub struct ObstacleDistance {
 }
 
 impl Obstacle {
+    /// One line naming the obstacle and its geometry (m), e.g. for `thinshell check`.
+    pub fn describe(&self) -> String {
+        let v = |p: &V| format!("({:e}, {:e}, {:e})", p.x, p.y, p.z);
+        match self {
+            Obstacle::Plane { point, normal } => {
+                format!("plane through {} m, normal {}", v(point), v(normal))
+            }
+            Obstacle::Sphere { center, radius } => {
+                format!("sphere, centre {} m, radius {radius:e} m", v(center))
+            }
+            Obstacle::Box { min, max } => format!("box from {} to {} m", v(min), v(max)),
+            Obstacle::Mesh { vertices, faces } => format!(
+                "triangle mesh, {} vertices, {} faces",
+                vertices.len(),
+                faces.len()
+            ),
+        }
+    }
+
     /// A mesh obstacle from an OBJ file (positions and triangles; polygons are fan-triangulated,
     /// everything else is ignored, see [`thinshell_mesh::io`]). The error names the file and
     /// what is wrong with it (missing, malformed, no faces, a degenerate face, …).

@@ -73,6 +73,9 @@ impl Simulation {
             };
             text += &format!("load ramp: {} ({factors})\n", ramp.key());
         }
+        if let Some(c) = &system.contact {
+            text += &c.describe();
+        }
         let elastic = |e: thinshell_energy::EnergyTerms| e.stretch + e.bend;
         match sim.initial_energy_grown() {
             // With growth the first step solves against the grown rest forms, not those before
