@@ -123,6 +123,11 @@ pub(super) fn saddle_newton<O: Objective + ?Sized>(
         rec.corrections.push(dx_max / objective.length_scale());
         return Ok(SaddleStep::Converged);
     }
+    // A step the objective limits (contact's collision-free fraction) is not the full step to
+    // the critical point this is for; the PSD Hessian decides instead.
+    if step_limit_of(objective, x, &ws.dx)? < 1.0 {
+        return Ok(SaddleStep::Unavailable);
+    }
     for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x).zip(&ws.dx) {
         *xt = xi + d;
     }
