@@ -301,16 +301,24 @@ fn path_runs_refuse_checkpoints_clearly() {
     assert!(!file.exists());
 }
 
-/// Issue #26: a static load ramp past the arch's limit point with the default form lands on
-/// the far (inverted) branch — where arc length, with the same form and mesh, is at λ = 1.
+/// Issue #26: a static load ramp past the arch's limit point with either edge-director form
+/// (the default `edge_director_tan`, and `edge_director_sin`) lands on the far (inverted) branch
+/// — where arc length, with the same form and mesh, is at λ = 1. (The scene's own form, the
+/// mid-edge average, is the scene test above.)
 #[test]
-fn load_control_with_the_default_form_lands_on_the_arc_length_branch() {
-    // Arc length with the default form: the crown's deflection at λ = 1, interpolated between
-    // the two path points around it on the last (stable, rising) branch.
+fn load_control_with_the_director_forms_lands_on_the_arc_length_branch() {
+    for form in ["edge_director_tan", "edge_director_sin"] {
+        load_control_lands_on_the_arc_length_branch(form);
+    }
+}
+
+fn load_control_lands_on_the_arc_length_branch(form: &str) {
+    // Arc length with `form`: the crown's deflection at λ = 1, interpolated between the two
+    // path points around it on the last (stable, rising) branch.
     let (header, rows) = run(
         &arch_scene(),
-        "arch-default-form",
-        &["--set", "bending.form=\"edge_director_tan\""],
+        &format!("arch-{form}"),
+        &["--set", &format!("bending.form=\"{form}\"")],
     );
     let lambda = column(&header, &rows, "load_factor");
     let w = column(&header, &rows, "u_31_z_m");
@@ -320,14 +328,13 @@ fn load_control_with_the_default_form_lands_on_the_arc_length_branch() {
         .expect("the path reaches λ = 1 on its last branch");
     let t = (1.0 - lambda[k]) / (lambda[k + 1] - lambda[k]);
     let w_path = w[k] + t * (w[k + 1] - w[k]);
-    // Load control: the same scene without [path] and with the default form: a linear ramp
-    // in 30 steps, which passes the limit point (λ ≈ 0.17) between two steps.
+    // Load control: the same scene without [path] and with `form`: a linear ramp in 30
+    // steps, which passes the limit point (λ ≈ 0.17) between two steps.
     let text = std::fs::read_to_string(arch_scene()).unwrap();
-    let text = text
-        .split("\n[path]")
-        .next()
-        .unwrap()
-        .replace("[bending]\nform = \"mid_edge_average\"\n", "");
+    let text = text.split("\n[path]").next().unwrap().replace(
+        "[bending]\nform = \"mid_edge_average\"\n",
+        &format!("[bending]\nform = \"{form}\"\n"),
+    );
     let base = arch_scene().parent().unwrap().to_path_buf();
     let scene = Scene::from_toml(&text, "arch, load control", &base).unwrap();
     let mut sim = Simulation::build(&scene).unwrap();
@@ -337,10 +344,18 @@ fn load_control_with_the_default_form_lands_on_the_arc_length_branch() {
         stable.push(sim.step().unwrap().stable);
     }
     let w_load = sim.positions()[31].z - crown0;
-    println!("crown deflection at λ = 1: load control {w_load:.6e} m, arc length {w_path:.6e} m");
-    assert!(stable.iter().all(|s| *s == Some(true)), "{stable:?}");
+    println!(
+        "{form}: crown deflection at λ = 1: load control {w_load:.6e} m, arc length {w_path:.6e} m"
+    );
+    assert!(
+        stable.iter().all(|s| *s == Some(true)),
+        "{form}: {stable:?}"
+    );
     // The inverted branch (the limit point is at about 9 mm) ...
-    assert!(w_load < -0.03, "{w_load}");
+    assert!(w_load < -0.03, "{form}: {w_load}");
     // ... at the arc-length path's point (1 %; observed 0.05 %, the interpolation's error).
-    assert!((w_load / w_path - 1.0).abs() < 0.01, "{w_load} vs {w_path}");
+    assert!(
+        (w_load / w_path - 1.0).abs() < 0.01,
+        "{form}: {w_load} vs {w_path}"
+    );
 }
