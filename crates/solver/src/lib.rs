@@ -108,6 +108,7 @@ pub use faer;
 pub use nalgebra;
 
 pub(crate) mod curvature;
+pub(crate) mod descent;
 pub mod error;
 pub mod iterative;
 pub mod ldlt;

@@ -10,8 +10,8 @@
 //! the point before it and backtracks from there. Thin shells need it: from flat, a full
 //! Newton step bends the sheet with about the right curvature but stretches its membrane
 //! (second order in the deflection, invisible to the linearisation), and the next step relaxes
-//! the membrane; a monotone line search instead cuts every such step to a sliver (a paper
-//! sheet rolling into a cylinder: 258 iterations with it, 11 without).
+//! the membrane; a monotone line search instead cuts every such step to a sliver (measured in
+//! `docs/robustness.md`, "The default Newton").
 //!
 //! **Which H** ([`HessianPolicy`]): by default ([`HessianPolicy::Adaptive`]) the objective's own
 //! (exact) Hessian while it factorises with at most a tiny shift (≤ 1e-8 of the mean |H_dd|,
@@ -31,8 +31,9 @@
 //!   the diagonal (from 1e-6, ×10), good full steps lower it (÷100): a Gauss–Newton model sees
 //!   no membrane cost of bending a flat or folded sheet out of plane and overshoots there.
 //!
-//! **Indefinite own Hessians near critical points** (issue #26; [`HessianPolicy::Adaptive`]
-//! with a direct solver): PSD steps converge only linearly towards a point where the own
+//! **Indefinite own Hessians near critical points** ([`HessianPolicy::Adaptive`] with a direct
+//! solver; the cases and their iteration counts are in `docs/robustness.md`, "Indefinite
+//! Hessians near critical points"): PSD steps converge only linearly towards a point where the own
 //! Hessian is indefinite, and towards a saddle as readily as towards a minimum. So when the own
 //! Hessian does not factorise with the small shift, the solve first checks how indefinite it
 //! is (`solver/src/curvature.rs`): if `H + σS` with σ ≤ 1e-2 of each unknown's own stiffness is
@@ -52,7 +53,7 @@
 //! Hessian is indefinite (a saddle), the solve leaves it along the negative curvature and goes
 //! on ([`NewtonSettings::escape_saddles`], default on; implicit steps keep it off). Every
 //! iteration records what it used ([`NewtonReport::hessians`], [`NewtonReport::count`]).
-//! [`HessianPolicy::AdaptivePsd`] is the policy before issue #26, for comparison.
+//! [`HessianPolicy::AdaptivePsd`] leaves indefinite own Hessians to PSD steps, for comparison.
 //!
 //! Far from a solution the PSD Hessian keeps the curvature of the forms without the shift a
 //! regularised indefinite Hessian needs (which turns Newton into a slow gradient method and can
@@ -73,11 +74,13 @@
 //! unknowns' own units whatever the stiffness (membrane, bending or edge-director angles), so no
 //! force scale can declare an unoptimised configuration converged.
 //!
-//! **Layout.** This file holds the iteration itself ([`newton_solve`]) and its constants;
-//! `settings.rs` the settings, `report.rs` the report and the record kept while solving,
-//! `workspace.rs` the reusable workspace and the stability analysis, `direction.rs` how a
-//! direction is solved for (factorisation, reuse, CG refinement, the trust-region shift),
-//! `escape.rs` the steps along negative curvature, `kept.rs` the factor kept for reuse.
+//! **Layout.** This file holds the iteration itself ([`newton_solve`]: checks, the choice of
+//! direction, the convergence tests, accepting a step); `policy.rs` the adaptive policy's
+//! state and rules, `step.rs` the line search with its watchdog and the trust-region ratio
+//! test, `direction.rs` how a direction is solved for (factorisation, reuse, CG refinement, the
+//! trust-region shift), `escape.rs` the steps along negative curvature, `settings.rs` the
+//! settings, `report.rs` the report and the record kept while solving, `workspace.rs` the
+//! reusable workspace and the stability analysis, `kept.rs` the factor kept for reuse.
 
 use std::time::{Duration, Instant};
 
@@ -99,15 +102,19 @@ use crate::progress::{CancelFlag, NewtonProgress, ProgressHook};
 mod direction;
 mod escape;
 mod kept;
+mod policy;
 mod report;
 mod settings;
+mod step;
 mod workspace;
 
 use direction::*;
 use escape::*;
 pub use kept::KeptFactor;
+use policy::*;
 pub use report::*;
 pub use settings::*;
+use step::*;
 pub use workspace::*;
 
 fn norm_inf(v: &[f64]) -> f64 {
@@ -143,32 +150,6 @@ fn first_non_finite(v: &[f64]) -> Option<usize> {
 /// still counts for the convergence test.
 const SMALL_SHIFT: f64 = 1e-8;
 
-/// First Levenberg–Marquardt damping of PSD steps (relative to the mean |H_dd|) after a
-/// backtracked PSD step; below it the damping is switched off.
-const DAMPING_MIN: f64 = 1e-6;
-/// Backtracks of a PSD step (its full step was at least 2³ times too long) that raise the
-/// damping.
-const DAMPING_BACKTRACKS: usize = 3;
-/// Factor the damping grows by after a backtracked PSD step and shrinks by after a good one.
-const DAMPING_GROWTH: f64 = 10.0;
-
-/// The point before a watchdog step (see [`NewtonSettings::watchdog`]).
-struct Watch {
-    x: Vec<f64>,
-    g: Vec<f64>,
-    f: f64,
-    /// Armijo bound `f + c₁ ∇fᵀdx` of the watched step.
-    bound: f64,
-    /// Length of the value record with the point before the step as its last entry.
-    len: usize,
-    /// Iterations left to come below `bound`.
-    left: usize,
-}
-
-/// A watchdog step needs a predicted decrease this many times the round-off of f: near
-/// round-off, values cannot tell a good step from a bad one and the usual rules apply.
-const WATCHDOG_MIN_DECREASE: f64 = 1e4;
-
 /// Assembles the PSD Hessian when `psd`, else the own Hessian.
 fn assemble<O: Objective + ?Sized>(
     objective: &mut O,
@@ -195,6 +176,40 @@ fn assemble<O: Objective + ?Sized>(
         });
     }
     Ok(kind)
+}
+
+/// What stays fixed during one solve.
+struct Frame<'a> {
+    settings: &'a NewtonSettings,
+    /// [`Objective::length_scale`] (m) and [`Objective::force_scale`] (N).
+    length_scale: f64,
+    force_scale: f64,
+    /// [`Objective::gradient_test`].
+    gradient_test: bool,
+    reg_params: RegularizationParams,
+    started: Instant,
+    /// The start of the solve, kept for [`NewtonSettings::relative_step_tolerance`].
+    x_start: Option<Vec<f64>>,
+    /// The initial gradient's norm, the reference of the CG forcing term.
+    g0: f64,
+}
+
+impl Frame<'_> {
+    /// The step-convergence limit at `x` (m): the absolute one, or the relative one of
+    /// [`NewtonSettings::relative_step_tolerance`] when that is larger.
+    fn step_limit(&self, x: &[f64]) -> f64 {
+        let absolute = self.settings.step_tolerance * self.length_scale;
+        match &self.x_start {
+            Some(x0) => {
+                let moved = x
+                    .iter()
+                    .zip(x0)
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                absolute.max(self.settings.relative_step_tolerance * moved)
+            }
+            None => absolute,
+        }
+    }
 }
 
 /// Minimises `objective` from `x` (overwritten with the result).
@@ -232,36 +247,13 @@ pub fn newton_solve<O: Objective + ?Sized>(
     if !(length_scale.is_finite() && length_scale > 0.0) {
         return Err(SolverError::InvalidLengthScale(length_scale));
     }
-    let gradient_test = objective.gradient_test();
-    let step_limit = settings.step_tolerance * length_scale;
-    let reg_params = settings.regularization_params();
     if settings.regularization.is_none() {
         // A shift remembered from an earlier solve must not leak into an unregularised one.
         ws.mu = 0.0;
     }
     let mu_at_start = ws.mu;
     ws.kept.begin_solve(ws.reusable);
-    let mut rec = Record {
-        residuals: Vec::new(),
-        values: Vec::new(),
-        hessians: Vec::new(),
-        corrections: Vec::new(),
-        failed_factorizations: 0,
-        rejected_steps: 0,
-        watchdog_steps: 0,
-        watchdog_returns: 0,
-        watchdog_undone: 0,
-        backtracks: 0,
-        regularizations: Vec::new(),
-        timings: NewtonTimings::default(),
-        factorizations: 0,
-        reused_steps: 0,
-        refined_steps: 0,
-        extrapolated_steps: 0,
-        value_noise: 0.0,
-        cg_iterations: 0,
-        linear_solver: ws.linear_solver(),
-    };
+    let mut rec = Record::new(ws.linear_solver());
 
     let t = Instant::now();
     let mut f = objective.gradient(x, &mut ws.g)?;
@@ -270,111 +262,58 @@ pub fn newton_solve<O: Objective + ?Sized>(
     rec.residuals.push(norm_inf(&ws.g) / force_scale);
     rec.values.push(f);
     let mut iteration = 0;
-    // The initial gradient, the reference of the CG forcing term.
-    let g0 = norm_inf(&ws.g);
-
-    // Adaptive policy state: whether the next iteration tries the own Hessian, how many good
-    // PSD steps to wait before trying it again, and that wait after the next failure.
-    let adaptive = matches!(
-        settings.hessian,
-        HessianPolicy::Adaptive | HessianPolicy::AdaptivePsd
-    ) && objective.has_psd_hessian();
-    // Trust-region steps on the shifted own Hessian where it is indefinite, and saddle escapes
-    // (issue #26): the adaptive policy with a direct solver.
-    let trust = adaptive && settings.hessian == HessianPolicy::Adaptive && ws.cholesky.is_some();
-    let escape = trust && settings.escape_saddles;
-    // Trust-region (Levenberg–Marquardt) parameter σ of shifted steps, relative to S, after the
-    // last step's ratio test (0: none), and the last shift at which own + σS factorised.
-    let mut sigma = 0.0f64;
-    let mut pd_floor = 0.0f64;
-    let mut tr_rejections = 0usize;
-    let mut escapes = 0usize;
-    // Whether an iterate of this solve met an indefinite own Hessian or used another one: only
-    // then can a converged point be a saddle (an own Hessian positive definite all along ends
-    // at a minimum).
-    let mut met_indefinite = false;
-    let mut want_escape = false;
-    // Consecutive PSD iterations that reduced the residual by less than PSD_SLOW_RATIO, and
-    // whether the PSD iterations have stalled: only then does an indefinite own Hessian get
-    // trust-region steps (far from a solution Gauss–Newton is the faster: its model ignores
-    // the compressive stresses whose negative curvature makes the shifted steps short).
-    // Without line search PSD steps are taken in full, unguarded: the trust region (which has
-    // its own acceptance test) is used from the start.
-    let mut psd_slow = 0usize;
-    let mut psd_stalled = !settings.line_search;
-    let x_start = (settings.relative_step_tolerance > 0.0).then(|| x.to_vec());
-    let mut try_own = true;
+    let frame = Frame {
+        settings,
+        length_scale,
+        force_scale,
+        gradient_test: objective.gradient_test(),
+        reg_params: settings.regularization_params(),
+        started,
+        x_start: (settings.relative_step_tolerance > 0.0).then(|| x.to_vec()),
+        g0: norm_inf(&ws.g),
+    };
+    let mut policy = Policy::new(settings, objective.has_psd_hessian(), ws.cholesky.is_some());
+    let mut watchdog = Watchdog::new();
     // A converged point: where an indefinite own Hessian was met on the way, first make sure
     // it is not a saddle (leave it along negative curvature and go on if it is).
-    // A step along the most negative curvature of the own Hessian, while escapes are allowed
-    // (`escape_saddle`; `$known`: the Hessian in `ws` is the own one at x, known indefinite);
-    // when it moves, the Newton loop goes on from the new point with the shift found there:
-    // `continue 'newton` (the label is passed in: macro hygiene), not the innermost loop.
-    // From inside the line search a bare `continue` retried the stale direction and slope of
-    // the point before the escape, whose round-off test then passed at once: a false
-    // convergence far from equilibrium (robustness.md, issue #26 item 6).
-    macro_rules! leave_saddle {
-        ($newton:lifetime, $known:expr) => {
-            if escape && escapes < MAX_ESCAPES {
-                escapes += 1;
-                if let Some(fe) = escape_saddle(
+    macro_rules! converged {
+        ($c:expr) => {{
+            if policy.met_indefinite {
+                if let Some(fe) = policy.leave_saddle(
                     objective,
                     x,
                     f,
                     ws,
                     &mut rec,
-                    length_scale,
-                    force_scale,
-                    &mut sigma,
+                    &frame,
                     &mut iteration,
-                    started,
-                    $known,
+                    false,
                 )? {
                     f = fe;
-                    pd_floor = sigma;
-                    try_own = true;
-                    continue $newton;
+                    continue;
                 }
-            }
-        };
-    }
-    macro_rules! converged {
-        ($newton:lifetime, $c:expr) => {{
-            if met_indefinite {
-                leave_saddle!($newton, false);
             }
             return Ok(rec.report(iteration, $c));
         }};
     }
-    // Levenberg–Marquardt damping of PSD iterations (relative to the mean |H_dd|).
-    let mut damping = 0.0f64;
-    let mut wait = 0usize;
-    let mut backoff = 1usize;
-    // Watchdog state: the point before a non-monotone full step, and whether the next
-    // iteration may take one (not right after a return to such a point).
-    let mut watch: Option<Watch> = None;
-    let mut watch_allowed = true;
 
-    'newton: loop {
+    loop {
         // The objective's own update at this iterate (`Objective::begin_iteration`).
         if begin_iteration(objective, x, iteration, settings, ws, &mut f, &mut rec)? {
-            watch = None;
+            watchdog.forget();
         }
-        if watch.is_none()
-            && gradient_test
+        if !watchdog.watching()
+            && frame.gradient_test
             && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
         {
-            converged!('newton, Convergence::Gradient);
+            converged!(Convergence::Gradient);
         }
         if ws
             .cancel
             .as_ref()
             .is_some_and(|c| c.load(std::sync::atomic::Ordering::SeqCst))
         {
-            if let Some(w) = watch.take() {
-                x.copy_from_slice(&w.x);
-                rec.residuals.truncate(w.len);
-            }
+            watchdog.restore_best(x, &mut rec);
             // A cancelled solve leaves the workspace's carried state as it found it, so that a
             // run resumed from the last completed step repeats this one exactly.
             ws.mu = mu_at_start;
@@ -386,11 +325,8 @@ pub fn newton_solve<O: Objective + ?Sized>(
             });
         }
         if iteration + rec.watchdog_undone + rec.rejected_steps >= settings.max_iterations {
-            if let Some(w) = watch.take() {
-                // The failure carries the best point: the one before the watched step.
-                x.copy_from_slice(&w.x);
-                rec.residuals.truncate(w.len);
-            }
+            // The failure carries the best point: the one before a watched step.
+            watchdog.restore_best(x, &mut rec);
             return Err(SolverError::NewtonDidNotConverge {
                 residuals: rec.residuals,
                 iterations: iteration + rec.watchdog_undone + rec.rejected_steps,
@@ -401,159 +337,23 @@ pub fn newton_solve<O: Objective + ?Sized>(
             });
         }
 
-        // Hessian, then the Newton direction dx = −H⁻¹∇f: by CG preconditioned with the kept
-        // factor (reuse), or by a (possibly shifted) factorisation, or by the iterative
-        // fallback. `exact`: dx solves the system to the forcing term (not truncated), so
-        // that an unshifted one may serve the convergence tests.
-        let eta = forcing(settings.cg_forcing, norm_inf(&ws.g), g0);
-        let eta_reuse = forcing(settings.reuse_tolerance, norm_inf(&ws.g), g0);
-        let mut kind = assemble(
+        let chosen = match choose_direction(
             objective,
             x,
-            &mut ws.hessian,
-            adaptive && !try_own,
-            iteration,
-            &mut rec.timings,
-        )?;
-        if kind == IterationHessian::Psd {
-            apply_damping(ws, damping);
-        }
-        let mut reused = false;
-        let mut direction = None;
-        if try_reuse(
+            f,
             ws,
-            kind,
-            eta_reuse,
-            objective.hessian_diagonal_shift(),
-            settings,
             &mut rec,
+            &mut policy,
+            &frame,
+            &mut iteration,
         )? {
-            direction = Some((FactorOutcome::default(), true));
-            reused = true;
-        }
-        // Trust region: while the own Hessian is known to be indefinite (σ or the last
-        // positive-definite shift above the small one), go straight to the shifted search.
-        let shift_start = sigma.max(pd_floor / SHIFT_GROWTH);
-        let in_trust = trust && shift_start > SMALL_SHIFT;
-        if direction.is_none() && in_trust && kind == IterationHessian::Own && try_own {
-            if want_escape {
-                // The last shifted step was as good as the model (ρ > ¾) yet its length was
-                // set by the shift that keeps H + σS positive definite, not by the model:
-                // move along the negative curvature as far as f keeps decreasing.
-                want_escape = false;
-                leave_saddle!('newton, true);
+            Choice::Direction(c) => c,
+            Choice::Escaped(fe) => {
+                f = fe;
+                continue;
             }
-            direction = shifted_direction(ws, Some(shift_start), &mut rec)?;
-            if let Some((o, _)) = direction {
-                kind = IterationHessian::Shifted;
-                sigma = o.mu;
-                pd_floor = o.mu;
-                met_indefinite = true;
-            }
-        }
-        if direction.is_none() && !in_trust && adaptive && kind == IterationHessian::Own && try_own
-        {
-            // The own Hessian, shifted by at most SMALL_SHIFT (far below bending stiffness:
-            // it only lifts the tiny negative eigenvalues of a nearly converged, slightly
-            // compressed shell); anything more indefinite switches to the PSD Hessian.
-            let small = RegularizationParams {
-                max_attempts: small_shift_attempts(&reg_params),
-                ..reg_params
-            };
-            match solve_direction(ws, kind, &small, eta, settings, &mut rec) {
-                Ok(d) => direction = Some(d),
-                Err(FactorError::NotPositiveDefinite { .. }) if trust && psd_stalled => {
-                    // Indefinite: a trust-region step on the shifted own Hessian.
-                    rec.failed_factorizations += 1;
-                    ws.mu = 0.0;
-                    met_indefinite = true;
-                    // First leave along negative curvature (a saddle or an indefinite
-                    // region is near: shifted steps would only creep along that direction).
-                    leave_saddle!('newton, true);
-                    direction = shifted_direction(ws, None, &mut rec)?;
-                    if let Some((o, _)) = direction {
-                        kind = IterationHessian::Shifted;
-                        sigma = o.mu;
-                        pd_floor = o.mu;
-                    }
-                }
-                Err(FactorError::NotPositiveDefinite { .. }) => {
-                    rec.failed_factorizations += 1;
-                    met_indefinite = true;
-                    ws.mu = 0.0;
-                    try_own = false;
-                    wait = backoff;
-                    backoff = backoff.saturating_mul(2);
-                    kind = assemble(
-                        objective,
-                        x,
-                        &mut ws.hessian,
-                        true,
-                        iteration,
-                        &mut rec.timings,
-                    )?;
-                    apply_damping(ws, damping);
-                    if try_reuse(
-                        ws,
-                        kind,
-                        eta_reuse,
-                        objective.hessian_diagonal_shift(),
-                        settings,
-                        &mut rec,
-                    )? {
-                        direction = Some((FactorOutcome::default(), true));
-                        reused = true;
-                    }
-                }
-                Err(FactorError::Other(e)) => return Err(e),
-            }
-        }
-        if direction.is_none() && trust && kind == IterationHessian::Own && try_own {
-            // No shift the search tried made the own Hessian positive definite: the PSD one.
-            try_own = false;
-            wait = backoff;
-            backoff = backoff.saturating_mul(2);
-            sigma = 0.0;
-            pd_floor = 0.0;
-            kind = assemble(
-                objective,
-                x,
-                &mut ws.hessian,
-                true,
-                iteration,
-                &mut rec.timings,
-            )?;
-            apply_damping(ws, damping);
-            if try_reuse(
-                ws,
-                kind,
-                eta_reuse,
-                objective.hessian_diagonal_shift(),
-                settings,
-                &mut rec,
-            )? {
-                direction = Some((FactorOutcome::default(), true));
-                reused = true;
-            }
-        }
-        let (outcome, exact) = match direction {
-            Some(d) => d,
-            None => match solve_direction(ws, kind, &reg_params, eta, settings, &mut rec) {
-                Ok(d) => d,
-                Err(FactorError::NotPositiveDefinite { pivot }) => {
-                    return Err(if settings.regularization.is_some() {
-                        SolverError::RegularizationFailed {
-                            iteration,
-                            mu: ws.mu,
-                            attempts: reg_params.max_attempts + 1,
-                        }
-                    } else {
-                        SolverError::NotPositiveDefinite { iteration, pivot }
-                    });
-                }
-                Err(FactorError::Other(e)) => return Err(e),
-            },
         };
+        let (kind, outcome) = (chosen.kind, chosen.outcome);
         if outcome.mu > 0.0 && kind != IterationHessian::Shifted {
             rec.regularizations.push(RegularizationEvent {
                 iteration,
@@ -564,7 +364,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
         }
         // A direction that may stand for the unshifted Newton correction in the tests below:
         // one solved with a slightly shifted factor is refined into it first.
-        let unshifted = outcome.mu <= SMALL_SHIFT && exact;
+        let unshifted = outcome.mu <= SMALL_SHIFT && chosen.exact;
         let obj_shift = objective.hessian_diagonal_shift();
         // Own-Hessian directions only: on the PSD (Gauss–Newton) Hessian the small shift
         // damps the directions its model leaves flat (e.g. folding a crease), which it sees no
@@ -573,14 +373,14 @@ pub fn newton_solve<O: Objective + ?Sized>(
         // shifted direction then leads away from a saddle, and its step may be extrapolated.
         let mut negative_curvature = false;
         if unshifted
-            && !reused
+            && !chosen.reused
             && kind == IterationHessian::Own
             && (outcome.mu > 0.0 || obj_shift > 0.0)
         {
             negative_curvature = refine_direction(ws, obj_shift, REFINE_TOLERANCE, &mut rec)?;
         }
 
-        let step_limit = current_step_limit(step_limit, settings, x, x_start.as_deref());
+        let step_limit = frame.step_limit(x);
         if let Some(dof) = first_non_finite(&ws.dx) {
             return Err(SolverError::NonFinite {
                 what: "Newton direction",
@@ -592,11 +392,11 @@ pub fn newton_solve<O: Objective + ?Sized>(
 
         // An unshifted Newton correction below the step tolerance, or one whose predicted
         // decrease f cannot resolve: x is converged. The step is not taken.
-        if unshifted && watch.is_none() {
+        if unshifted && !watchdog.watching() {
             let dx_max = norm_inf(&ws.dx);
             rec.corrections.push(dx_max / length_scale);
             if dx_max <= step_limit {
-                converged!('newton, Convergence::Step);
+                converged!(Convergence::Step);
             }
             // Round-off: f cannot resolve the predicted decrease and the last step no longer
             // halved the gradient (while it does, Newton still makes progress on it).
@@ -605,208 +405,67 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 && n >= 2
                 && rec.residuals[n - 1] > 0.5 * rec.residuals[n - 2]
             {
-                converged!('newton, Convergence::RoundOff);
+                converged!(Convergence::RoundOff);
             }
         }
 
-        let mut alpha = step_limit_of(objective, x, &ws.dx)?;
-        let mut backtracks = 0;
-        let mut trial_has_gradient = true;
-        // Ratio of actual to predicted decrease of a trust-region step.
-        let mut rho = f64::NAN;
-        let f_trial = if kind == IterationHessian::Shifted {
-            // Trust-region step: taken in full when its actual decrease is at least
-            // TR_ACCEPT of the decrease the exact quadratic model predicts, otherwise
-            // redone with a larger shift.
-            sym_lower_matvec(ws.hessian.as_ref(), 0.0, &ws.dx, &mut ws.hd);
-            let dhd: f64 = ws.dx.iter().zip(&ws.hd).map(|(a, b)| a * b).sum();
-            let pred = -(alpha * slope + 0.5 * alpha * alpha * dhd);
-            // (NaN included: no usable prediction.)
-            let mut saddle_step = None;
-            if pred.is_nan() || pred <= WATCHDOG_MIN_DECREASE * rec.noise(f) {
-                // The shifted model promises nothing f can resolve: x is near a critical
-                // point of an indefinite Hessian. Leave it along negative curvature.
-                leave_saddle!('newton, false);
-                // No lower point that way (or saddles are answers here): the unshifted Newton
-                // step, which converges to the critical point quadratically, and whose length
-                // is the convergence test.
-                match saddle_newton(objective, x, f, ws, &mut rec, step_limit)? {
-                    SaddleStep::Converged => converged!('newton, Convergence::Step),
-                    SaddleStep::Taken(f_t) => {
-                        kind = IterationHessian::Own;
-                        alpha = 1.0;
-                        saddle_step = Some(f_t);
-                    }
-                    SaddleStep::Unavailable => {
-                        // Let the PSD Hessian (and then the convergence tests) decide.
-                        rec.rejected_steps += 1;
-                        try_own = false;
-                        wait = backoff;
-                        backoff = backoff.saturating_mul(2);
-                        sigma = 0.0;
-                        pd_floor = 0.0;
-                        continue;
-                    }
-                }
-            }
-            let f_t = match saddle_step {
-                Some(f_t) => f_t,
-                None => {
-                    for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x.iter()).zip(&ws.dx) {
-                        *xt = xi + alpha * d;
-                    }
-                    let t = Instant::now();
-                    let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
-                    rec.timings.assembly += t.elapsed();
-                    rho = (f - f_t) / pred;
-                    f_t
-                }
-            };
-
-            if saddle_step.is_none()
-                && !(f_t.is_finite() && rho >= TR_ACCEPT && first_non_finite(&ws.g_trial).is_none())
-            {
-                rec.rejected_steps += 1;
-                tr_rejections += 1;
-                sigma *= TR_GROWTH;
-                if tr_rejections >= MAX_TR_REJECTIONS {
-                    // The shifted model keeps failing here (far from any quadratic
-                    // behaviour): PSD steps, as before issue #26, until they stall again.
-                    psd_stalled = !settings.line_search;
-                    psd_slow = 0;
-                    try_own = false;
-                    wait = backoff;
-                    backoff = backoff.saturating_mul(2);
-                    sigma = 0.0;
-                    pd_floor = 0.0;
-                    tr_rejections = 0;
-                }
+        let alpha = step_limit_of(objective, x, &ws.dx)?;
+        let direction = Direction {
+            kind,
+            slope,
+            unshifted,
+            negative_curvature,
+            step_limit,
+        };
+        let step = if kind == IterationHessian::Shifted {
+            trust_region_step(
+                objective,
+                x,
+                f,
+                ws,
+                &mut rec,
+                &mut policy,
+                &frame,
+                &mut iteration,
+                &direction,
+                alpha,
+            )?
+        } else {
+            line_search(
+                objective,
+                x,
+                f,
+                ws,
+                &mut rec,
+                &mut policy,
+                &mut watchdog,
+                &frame,
+                iteration,
+                &direction,
+                alpha,
+            )?
+        };
+        let (f_trial, alpha, backtracks, has_gradient, rho, kind) = match step {
+            Step::Taken {
+                f,
+                alpha,
+                backtracks,
+                has_gradient,
+                rho,
+                kind,
+            } => (f, alpha, backtracks, has_gradient, rho, kind),
+            Step::Retry => continue,
+            Step::Escaped(fe) => {
+                f = fe;
                 continue;
             }
-            tr_rejections = 0;
-            f_t
-        } else {
-            // Backtracking line search. The first trial evaluates the gradient too (it is
-            // usually accepted); later trials only the value.
-            loop {
-                for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x.iter()).zip(&ws.dx) {
-                    *xt = xi + alpha * d;
-                }
-                let t = Instant::now();
-                let f_t = if backtracks == 0 {
-                    trial_has_gradient = true;
-                    let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
-                    rec.timings.assembly += t.elapsed();
-                    f_t
-                } else {
-                    trial_has_gradient = false;
-                    let f_t = objective.value(&ws.x_trial)?;
-                    rec.timings.line_search += t.elapsed();
-                    rec.timings.line_search_evaluations += 1;
-                    f_t
-                };
-                if !settings.line_search {
-                    if !f_t.is_finite() {
-                        return Err(SolverError::NonFinite {
-                            what: "value",
-                            iteration: iteration + 1,
-                            dof: None,
-                        });
-                    }
-                    break f_t;
-                }
-                if f_t.is_finite() && slope < 0.0 {
-                    if f_t <= f + settings.armijo_c1 * alpha * slope {
-                        if negative_curvature && backtracks == 0 && escape {
-                            if let Some((a, fa)) =
-                                extrapolate(objective, x, ws, alpha, f_t, length_scale, &mut rec)?
-                            {
-                                alpha = a;
-                                trial_has_gradient = false;
-                                rec.extrapolated_steps += 1;
-                                break fa;
-                            }
-                        }
-                        break f_t;
-                    }
-                    // Once the predicted decrease is below the round-off of f, values cannot
-                    // discriminate: accept a full step that does not raise f beyond round-off
-                    // and reduces the gradient.
-                    let noise = rec.noise(f.abs().max(f_t.abs()));
-                    if trial_has_gradient
-                        && -slope <= noise
-                        && f_t <= f + noise
-                        && norm_inf(&ws.g_trial) < norm_inf(&ws.g)
-                    {
-                        break f_t;
-                    }
-                }
-                if backtracks == 0
-                    && settings.watchdog > 0
-                    && watch.is_none()
-                    && watch_allowed
-                    && -slope > WATCHDOG_MIN_DECREASE * rec.noise(f)
-                    && f_t.is_finite()
-                    && first_non_finite(&ws.g_trial).is_none()
-                {
-                    // Watchdog: take the full Newton step although f rose. A thin shell bending
-                    // away from flat is the typical case: the full step bends it with the right
-                    // curvature but stretches its membrane (which the linearisation cannot see),
-                    // and the next Newton step relaxes the membrane; a monotone line search would
-                    // instead crawl along the bending mode with tiny steps.
-                    watch = Some(Watch {
-                        x: x.to_vec(),
-                        g: ws.g.clone(),
-                        f,
-                        bound: f + settings.armijo_c1 * slope,
-                        len: rec.values.len(),
-                        left: settings.watchdog,
-                    });
-                    rec.watchdog_steps += 1;
-                    break f_t;
-                }
-                if backtracks == 0 && watch.is_none() && unshifted && -0.5 * slope <= rec.noise(f) {
-                    // The unshifted Newton step predicts a decrease below the round-off of f and
-                    // its full step is not distinguishable from x: x is at the round-off floor
-                    // (typically a solve restarted at its own equilibrium), not stuck.
-                    converged!('newton, Convergence::RoundOff);
-                }
-                if adaptive && kind == IterationHessian::Own {
-                    // The own Hessian's quadratic model does not hold here (its full step fails
-                    // the Armijo test): redo the iteration with the PSD Hessian rather than take a
-                    // short step along a direction that may lead towards a saddle or a poor minimum.
-                    break f64::NAN;
-                }
-                if backtracks >= settings.max_backtracks || slope >= 0.0 {
-                    if let Some(w) = watch.take() {
-                        // The failure carries the best point: the one before the watched step.
-                        x.copy_from_slice(&w.x);
-                        rec.residuals.truncate(w.len);
-                    }
-                    return Err(SolverError::LineSearchFailed {
-                        iteration,
-                        backtracks,
-                        residuals: rec.residuals,
-                        last_good: x.to_vec(),
-                    });
-                }
-                backtracks += 1;
-                alpha *= settings.backtrack_factor;
-            }
+            Step::Converged(c) => converged!(c),
         };
-        rec.backtracks += backtracks;
-        if f_trial.is_nan() {
-            rec.rejected_steps += 1;
-            try_own = false;
-            wait = backoff;
-            backoff = backoff.saturating_mul(2);
-            continue;
-        }
 
         // Accept the trial point.
         let f_old = f;
         x.copy_from_slice(&ws.x_trial);
-        if trial_has_gradient {
+        if has_gradient {
             std::mem::swap(&mut ws.g, &mut ws.g_trial);
             f = f_trial;
         } else {
@@ -834,169 +493,233 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 elapsed: started.elapsed(),
             });
         }
-        watch_allowed = true;
-        let watched_step = matches!(&watch, Some(w) if w.left == settings.watchdog);
-        if let Some(w) = watch.as_mut() {
-            if f <= w.bound {
-                watch = None;
-            } else if w.left == 0 {
-                // The watched iterates never recovered: back to the point before the
-                // non-monotone step, which the next iteration leaves by the usual line search.
-                x.copy_from_slice(&w.x);
-                ws.g.copy_from_slice(&w.g);
-                f = w.f;
-                rec.watchdog_returns += 1;
-                // The undone iterations leave the record (the record is the accepted path);
-                // they still count against the iteration limit.
-                rec.watchdog_undone += iteration - (w.len - 1);
-                iteration = w.len - 1;
-                rec.values.truncate(w.len);
-                rec.residuals.truncate(w.len);
-                rec.hessians.truncate(iteration);
-                rec.regularizations.retain(|e| e.iteration < iteration);
-                watch = None;
-                watch_allowed = false;
-                continue;
-            } else {
-                w.left -= 1;
-            }
+        let watched_step = watchdog.just_watched(settings);
+        if watchdog.after_step(x, ws, &mut f, &mut iteration, &mut rec) {
+            continue;
         }
-
-        // Adaptive policy: a backtracked step of the own Hessian means its quadratic model is
-        // poor here; a full PSD step that achieved at least half the predicted decrease
-        // (ratio ρ = Δf / (½ ∇fᵀdx), the PSD model's prediction) means the iterate is where
-        // the quadratic model holds, so the own Hessian is worth another try.
-        if kind == IterationHessian::Psd {
-            let n = rec.residuals.len();
-            if rec.residuals[n - 1] > PSD_SLOW_RATIO * rec.residuals[n - 2] {
-                psd_slow += 1;
-            } else {
-                psd_slow = 0;
-            }
-            if trust && !psd_stalled && psd_slow >= PSD_STALL_ITERATIONS {
-                // Gauss–Newton converges only linearly here: the own Hessian (shifted in a
-                // trust region where it is indefinite) from the next iteration on.
-                psd_stalled = true;
-                try_own = true;
-                wait = 0;
-                backoff = 1;
-            }
-        } else {
-            psd_slow = 0;
-        }
-        if adaptive {
-            match kind {
-                IterationHessian::Shifted => {
-                    // Levenberg–Marquardt update of the trust-region shift.
-                    if rho > 0.75 {
-                        sigma /= TR_SHRINK;
-                        want_escape = sigma < pd_floor / SHIFT_GROWTH;
-                    } else if rho < 0.25 {
-                        sigma *= TR_GROWTH;
-                    }
-                    if sigma <= SMALL_SHIFT {
-                        sigma = 0.0;
-                    }
-                }
-                IterationHessian::Own if backtracks > 0 => try_own = false,
-                IterationHessian::Psd if backtracks > 0 => {
-                    if backtracks >= DAMPING_BACKTRACKS {
-                        damping = (damping * DAMPING_GROWTH).max(DAMPING_MIN);
-                    }
-                    // The PSD model overshoots too: the own Hessian may do better here (a
-                    // membrane sagging from flat). Rejections make it wait 1, 2, 4, … steps.
-                    if wait == 0 {
-                        try_own = true;
-                    } else {
-                        wait -= 1;
-                    }
-                }
-                IterationHessian::Psd if backtracks == 0 && slope < 0.0 => {
-                    let rho = (f - f_old) / (0.5 * slope);
-                    if rho >= 0.5 {
-                        damping /= DAMPING_GROWTH * DAMPING_GROWTH;
-                        if damping < DAMPING_MIN {
-                            damping = 0.0;
-                        }
-                        if wait == 0 {
-                            try_own = true;
-                        } else {
-                            wait -= 1;
-                        }
-                    }
-                }
-                _ => {}
-            }
-        }
+        policy.after_step(kind, backtracks, rho, slope, (f_old, f), &rec.residuals);
 
         // After a full unshifted step, estimate the next correction with the same
         // factorisation (one triangular solve): a short one ends the solve here.
-        if unshifted && backtracks == 0 && watch.is_none() && !watched_step {
-            if gradient_test
+        if unshifted && backtracks == 0 && !watchdog.watching() && !watched_step {
+            if frame.gradient_test
                 && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
             {
-                converged!('newton, Convergence::Gradient);
+                converged!(Convergence::Gradient);
             }
-            // The limit at the new iterate: a relative one grows with the move just made (the
-            // one of the iteration's start, before any move, left the estimate unable to end
-            // an implicit step, which then assembled one more Hessian only to stop there).
-            let step_limit = current_step_limit(
-                settings.step_tolerance * length_scale,
-                settings,
-                x,
-                x_start.as_deref(),
-            );
-            let t = Instant::now();
-            let solved = estimate_correction(ws, settings, &mut rec)?;
-            rec.timings.solve += t.elapsed();
-            if solved
-                && ws.cholesky.is_some()
-                && norm_inf(&ws.dx) <= step_limit
-                && (reused || outcome.mu > 0.0 || obj_shift > 0.0)
+            let reused_or_shifted = chosen.reused || outcome.mu > 0.0 || obj_shift > 0.0;
+            if let Some(est) =
+                estimated_correction(ws, &mut rec, &frame, x, reused_or_shifted, obj_shift)?
             {
-                // A shifted (or old) factor underestimates the correction along soft modes
-                // (the refined one is larger there): an estimate that would end the solve
-                // solves the unshifted system where CG can.
-                refine_direction(ws, obj_shift, ESTIMATE_TOLERANCE, &mut rec)?;
-            }
-            let est = if solved {
-                norm_inf(&ws.dx)
-            } else {
-                f64::INFINITY
-            };
-            if est.is_finite() && est <= step_limit {
                 rec.corrections.push(est / length_scale);
-                converged!('newton, Convergence::Step);
+                converged!(Convergence::Step);
             }
         }
     }
 }
 
-/// A PSD iteration that leaves more than this fraction of the residual is slow.
-const PSD_SLOW_RATIO: f64 = 0.5;
-/// Consecutive slow PSD iterations after which the PSD iterations count as stalled.
-const PSD_STALL_ITERATIONS: usize = 2;
+/// After a full unshifted step, the next Newton correction estimated with the same
+/// factorisation (one triangular solve), when it is within the step limit at the new iterate
+/// `x` (m): the solve is then converged.
+fn estimated_correction(
+    ws: &mut NewtonWorkspace,
+    rec: &mut Record,
+    frame: &Frame,
+    x: &[f64],
+    reused_or_shifted: bool,
+    obj_shift: f64,
+) -> Result<Option<f64>, SolverError> {
+    // The limit at the new iterate: a relative one grows with the move just made (the one of
+    // the iteration's start, before any move, left the estimate unable to end an implicit
+    // step, which then assembled one more Hessian only to stop there).
+    let step_limit = frame.step_limit(x);
+    let t = Instant::now();
+    let solved = estimate_correction(ws, frame.settings, rec)?;
+    rec.timings.solve += t.elapsed();
+    if solved && ws.cholesky.is_some() && norm_inf(&ws.dx) <= step_limit && reused_or_shifted {
+        // A shifted (or old) factor underestimates the correction along soft modes (the
+        // refined one is larger there): an estimate that would end the solve solves the
+        // unshifted system where CG can.
+        refine_direction(ws, obj_shift, ESTIMATE_TOLERANCE, rec)?;
+    }
+    let est = if solved {
+        norm_inf(&ws.dx)
+    } else {
+        f64::INFINITY
+    };
+    Ok((est.is_finite() && est <= step_limit).then_some(est))
+}
 
-/// A shifted step is taken when its actual decrease is at least this fraction of the decrease
-/// the exact quadratic model predicts (the trust-region acceptance ratio).
-const TR_ACCEPT: f64 = 0.1;
-/// Factor the trust-region shift grows by after a rejected or poor (ρ < 0.25) step.
-const TR_GROWTH: f64 = 4.0;
-/// Factor the trust-region shift shrinks by after a very good (ρ > 0.75) step.
-const TR_SHRINK: f64 = 16.0;
-/// Consecutive rejected shifted steps after which the solve turns to the PSD Hessian for a
-/// while (the shifted model does not describe f here at any shift tried so far).
-const MAX_TR_REJECTIONS: usize = 6;
-/// Negative-curvature escapes per solve.
-const MAX_ESCAPES: usize = 50;
-/// Largest shift σ the saddle escape at a converged point tries (relative to each unknown's
-/// own stiffness): beyond it the Hessian is not that of a nearly stable point.
-const ESCAPE_MAX_SHIFT: f64 = 1e3;
-/// Largest trust-region shift σ (relative to each unknown's own stiffness, see
-/// `curvature.rs`): an own Hessian that needs more is strongly indefinite — a compressed
-/// membrane far from equilibrium — where the shifted steps crawl (measured: σ ≈ 10–170 on the
-/// flat start of a cone-growing annulus) and PSD steps do better.
-const TR_MAX_SHIFT: f64 = 1e-2;
+/// How an iteration's direction `ws.dx` was found.
+struct Chosen {
+    /// The Hessian it was solved with.
+    kind: IterationHessian,
+    outcome: FactorOutcome,
+    /// It solves the system to the forcing term (not truncated), so that an unshifted one may
+    /// serve the convergence tests.
+    exact: bool,
+    /// Solved by CG preconditioned with the kept factor.
+    reused: bool,
+}
+
+/// What [`choose_direction`] did.
+enum Choice {
+    Direction(Chosen),
+    /// x moved along negative curvature to a point of this value instead.
+    Escaped(f64),
+}
+
+/// The Hessian, then the Newton direction `ws.dx = −H⁻¹∇f`: by CG preconditioned with the kept
+/// factor (reuse), or by a (possibly shifted) factorisation, or by the iterative fallback —
+/// with the Hessian the policy chooses (see the module documentation).
+#[allow(clippy::too_many_arguments)]
+fn choose_direction<O: Objective + ?Sized>(
+    objective: &mut O,
+    x: &mut [f64],
+    f: f64,
+    ws: &mut NewtonWorkspace,
+    rec: &mut Record,
+    policy: &mut Policy,
+    frame: &Frame,
+    iteration: &mut usize,
+) -> Result<Choice, SolverError> {
+    let settings = frame.settings;
+    let eta = forcing(settings.cg_forcing, norm_inf(&ws.g), frame.g0);
+    let eta_reuse = forcing(settings.reuse_tolerance, norm_inf(&ws.g), frame.g0);
+    let mut kind = assemble(
+        objective,
+        x,
+        &mut ws.hessian,
+        policy.adaptive && !policy.try_own,
+        *iteration,
+        &mut rec.timings,
+    )?;
+    if kind == IterationHessian::Psd {
+        apply_damping(ws, policy.damping);
+    }
+    let reuse_shift = objective.hessian_diagonal_shift();
+    let mut reused = try_reuse(ws, kind, eta_reuse, reuse_shift, settings, rec)?;
+    let mut direction = reused.then(|| (FactorOutcome::default(), true));
+    // Trust region: while the own Hessian is known to be indefinite, go straight to the
+    // shifted search.
+    let (shift_start, in_trust) = policy.trust_start();
+    let own =
+        |kind: IterationHessian, policy: &Policy| kind == IterationHessian::Own && policy.try_own;
+    if direction.is_none() && in_trust && own(kind, policy) {
+        if policy.want_escape {
+            // The last shifted step was as good as the model (ρ > ¾) yet its length was set by
+            // the shift that keeps H + σS positive definite, not by the model: move along the
+            // negative curvature as far as f keeps decreasing.
+            policy.want_escape = false;
+            if let Some(fe) =
+                policy.leave_saddle(objective, x, f, ws, rec, frame, iteration, true)?
+            {
+                return Ok(Choice::Escaped(fe));
+            }
+        }
+        direction = shifted_direction(ws, Some(shift_start), rec)?;
+        if let Some((o, _)) = direction {
+            kind = IterationHessian::Shifted;
+            policy.shifted(o.mu);
+            policy.met_indefinite = true;
+        }
+    }
+    if direction.is_none() && !in_trust && policy.adaptive && own(kind, policy) {
+        // The own Hessian, shifted by at most SMALL_SHIFT (far below bending stiffness: it
+        // only lifts the tiny negative eigenvalues of a nearly converged, slightly compressed
+        // shell); anything more indefinite switches to the PSD Hessian.
+        let small = RegularizationParams {
+            max_attempts: small_shift_attempts(&frame.reg_params),
+            ..frame.reg_params
+        };
+        match solve_direction(ws, kind, &small, eta, settings, rec) {
+            Ok(d) => direction = Some(d),
+            Err(FactorError::NotPositiveDefinite { .. }) if policy.trust && policy.psd_stalled => {
+                // Indefinite: a trust-region step on the shifted own Hessian.
+                rec.failed_factorizations += 1;
+                ws.mu = 0.0;
+                policy.met_indefinite = true;
+                // First leave along negative curvature (a saddle or an indefinite region is
+                // near: shifted steps would only creep along that direction).
+                if let Some(fe) =
+                    policy.leave_saddle(objective, x, f, ws, rec, frame, iteration, true)?
+                {
+                    return Ok(Choice::Escaped(fe));
+                }
+                direction = shifted_direction(ws, None, rec)?;
+                if let Some((o, _)) = direction {
+                    kind = IterationHessian::Shifted;
+                    policy.shifted(o.mu);
+                }
+            }
+            Err(FactorError::NotPositiveDefinite { .. }) => {
+                rec.failed_factorizations += 1;
+                policy.met_indefinite = true;
+                ws.mu = 0.0;
+                policy.own_failed();
+                kind = assemble_psd(objective, x, ws, rec, policy, *iteration)?;
+                reused = try_reuse(ws, kind, eta_reuse, reuse_shift, settings, rec)?;
+                direction = reused.then(|| (FactorOutcome::default(), true));
+            }
+            Err(FactorError::Other(e)) => return Err(e),
+        }
+    }
+    if direction.is_none() && policy.trust && own(kind, policy) {
+        // No shift the search tried made the own Hessian positive definite: the PSD one.
+        policy.psd_instead();
+        kind = assemble_psd(objective, x, ws, rec, policy, *iteration)?;
+        reused = try_reuse(ws, kind, eta_reuse, reuse_shift, settings, rec)?;
+        direction = reused.then(|| (FactorOutcome::default(), true));
+    }
+    let (outcome, exact) = match direction {
+        Some(d) => d,
+        None => match solve_direction(ws, kind, &frame.reg_params, eta, settings, rec) {
+            Ok(d) => d,
+            Err(FactorError::NotPositiveDefinite { pivot }) => {
+                return Err(if settings.regularization.is_some() {
+                    SolverError::RegularizationFailed {
+                        iteration: *iteration,
+                        mu: ws.mu,
+                        attempts: frame.reg_params.max_attempts + 1,
+                    }
+                } else {
+                    SolverError::NotPositiveDefinite {
+                        iteration: *iteration,
+                        pivot,
+                    }
+                });
+            }
+            Err(FactorError::Other(e)) => return Err(e),
+        },
+    };
+    Ok(Choice::Direction(Chosen {
+        kind,
+        outcome,
+        exact,
+        reused,
+    }))
+}
+
+/// The PSD Hessian at x into `ws.hessian`, with the policy's damping.
+fn assemble_psd<O: Objective + ?Sized>(
+    objective: &mut O,
+    x: &[f64],
+    ws: &mut NewtonWorkspace,
+    rec: &mut Record,
+    policy: &Policy,
+    iteration: usize,
+) -> Result<IterationHessian, SolverError> {
+    let kind = assemble(
+        objective,
+        x,
+        &mut ws.hessian,
+        true,
+        iteration,
+        &mut rec.timings,
+    )?;
+    apply_damping(ws, policy.damping);
+    Ok(kind)
+}
 
 /// Calls [`Objective::begin_iteration`] and applies its contract: re-analyses a changed
 /// Hessian pattern, re-evaluates f and ∇f at `x` and replaces the iterate's recorded residual
@@ -1050,24 +773,4 @@ fn step_limit_of<O: Objective + ?Sized>(
         });
     }
     Ok(alpha)
-}
-
-/// The step-convergence limit at `x`: the absolute one, or the relative one of
-/// [`NewtonSettings::relative_step_tolerance`] when that is larger.
-fn current_step_limit(
-    absolute: f64,
-    settings: &NewtonSettings,
-    x: &[f64],
-    x0: Option<&[f64]>,
-) -> f64 {
-    match x0 {
-        Some(x0) => {
-            let moved = x
-                .iter()
-                .zip(x0)
-                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-            absolute.max(settings.relative_step_tolerance * moved)
-        }
-        None => absolute,
-    }
 }

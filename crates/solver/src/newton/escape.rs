@@ -2,13 +2,15 @@
 //! Newton steps to a critical point the trust region cannot resolve.
 
 use super::*;
+use crate::descent::double_while_falling;
 
 /// Doubles an accepted step `alpha·dx` of the own Hessian along which CG met negative
 /// curvature while f keeps decreasing by more than its round-off, within the objective's step
 /// limit and a length of `length_scale` (m; the body's size). Near a saddle the slightly shifted
 /// factor's direction is dominated by the unstable mode but its length grows only by the factor
-/// σ/(σ − |λ|) per iteration — about 1.05 on a 20 000-face strut just past its Euler load, so
-/// that leaving the flat state took hundreds of iterations; here f decides how far to go.
+/// σ/(σ − |λ|) per iteration, close to 1 on fine meshes just past a critical load, so that
+/// leaving the flat state took hundreds of iterations (docs/robustness.md); here f decides how
+/// far to go.
 /// Returns the longer step and its value, with `ws.x_trial` set to it (`None`: the full step
 /// stays, and so does `ws.x_trial`).
 pub(super) fn extrapolate<O: Objective + ?Sized>(
@@ -34,25 +36,23 @@ pub(super) fn extrapolate<O: Objective + ?Sized>(
     // The objective's limit (e.g. contact's collision-free fraction) for the longest step.
     let scaled: Vec<f64> = ws.dx.iter().map(|d| d * reach).collect();
     let limit = reach * step_limit_of(objective, x, &scaled)?;
-    let mut best = (alpha, f_alpha);
-    for _ in 0..MAX_DOUBLINGS {
-        let t = 2.0 * best.0;
-        if t > limit {
-            break;
-        }
-        for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x).zip(&ws.dx) {
-            *xt = xi + t * d;
-        }
-        let s = Instant::now();
-        let ft = objective.value(&ws.x_trial)?;
-        rec.timings.line_search += s.elapsed();
-        rec.timings.line_search_evaluations += 1;
-        if ft.is_finite() && ft < best.1 - rec.noise(best.1) {
-            best = (t, ft);
-        } else {
-            break;
-        }
-    }
+    let floor = rec.value_noise;
+    let best = double_while_falling(
+        |t| -> Result<f64, SolverError> {
+            for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x).zip(&ws.dx) {
+                *xt = xi + t * d;
+            }
+            let s = Instant::now();
+            let ft = objective.value(&ws.x_trial)?;
+            rec.timings.line_search += s.elapsed();
+            rec.timings.line_search_evaluations += 1;
+            Ok(if ft.is_finite() { ft } else { f64::INFINITY })
+        },
+        (alpha, f_alpha),
+        limit,
+        MAX_DOUBLINGS,
+        |f| value_noise(f).max(floor),
+    )?;
     if best.0 == alpha {
         // The trial point is still the full step's only if no doubling was evaluated.
         for ((xt, &xi), &d) in ws.x_trial.iter_mut().zip(x).zip(&ws.dx) {
@@ -252,16 +252,13 @@ pub(super) fn escape_saddle<O: Objective + ?Sized>(
     let mut best = (0.0, f);
     let ft = value_at(t, ws, rec)?;
     if ft < f - noise {
-        best = (t, ft);
-        while 2.0 * t <= t_max {
-            let f2 = value_at(2.0 * t, ws, rec)?;
-            if f2 < best.1 {
-                t *= 2.0;
-                best = (t, f2);
-            } else {
-                break;
-            }
-        }
+        best = double_while_falling(
+            |t| value_at(t, ws, rec),
+            (t, ft),
+            t_max,
+            usize::MAX,
+            |_| 0.0,
+        )?;
     } else {
         for _ in 0..30 {
             t *= 0.25;

@@ -216,6 +216,30 @@ pub(super) struct Record {
 }
 
 impl Record {
+    pub(super) fn new(linear_solver: LinearSolver) -> Self {
+        Self {
+            residuals: Vec::new(),
+            values: Vec::new(),
+            hessians: Vec::new(),
+            corrections: Vec::new(),
+            failed_factorizations: 0,
+            rejected_steps: 0,
+            watchdog_steps: 0,
+            watchdog_returns: 0,
+            watchdog_undone: 0,
+            backtracks: 0,
+            regularizations: Vec::new(),
+            timings: NewtonTimings::default(),
+            factorizations: 0,
+            reused_steps: 0,
+            refined_steps: 0,
+            extrapolated_steps: 0,
+            value_noise: 0.0,
+            cg_iterations: 0,
+            linear_solver,
+        }
+    }
+
     /// Round-off of an objective value f: `16 ε |f|`, or the evaluation noise seen so far.
     pub(super) fn noise(&self, f: f64) -> f64 {
         value_noise(f).max(self.value_noise)

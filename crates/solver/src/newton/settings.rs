@@ -12,7 +12,8 @@ pub enum HessianPolicy {
     /// [module docs](super)). Objectives without a PSD Hessian behave as with `Fixed`.
     #[default]
     Adaptive,
-    /// The adaptive policy as it was before issue #26: an own Hessian that is indefinite
+    /// The adaptive policy without trust-region steps (the solver's earlier default): an own
+    /// Hessian that is indefinite
     /// beyond a tiny shift is replaced by the PSD Hessian at once (no trust-region steps on the
     /// shifted own Hessian, no saddle escape). Kept for comparison (`cargo xtask hard-cases`).
     AdaptivePsd,

@@ -16,6 +16,7 @@ use super::integrator::{
 };
 use super::objective::ShellObjective;
 use super::system::{ShellSystem, State};
+use crate::descent::double_while_falling;
 use crate::{
     NewtonReport, NewtonSettings, NewtonWorkspace, Objective, SolverError, Stability, newton_solve,
 };
@@ -247,7 +248,7 @@ impl Integrator for Static {
         } else {
             None
         };
-        // Saddles are not answers (issue #26): an unstable equilibrium is left along its mode
+        // Saddles are not answers: an unstable equilibrium is left along its mode
         // and the solve goes on from there. Newton's own escapes test the Hessian with the
         // small shift that makes factorisations robust, which hides the slightly negative
         // eigenvalues of thin shells just past a critical load; the stability analysis does not.
@@ -328,18 +329,21 @@ pub(crate) fn descend_along<O: Objective + ?Sized>(
             t *= 2.0;
         }
     }
-    let Some((mut t, mut f)) = best else {
+    let Some(first) = best else {
         return Ok(false);
     };
-    let limit = if t > 0.0 { limit_plus } else { limit_minus };
-    while (2.0 * t).abs() <= limit {
-        let f2 = value(2.0 * t, &mut trial, obj)?;
-        if f2 < f {
-            (t, f) = (2.0 * t, f2);
-        } else {
-            break;
-        }
-    }
+    let limit = if first.0 > 0.0 {
+        limit_plus
+    } else {
+        limit_minus
+    };
+    let (t, _) = double_while_falling(
+        |t| value(t, &mut trial, obj),
+        first,
+        limit,
+        usize::MAX,
+        |_| 0.0,
+    )?;
     for (a, &d) in u.iter_mut().zip(mode) {
         *a += t * d;
     }
