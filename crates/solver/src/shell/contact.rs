@@ -308,10 +308,10 @@ impl Contact {
     /// Takes over the adaptive stiffness κ and what it has learned (whether κ₀ is set, the
     /// smallest gap at the last solve's start) from `previous`, the term this one replaces,
     /// where that is sound: both adaptive, with the same d̂, thickness offsets and bounds (the
-    /// same E·h). κ₀ is the stiffness at which the load pressing the active pairs together is
-    /// carried at the gap d̂/2, a property of the load and of d̂, not of where the obstacles
-    /// are; a new d̂ or offset changes the gaps the barrier acts at, and κ restarts at E·h.
-    /// Returns whether κ was taken over.
+    /// same E·h). κ scales the run's contact forces at the gaps d̂ sets (κ₀ carries the load on
+    /// the active pairs at d̂/2, and the raises within and between solves keep adapting it as
+    /// the pairs change), so moving an obstacle leaves it meaningful; a new d̂ or offset changes
+    /// the gaps the barrier acts at, and κ restarts at E·h. Returns whether κ was taken over.
     pub(crate) fn keep_stiffness_of(&mut self, previous: &Contact) -> bool {
         let same_geometry = self.activation == previous.activation
             && self.offset_self == previous.offset_self
