@@ -476,6 +476,94 @@ fn adaptive_stiffness_carries_the_weight_at_half_the_activation_distance() {
     assert!((mean_slope - slope(0.5 * d_hat)).abs() < 1e-6 * slope(0.5 * d_hat));
 }
 
+/// `set_contact` keeps the adaptive κ a replaced term learned (model.md §7). The sheet of
+/// `adaptive_stiffness_carries_the_weight_at_half_the_activation_distance` settles on a plane
+/// (κ₀ = W/(P |b′(d̂/2)|)); the plane is then lowered by 2 d̂, so that the second static solve
+/// starts with no active pair, where the adaptive rule cannot learn κ₀ again. With κ kept the
+/// sheet lands and carries its weight at d̂/2 again (mean |b′(g_v)| = |b′(d̂/2)| to 10⁻⁶) with
+/// κ unchanged; a term set afresh starts at E·h. Another d̂ or a fixed stiffness also starts
+/// afresh.
+#[test]
+fn moving_an_obstacle_keeps_the_learned_adaptive_stiffness() {
+    let (mut sys, _) = sheet(10, 0.0);
+    let h = sys.model().material.thickness;
+    let young_h = sys.model().material.young * h;
+    let d_hat = 1e-3;
+    let mut x: Vec<V> = sys
+        .mesh
+        .positions()
+        .iter()
+        .map(|p| p + V::new(0.0, 0.0, 0.5 * h + 0.9 * d_hat))
+        .collect();
+    let plane_at = |z: f64, distance: f64, stiffness: Option<f64>| ContactSettings {
+        obstacles: vec![Obstacle::Plane {
+            point: V::new(0.0, 0.0, z),
+            normal: V::z(),
+        }],
+        self_contact: false,
+        distance: Some(distance),
+        stiffness,
+        ..ContactSettings::default()
+    };
+    sys.set_contact(&plane_at(0.0, d_hat, None), &x).unwrap();
+    let mut solver = Static::default();
+    solver.solve(&mut sys, &mut x).unwrap();
+    let learned = sys.contact_run_state().unwrap();
+    let weight: f64 = sys.mass().iter().map(|m| m * 9.81).sum();
+    let slope = |g: f64| thinshell_energy::contact::barrier(g, d_hat).1.abs();
+    let p = x.len() as f64;
+    let kappa0 = weight / (p * slope(0.5 * d_hat));
+    assert!(learned.adaptive_initialised);
+    assert!((learned.stiffness - kappa0).abs() < 1e-12 * kappa0);
+    // The learned κ differs from the starting E·h by orders of magnitude, so a restart shows.
+    assert!(
+        learned.stiffness < 1e-2 * young_h,
+        "κ₀ {}",
+        learned.stiffness
+    );
+
+    // Lowered by 2 d̂: every gap above d̂ at the second solve's start.
+    let z = -2.0 * d_hat;
+    sys.set_contact(&plane_at(z, d_hat, None), &x).unwrap();
+    assert_eq!(
+        sys.contact.as_ref().unwrap().stats(&x).active_pairs,
+        0,
+        "the second solve should start out of contact"
+    );
+    let kept = sys.contact_run_state().unwrap();
+    assert_eq!(kept.stiffness, learned.stiffness);
+    assert!(kept.adaptive_initialised);
+    assert_eq!(kept.adaptive_last_gap, learned.adaptive_last_gap);
+    solver.solve(&mut sys, &mut x).unwrap();
+    let after = sys.contact_run_state().unwrap();
+    let mean_slope = x.iter().map(|y| slope(y.z - z - 0.5 * h)).sum::<f64>() / p;
+    eprintln!(
+        "κ learned {:e}, after the second solve {:e}; mean |b′| {mean_slope:e} vs |b′(d̂/2)| {:e}",
+        learned.stiffness,
+        after.stiffness,
+        slope(0.5 * d_hat)
+    );
+    assert_eq!(after.stiffness, learned.stiffness);
+    assert!((mean_slope - slope(0.5 * d_hat)).abs() < 1e-6 * slope(0.5 * d_hat));
+
+    // Starting afresh: dropping the term first, another d̂, a fixed stiffness.
+    let fresh = |sys: &mut ShellSystem, settings: &ContactSettings, drop: bool| {
+        if drop {
+            sys.contact = None;
+        }
+        sys.set_contact(settings, &x).unwrap();
+        sys.contact_run_state().unwrap()
+    };
+    let s = fresh(&mut sys, &plane_at(z, d_hat, None), true);
+    assert!(s.stiffness == young_h && !s.adaptive_initialised);
+    sys.set_contact(&plane_at(z, d_hat, None), &x).unwrap();
+    sys.contact.as_mut().unwrap().stiffness = learned.stiffness;
+    let s = fresh(&mut sys, &plane_at(z, 0.5 * d_hat, None), false);
+    assert!(s.stiffness == young_h && !s.adaptive_initialised);
+    let s = fresh(&mut sys, &plane_at(z, d_hat, Some(7.0)), false);
+    assert!(s.stiffness == 7.0 && !s.adaptive_initialised);
+}
+
 /// Contact never yields a silent NaN: non-finite or out-of-range settings and non-finite
 /// positions are errors that name the problem; degenerate pairs (a zero-length edge, a
 /// zero-area face) give finite energies, forces and Hessians.

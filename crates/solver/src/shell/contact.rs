@@ -40,7 +40,9 @@ pub struct ContactSettings {
     pub distance: Option<f64>,
     /// κ (J/m² = N/m): a fixed barrier stiffness. Default (`None`): adaptive, starting at E·h
     /// (the membrane stiffness) and set at the first solve that starts with pairs pressed
-    /// together, then doubled while gaps collapse (`contact_stiffness.rs`, model.md §7).
+    /// together, then doubled while gaps collapse (`contact_stiffness.rs`, model.md §7);
+    /// [`ShellSystem::set_contact`](super::ShellSystem::set_contact) with an unchanged d̂
+    /// keeps the κ the replaced term learned.
     pub stiffness: Option<f64>,
     /// Whether gaps are measured between the shell's faces (distance minus h between two
     /// sheets, minus h/2 against an obstacle) rather than between mid-surfaces. Default true.
@@ -301,6 +303,27 @@ impl Contact {
             cache: CandidateCache::default(),
             descriptions: settings.obstacles.iter().map(Obstacle::describe).collect(),
         })
+    }
+
+    /// Takes over the adaptive stiffness κ and what it has learned (whether κ₀ is set, the
+    /// smallest gap at the last solve's start) from `previous`, the term this one replaces,
+    /// where that is sound: both adaptive, with the same d̂, thickness offsets and bounds (the
+    /// same E·h). κ scales the run's contact forces at the gaps d̂ sets (κ₀ carries the load on
+    /// the active pairs at d̂/2, and the raises within and between solves keep adapting it as
+    /// the pairs change), so moving an obstacle leaves it meaningful; a new d̂ or offset changes
+    /// the gaps the barrier acts at, and κ restarts at E·h. Returns whether κ was taken over.
+    pub(crate) fn keep_stiffness_of(&mut self, previous: &Contact) -> bool {
+        let same_geometry = self.activation == previous.activation
+            && self.offset_self == previous.offset_self
+            && self.offset_obstacle == previous.offset_obstacle;
+        match (&mut self.adaptive, previous.adaptive) {
+            (Some(a), Some(p)) if same_geometry && a.min == p.min && a.max == p.max => {
+                *a = p;
+                self.stiffness = previous.stiffness;
+                true
+            }
+            _ => false,
+        }
     }
 
     fn pt_points(&self, x: &[V], v: usize, f: usize) -> PairPoints {

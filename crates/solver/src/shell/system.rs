@@ -221,15 +221,26 @@ impl ShellSystem {
     }
 
     /// Turns contact on (or replaces it) with `settings`, checking that the starting positions
-    /// `x0` (m) are intersection-free; the error names the first intersecting pair.
+    /// `x0` (m) are intersection-free; the error names the first intersecting pair (and the
+    /// system keeps its contact term as it was).
+    ///
+    /// Replacing a term — obstacles moved between solves, self-contact switched — keeps the
+    /// adaptive stiffness κ it has learned when the new settings leave κ adaptive and resolve
+    /// to the same d̂ and thickness offset (model.md §7): the next solve starts from that κ
+    /// instead of E·h. A fixed `stiffness`, another d̂ or offset, or setting
+    /// [`ShellSystem::contact`] to `None` before the call start afresh. The widened Hessian
+    /// pattern and its counters restart.
     pub fn set_contact(
         &mut self,
         settings: &ContactSettings,
         x0: &[Vector3<f64>],
     ) -> Result<(), SolverError> {
         let m = &self.model.material;
-        let contact = Contact::new(&self.mesh, m.thickness, m.young, settings)?;
+        let mut contact = Contact::new(&self.mesh, m.thickness, m.young, settings)?;
         contact.check(x0)?;
+        if let Some(previous) = &self.contact {
+            contact.keep_stiffness_of(previous);
+        }
         self.contact = Some(contact);
         self.contact_pattern = None;
         self.contact_approximated = 0;
