@@ -21,7 +21,7 @@ use thinshell_energy::{Assembler, SffKind};
 use thinshell_solver::linear::factor_flops;
 use thinshell_solver::ordering::{
     DEFAULT_LEAF_SIZE, METIS_LEAF_SIZE, inverse_permutation, metis_nested_dissection,
-    nested_dissection,
+    metis_node_nd, nested_dissection,
 };
 use thinshell_testkit::fixtures::shrinking_sphere;
 
@@ -109,6 +109,10 @@ fn main() {
                 Box::new(move || {
                     Some(metis_nested_dissection(hh.symbolic(), METIS_LEAF_SIZE).unwrap())
                 }),
+            ));
+            cases.push((
+                "node_nd".into(),
+                Box::new(move || Some(metis_node_nd(hh.symbolic()).unwrap())),
             ));
             for (name, f) in &cases {
                 let t = Instant::now();

@@ -45,7 +45,7 @@ pub fn metis_nested_dissection(
 /// `[a, b, s]` of its two halves and top separator: the permutation numbers the first half's
 /// `a` dofs, then the second half's `b`, then the `s` separator dofs, and no entry of the
 /// pattern couples the two halves.
-pub(crate) fn metis_dissection_with_split(
+fn metis_dissection_with_split(
     pattern: SymbolicSparseColMatRef<'_, usize>,
     leaf_size: usize,
 ) -> Result<(Vec<usize>, Option<[usize; 3]>), SolverError> {

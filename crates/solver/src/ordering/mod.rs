@@ -30,18 +30,55 @@
 //! (CHOLMOD's METIS node nested dissection: 6.4e9 at 20 480 faces and 5.65e10 at 81 920, mid-edge
 //! average.)
 
+use faer::sparse::SymbolicSparseColMatRef;
+
+use crate::SolverError;
 
 mod dissector;
 mod geometric;
 mod graph;
 mod metis;
+mod node_nd;
 mod separator;
 #[cfg(test)]
 mod test_patterns;
 
 pub use geometric::nested_dissection;
-pub(crate) use metis::metis_dissection_with_split;
 pub use metis::metis_nested_dissection;
+
+/// METIS's own nested dissection (`METIS_NodeND` through the checked wrapper of
+/// `ordering/node_nd.rs`) of a symmetric pattern.
+///
+/// `pattern`: square, lower triangle (upper entries, if any, are mirrored). Returns
+/// `perm[new] = old` like [`nested_dissection`]. Errors: a non-square pattern, more dofs or
+/// adjacencies than METIS's 32-bit indices hold, or a METIS failure ([`SolverError::Linear`]).
+pub fn metis_node_nd(
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+) -> Result<Vec<usize>, SolverError> {
+    node_nd_with_split(pattern).map(|(perm, _)| perm)
+}
+
+/// [`metis_node_nd`] and the dof counts `[a, b, s]` of its top-level halves and separator
+/// (numbered in that order, the halves uncoupled), from `METIS_NodeNDP` with two parts, which
+/// orders exactly as `METIS_NodeND`.
+pub(crate) fn node_nd_with_split(
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+) -> Result<(Vec<usize>, Option<[usize; 3]>), SolverError> {
+    let n = pattern.ncols();
+    if pattern.nrows() != n {
+        return Err(SolverError::DimensionMismatch {
+            what: "Hessian pattern rows",
+            expected: n,
+            found: pattern.nrows(),
+        });
+    }
+    if n == 0 {
+        return Ok((Vec::new(), None));
+    }
+    let graph = graph::Graph::from_pattern(pattern);
+    let order = node_nd::MetisGraph::from_graph(&graph)?.node_nd_split()?;
+    Ok((order.perm, order.top))
+}
 
 /// Which fill-reducing ordering the Cholesky factorisation uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
