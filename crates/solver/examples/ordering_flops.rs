@@ -6,7 +6,8 @@
 //! Run: `cargo run --release -p thinshell-solver --example ordering_flops -- 3,4,5,6 [1]`
 //! (icosphere levels; a second argument `1` also times the numeric factorisation, `threads`
 //! compares one and two threads, `one` / `two` only factorise 10 times on one / two threads,
-//! for `perf stat`).
+//! for `perf stat`; `sheet` prints the flops of the METIS orderings and geometric nested
+//! dissection on the flat 101 × 101 sheet of the `ordering` bench instead).
 #![allow(clippy::unwrap_used, clippy::type_complexity, missing_docs)]
 use std::time::Instant;
 
@@ -57,6 +58,9 @@ fn main() {
     let numeric = mode == "1";
     if mode == "threads" {
         return threads(&levels);
+    }
+    if mode == "sheet" {
+        return sheet();
     }
     if mode == "one" || mode == "two" {
         return repeat(&levels, mode == "two");
@@ -242,4 +246,38 @@ fn repeat(levels: &[usize], two: bool) {
             t.elapsed().as_secs_f64()
         );
     }
+}
+
+/// Predicted flops on the flat 101 × 101 sheet of the `ordering` bench (3 dofs per vertex):
+/// METIS's NodeND, the METIS-bisection dissection and geometric nested dissection.
+fn sheet() {
+    use thinshell_energy::{DofMap, Terms};
+    let mesh = thinshell_mesh::generators::rectangle(100.0, 100.0, 100, 100).unwrap();
+    let dofs = DofMap::all_free(mesh.n_vertices());
+    let h = Assembler::new(&mesh, &dofs, Terms::ELASTIC)
+        .unwrap()
+        .hessian_template();
+    let n = h.ncols();
+    let x = mesh.positions();
+    let coords: Vec<[f64; 3]> = (0..n)
+        .map(|d| [x[d / 3].x, x[d / 3].y, x[d / 3].z])
+        .collect();
+    let flops = |fwd: &[usize]| {
+        let inv = inverse_permutation(fwd);
+        let sym = factorize_symbolic_cholesky(
+            h.symbolic(),
+            Side::Lower,
+            SymmetricOrdering::Custom(PermRef::new_checked(fwd, &inv, n)),
+            CholeskySymbolicParams::default(),
+        )
+        .unwrap();
+        factor_flops(&sym)
+    };
+    let p = h.symbolic();
+    println!(
+        "sheet101 n {n}: node_nd {:.3e}, metis bisections {:.3e}, nd_geo {:.3e}",
+        flops(&metis_node_nd(p).unwrap()),
+        flops(&metis_nested_dissection(p, METIS_LEAF_SIZE).unwrap()),
+        flops(&nested_dissection(p, Some(&coords), DEFAULT_LEAF_SIZE).unwrap()),
+    );
 }

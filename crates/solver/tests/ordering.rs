@@ -162,7 +162,11 @@ fn metis_node_nd_beats_the_other_orderings_on_the_shell_hessian() {
         let n = p.ncols();
         let node_nd = metis_node_nd(p).unwrap();
         assert!(is_permutation(&node_nd, n));
-        assert_eq!(node_nd, metis_node_nd(p).unwrap(), "a function of the pattern");
+        assert_eq!(
+            node_nd,
+            metis_node_nd(p).unwrap(),
+            "a function of the pattern"
+        );
         let default = SparseCholesky::new(p, Ordering::default(), None, Par::Seq).unwrap();
         assert_eq!(default.stats().ordering, Ordering::Metis);
         let f_default = default.stats().flops;
@@ -184,6 +188,9 @@ fn metis_node_nd_beats_the_other_orderings_on_the_shell_hessian() {
         let split = SparseCholesky::new(p, Ordering::Metis, None, Par::rayon(2)).unwrap();
         assert!(split.is_split(), "{}", sff.name());
         let [a, b, _] = split.split_flops().unwrap();
-        assert!(a.min(b) > 0.5 * a.max(b), "unbalanced halves: {a:.3e} {b:.3e}");
+        assert!(
+            a.min(b) > 0.5 * a.max(b),
+            "unbalanced halves: {a:.3e} {b:.3e}"
+        );
     }
 }

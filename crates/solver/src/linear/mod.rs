@@ -6,6 +6,10 @@
 //! reuses them and allocates nothing. [`factorize_regularized`](SparseCholesky::factorize_regularized)
 //! retries a matrix that is not positive definite with a growing diagonal shift
 //! `H + μ·s·I` (or `H + μ·diag(|H|)`), written through precomputed diagonal offsets.
+//!
+//! Module layout: `symbolic` (diagonal offsets, ordering, faer's symbolic analysis, predicted
+//! flops), `regularise` (the shift's parameters and the retry loop), `split` (the two-thread
+//! factorisation at the top-level dissection); the type and its sequential engine are here.
 
 mod regularise;
 mod split;
@@ -119,7 +123,7 @@ impl SparseCholesky {
     /// when the pool has ≥ 2 threads, one after the other otherwise. The same floating-point
     /// operations run in the same order either way, so factors and solutions are bit-identical
     /// for any `Par::Rayon` thread count (they differ from [`Par::Seq`]'s in the last bits;
-    /// the split does about s³ more flops, s the separator's size: 21 % at 20 480 faces).
+    /// the split does about s³ more flops, s the separator's size; docs/performance.md).
     /// faer's own parallelism is not used: it only splits the dense kernels inside each
     /// supernode, which are too small on shell Hessians, and its parallel reductions depend on
     /// the thread count.

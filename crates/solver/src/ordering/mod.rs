@@ -4,31 +4,28 @@
 //! couples two rings of vertices (the bending stencil), so its factor fills in heavily and the
 //! ordering decides the cost.
 //!
-//! - [`metis_nested_dissection`] (the default, [`Ordering::Metis`]): nested dissection whose
-//!   bisections are METIS's multilevel partitioner on the compressed graph (one node per
-//!   vertex or edge angle), the separator a minimum-weight vertex cover of the cut edges.
+//! - [`metis_node_nd`] (the default, [`Ordering::Metis`]): METIS's own nested dissection
+//!   (`METIS_NodeND`, node separators refined by METIS), called through the checked `unsafe`
+//!   wrapper of `node_nd.rs`, the workspace's only `unsafe` code.
+//! - [`metis_nested_dissection`]: nested dissection whose bisections are METIS's multilevel
+//!   partitioner on the compressed graph (one node per vertex or edge angle), the separator a
+//!   minimum-weight vertex cover of the cut edges (the default before NodeND).
 //! - [`nested_dissection`]: a geometric nested dissection: split the dofs at the median along
 //!   an axis of their bounding box, take the dofs of the smaller side that touch the other
 //!   side as the vertex separator, number both halves recursively and the separator last.
 //!   Without coordinates the separator is the median level of a breadth-first search from a
 //!   pseudo-peripheral dof (graph-based nested dissection).
 //!
-//! In both, leaves (parts of at most `leaf_size` dofs) are ordered by AMD on their induced
-//! subgraph, as METIS does with minimum degree.
+//! In our two dissections, leaves (parts of at most `leaf_size` dofs) are ordered by AMD on
+//! their induced subgraph, as METIS does with minimum degree.
 //!
-//! Predicted factorisation flops ([`factor_flops`](crate::linear::factor_flops)) on the
-//! Hessian of the shrinking-sphere benchmark (`examples/ordering_flops.rs`):
+//! Module layout: `graph` (the dof graph and its compression), `dissector` (the order being
+//! built, AMD leaves), `geometric`, `metis` (METIS bisections), `separator` (the max flow that
+//! turns a cut into a vertex separator), `node_nd` (METIS's own ordering).
 //!
-//! | faces | form | AMD | ND geometric | ND graph | METIS ND |
-//! |---:|---|---:|---:|---:|---:|
-//! | 1 280 | mid-edge average | 9.20e7 | 8.34e7 | 8.03e7 | 7.46e7 |
-//! | 20 480 | mid-edge average | 9.36e9 | 8.33e9 | 7.69e9 | 7.03e9 |
-//! | 81 920 | mid-edge average | 1.00e11 | 7.34e10 | 6.33e10 | 6.31e10 |
-//! | 1 280 | edge director | 3.05e8 | 2.84e8 | 4.76e8 | 1.71e8 |
-//! | 20 480 | edge director | 4.36e10 | 2.64e10 | 4.63e10 | 1.53e10 |
-//!
-//! (CHOLMOD's METIS node nested dissection: 6.4e9 at 20 480 faces and 5.65e10 at 81 920, mid-edge
-//! average.)
+//! The predicted flops of every ordering on the shell Hessian (1 280 to 81 920 faces, both
+//! bending forms, a flat sheet) are in docs/performance.md ("Sparse Cholesky orderings" and
+//! issue #31's third part); `examples/ordering_flops.rs` reproduces them.
 
 use faer::sparse::SymbolicSparseColMatRef;
 
@@ -88,12 +85,10 @@ pub enum Ordering {
     /// Nested dissection ([`nested_dissection`]): geometric when the objective provides dof
     /// coordinates, graph-based otherwise.
     NestedDissection,
-    /// Nested dissection with METIS's multilevel bisection on the compressed graph
-    /// ([`metis_nested_dissection`]; deterministic: fixed seed). The default: on the shell
-    /// sphere's Hessian it needs the fewest flops of the four on every size measured (1 280 to
-    /// 81 920 faces), 16 % fewer than geometric nested dissection at 20 480 faces and 1.7×
-    /// fewer with edge directors (module docs); on a flat 101 × 101 sheet geometric nested
-    /// dissection is 5 % better (3.37e9 vs 3.55e9 flops, `ordering` bench; `Auto` finds it).
+    /// METIS's own nested dissection ([`metis_node_nd`], `METIS_NodeND`; deterministic: fixed
+    /// seed, one METIS call at a time). The default: the fewest predicted flops of all
+    /// orderings on every shell Hessian measured (docs/performance.md). Its top-level split
+    /// feeds the two-thread factorisation ([`SparseCholesky::new`](crate::SparseCholesky::new)).
     #[default]
     Metis,
     /// Analyse with AMD, METIS, graph-based and (given coordinates) geometric nested
@@ -105,7 +100,8 @@ pub enum Ordering {
 /// Dofs per leaf below which the dissection stops (leaves are then ordered by AMD).
 pub const DEFAULT_LEAF_SIZE: usize = 64;
 
-/// Dofs per leaf of [`metis_nested_dissection`] as used by [`Ordering::Metis`].
+/// Dofs per leaf of [`metis_nested_dissection`] (METIS_NodeND, [`Ordering::Metis`], chooses its
+/// own).
 pub const METIS_LEAF_SIZE: usize = 64;
 
 /// The inverse of a permutation given as `perm[new] = old`: `inv[old] = new`.

@@ -18,16 +18,15 @@ pub(super) const ENERGY_GRADIENT: &str = "*Energy + gradient*: one law evaluatio
     reverse mode through b (2 786 → 2 526 instructions per face); the rest is the scalar \
     derivative of the flap normals and the scatter of 18 entries per face, not vectorised \
     across faces.";
-pub(super) const FACTOR: &str = "*Factorisation*: see the ordering row (more flops than \
-    METIS).";
+pub(super) const FACTOR: &str = "*Factorisation*: the same METIS ordering as libshell's \
+    CHOLMOD since issue #31 (the ordering row); what is left is the supernodal kernels' rate.";
 pub(super) const THREADS: &str = "*Two threads*: the split factorises the two halves of the \
     top separator concurrently, then the separator densely; its predicted critical path is \
     0.63 of the one-thread flops at 20 480 faces, so small factors gain little.";
-pub(super) const ORDERING: &str = "*Ordering flops*: the dissection is our own loop around \
-    METIS's multilevel bisection with minimum vertex-cover separators (the `metis` crate has \
-    no safe wrapper of METIS_NodeND, and unsafe code is forbidden here); METIS's own nested \
-    dissection also refines each separator, which ours does not (four bisections per split \
-    gained 3–5 % for 3× the ordering time, not kept).";
+pub(super) const ORDERING: &str = "*Ordering flops*: the default is METIS's own nested \
+    dissection (`METIS_NodeND` through the solver's checked `unsafe` wrapper since issue #31), \
+    the ordering CHOLMOD uses; a residual difference is METIS's random stream and CHOLMOD's \
+    postordering.";
 pub(super) const NEWTON: &str = "*Newton iteration ≥ 4× libshell on 2 threads*: 4× needs \
     ≤ 149 ms (issue #31's libshell: 594 ms) for assembly, factorisation and solve, and the \
     two-thread factorisation alone takes about that (Factorisation table); closing it needs \
@@ -46,4 +45,4 @@ pub(super) const DIRECTOR_FACE: &str = "*Director forms per face*: 21 dofs per f
     gather.";
 pub(super) const DIRECTOR_STEP: &str = "*Director forms per implicit step*: twice the \
     unknowns (one angle per edge) and about 2.2× the predicted factorisation flops with \
-    METIS (1.53e10 against 7.03e9 at 20 480 faces), on top of the per-face cost.";
+    METIS (1.44e10 against 6.38e9 at 20 480 faces), on top of the per-face cost.";
