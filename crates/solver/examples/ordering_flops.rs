@@ -7,7 +7,8 @@
 //! (icosphere levels; a second argument `1` also times the numeric factorisation, `threads`
 //! compares one and two threads, `one` / `two` only factorise 10 times on one / two threads,
 //! for `perf stat`; `sheet` prints the flops of the METIS orderings and geometric nested
-//! dissection on the flat 101 × 101 sheet of the `ordering` bench instead).
+//! dissection on the flat 101 × 101 sheet of the `ordering` bench instead; `supernodes` how the
+//! default ordering's predicted flops spread over the supernode widths).
 #![allow(clippy::unwrap_used, clippy::type_complexity, missing_docs)]
 use std::time::Instant;
 
@@ -58,6 +59,9 @@ fn main() {
     let numeric = mode == "1";
     if mode == "threads" {
         return threads(&levels);
+    }
+    if mode == "supernodes" {
+        return supernodes(&levels);
     }
     if mode == "sheet" {
         return sheet();
@@ -280,4 +284,67 @@ fn sheet() {
         flops(&metis_nested_dissection(p, METIS_LEAF_SIZE).unwrap()),
         flops(&nested_dissection(p, Some(&coords), DEFAULT_LEAF_SIZE).unwrap()),
     );
+}
+
+/// The default (METIS NodeND) factor's supernodes by width: count, share of the columns and of
+/// the predicted flops (Σ over columns of the squared column counts), mid-edge average.
+fn supernodes(levels: &[usize]) {
+    use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
+    use thinshell_solver::ordering::metis_node_nd;
+    for &level in levels {
+        let (sys, _) = shrinking_sphere(level, SffKind::MidEdgeAverage);
+        let asm = Assembler::for_model(&sys.mesh, sys.dofs(), sys.model()).unwrap();
+        let h = asm.hessian_template();
+        let n = h.ncols();
+        let fwd = metis_node_nd(h.symbolic()).unwrap();
+        let inv = inverse_permutation(&fwd);
+        let sym = factorize_symbolic_cholesky(
+            h.symbolic(),
+            Side::Lower,
+            SymmetricOrdering::Custom(PermRef::new_checked(&fwd, &inv, n)),
+            CholeskySymbolicParams::default(),
+        )
+        .unwrap();
+        let SymbolicCholeskyRaw::Supernodal(sn) = sym.raw() else {
+            println!("L{level}: simplicial");
+            continue;
+        };
+        let bounds = [1usize, 4, 16, 64, 256, 1024, usize::MAX];
+        let mut count = vec![0usize; bounds.len() - 1];
+        let mut cols = vec![0usize; bounds.len() - 1];
+        let mut fl = vec![0f64; bounds.len() - 1];
+        let (begin, end) = (sn.supernode_begin(), sn.supernode_end());
+        let mut total = 0.0;
+        for k in 0..sn.n_supernodes() {
+            let w = end[k] - begin[k];
+            let below = sn.supernode(k).pattern().len();
+            let f: f64 = (1..=w).map(|c| ((c + below) as f64).powi(2)).sum();
+            let b = bounds
+                .windows(2)
+                .position(|p| w >= p[0] && w < p[1])
+                .unwrap();
+            count[b] += 1;
+            cols[b] += w;
+            fl[b] += f;
+            total += f;
+        }
+        println!(
+            "L{level} n {n}: {} supernodes, flops {total:.3e}",
+            sn.n_supernodes()
+        );
+        for b in 0..count.len() {
+            println!(
+                "  width [{}, {}): {:>6} supernodes, {:>5.1} % of columns, {:>5.1} % of flops",
+                bounds[b],
+                if bounds[b + 1] == usize::MAX {
+                    "∞".to_string()
+                } else {
+                    bounds[b + 1].to_string()
+                },
+                count[b],
+                100.0 * cols[b] as f64 / n as f64,
+                100.0 * fl[b] / total
+            );
+        }
+    }
 }
