@@ -8,7 +8,8 @@
 //! compares one and two threads, `one` / `two` only factorise 10 times on one / two threads,
 //! for `perf stat`; `sheet` prints the flops of the METIS orderings and geometric nested
 //! dissection on the flat 101 × 101 sheet of the `ordering` bench instead; `supernodes` how the
-//! default ordering's predicted flops spread over the supernode widths).
+//! default ordering's predicted flops spread over the supernode widths; `relax` times faer's
+//! default supernode amalgamation against coarser ones, interleaved).
 #![allow(clippy::unwrap_used, clippy::type_complexity, missing_docs)]
 use std::time::Instant;
 
@@ -59,6 +60,9 @@ fn main() {
     let numeric = mode == "1";
     if mode == "threads" {
         return threads(&levels);
+    }
+    if mode == "relax" {
+        return relax(&levels);
     }
     if mode == "supernodes" {
         return supernodes(&levels);
@@ -344,6 +348,87 @@ fn supernodes(levels: &[usize]) {
                 count[b],
                 100.0 * cols[b] as f64 / n as f64,
                 100.0 * fl[b] / total
+            );
+        }
+    }
+}
+
+/// Sequential factorisation with faer's default supernode amalgamation against coarser ones
+/// (more explicit zeros, fewer and wider supernodes), the default ordering, mid-edge average;
+/// interleaved rounds, medians.
+fn relax(levels: &[usize]) {
+    use faer::sparse::linalg::SymbolicSupernodalParams;
+    use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
+    use thinshell_solver::ordering::metis_node_nd;
+    let variants: [(&str, &[(usize, f64)]); 3] = [
+        (
+            "default",
+            &[(4, 1.0), (16, 0.8), (48, 0.1), (usize::MAX, 0.05)],
+        ),
+        (
+            "coarser",
+            &[(16, 1.0), (48, 0.4), (128, 0.15), (usize::MAX, 0.05)],
+        ),
+        (
+            "coarsest",
+            &[(32, 1.0), (96, 0.5), (256, 0.2), (usize::MAX, 0.1)],
+        ),
+    ];
+    for &level in levels {
+        let (sys, _) = shrinking_sphere(level, SffKind::MidEdgeAverage);
+        let asm = Assembler::for_model(&sys.mesh, sys.dofs(), sys.model()).unwrap();
+        let mut h = asm.hessian_template();
+        spd(&mut h);
+        let n = h.ncols();
+        let fwd = metis_node_nd(h.symbolic()).unwrap();
+        let inv = inverse_permutation(&fwd);
+        let mut cases: Vec<_> = variants
+            .iter()
+            .map(|&(name, relax)| {
+                let sym = factorize_symbolic_cholesky(
+                    h.symbolic(),
+                    Side::Lower,
+                    SymmetricOrdering::Custom(PermRef::new_checked(&fwd, &inv, n)),
+                    CholeskySymbolicParams {
+                        supernodal_params: SymbolicSupernodalParams { relax: Some(relax) },
+                        ..Default::default()
+                    },
+                )
+                .unwrap();
+                let l = vec![0.0; sym.len_val()];
+                let mem = faer::dyn_stack::MemBuffer::new(
+                    sym.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+                );
+                (name, sym, l, mem, Vec::new())
+            })
+            .collect();
+        for _ in 0..5 {
+            for (_, sym, l, mem, times) in cases.iter_mut() {
+                let t = Instant::now();
+                sym.factorize_numeric_llt(
+                    l,
+                    h.as_ref(),
+                    Side::Lower,
+                    Default::default(),
+                    Par::Seq,
+                    faer::dyn_stack::MemStack::new(mem),
+                    Default::default(),
+                )
+                .unwrap();
+                times.push(t.elapsed().as_secs_f64());
+            }
+        }
+        for (name, sym, _, _, times) in cases.iter_mut() {
+            times.sort_by(f64::total_cmp);
+            let sn = match sym.raw() {
+                SymbolicCholeskyRaw::Supernodal(s) => s.n_supernodes(),
+                SymbolicCholeskyRaw::Simplicial(_) => 0,
+            };
+            let f = factor_flops(sym);
+            println!(
+                "L{level} {name:>9}: {sn:>6} supernodes, flops {f:.3e}, median {:.3}s, {:.1} GFlop/s",
+                times[2],
+                f / times[2] / 1e9
             );
         }
     }
