@@ -31,7 +31,7 @@ pub(super) static METIS_LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
 /// graph, by max flow), and both halves are ordered recursively before the separator. Parts
 /// of at most `leaf_size` dofs are ordered by AMD on their induced subgraph.
 ///
-/// `pattern`: square, lower triangle. Returns `perm[new] = old` like [`nested_dissection`].
+/// `pattern`: square, lower triangle. Returns `perm[new] = old` like [`nested_dissection`](super::nested_dissection).
 /// Errors: a non-square pattern, a graph too large for METIS's 32-bit indices, or a METIS
 /// failure ([`SolverError::Linear`]).
 pub fn metis_nested_dissection(
