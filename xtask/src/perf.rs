@@ -28,6 +28,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 
+mod facts;
 mod fallback;
 mod kernels;
 mod linear;
@@ -235,7 +236,7 @@ pub fn run(opts: &Options) -> Result<()> {
     report::splice(&docs, "")?;
 
     println!("perf: setting up (meshes, patterns, symbolic analyses)");
-    let mut facts = report::Facts::default();
+    let mut facts = facts::Facts::default();
     let mut measures = Vec::new();
     kernels::measures(&sizes, &mut measures, &mut facts)?;
     let mut problems = newton::Problems::new();
@@ -271,7 +272,7 @@ pub fn run(opts: &Options) -> Result<()> {
         extra.push(section(opts.quick).with_context(|| format!("section {title}"))?);
     }
 
-    let run = report::Run {
+    let run = facts::Run {
         quick: opts.quick,
         big: opts.big,
         rounds,

@@ -17,7 +17,7 @@ use thinshell_solver::faer::sparse::SparseColMat;
 use thinshell_solver::nalgebra::Vector3;
 use thinshell_solver::{Boundary, Loads, ShellSystem};
 
-use super::report::Facts;
+use super::facts::Facts;
 use super::{Measure, Sizes, pool};
 
 /// What each per-face measure evaluates: (id suffix, gradient, Hessian).

@@ -6,8 +6,8 @@
 use anyhow::{Context, Result};
 use thinshell_solver::{Ordering, SparseCholesky};
 
+use super::facts::{Facts, OrderingFacts};
 use super::newton::{FactorKey, Problems, par, problem, record};
-use super::report::{Facts, OrderingFacts};
 use super::{Measure, Sizes, pool};
 
 /// Id of the factorisation at `level` with `threads` faer threads (`Par::Seq` for 1).

@@ -29,7 +29,7 @@ use thinshell_solver::{
     Boundary, ImplicitEuler, Integrator, Loads, NewtonSettings, ShellSystem, SparseCholesky, State,
 };
 
-use super::report::{BigRun, Facts, LevelFacts};
+use super::facts::{BigRun, Facts, LevelFacts};
 use super::{Measure, Sizes, pool};
 
 /// Implicit Euler step length of the protocol (s).

@@ -1,0 +1,366 @@
+//! Sparse Cholesky factorisation with a reused symbolic analysis and regularisation.
+//!
+//! [`SparseCholesky::new`] does the symbolic analysis (ordering, elimination tree, supernodes)
+//! once per sparsity pattern and allocates the factor values and faer's scratch memory; every
+//! later [`factorize`](SparseCholesky::factorize) / [`solve_in_place`](SparseCholesky::solve_in_place)
+//! reuses them and allocates nothing. [`factorize_regularized`](SparseCholesky::factorize_regularized)
+//! retries a matrix that is not positive definite with a growing diagonal shift
+//! `H + μ·s·I` (or `H + μ·diag(|H|)`), written through precomputed diagonal offsets.
+//!
+//! Module layout: `symbolic` (diagonal offsets, ordering, faer's symbolic analysis, predicted
+//! flops), `regularise` (the shift's parameters and the retry loop), `split` (the two-thread
+//! factorisation at the top-level dissection); the type and its sequential engine are here.
+
+mod regularise;
+mod split;
+mod symbolic;
+
+use std::time::{Duration, Instant};
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltError as DenseLltError;
+use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, SymbolicCholeskyRaw};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par, Side};
+
+use crate::SolverError;
+use crate::ordering::Ordering;
+use split::SplitFactor;
+
+pub use regularise::{FactorOutcome, RegularizationKind, RegularizationParams};
+pub use split::SPLIT_MIN_FLOPS;
+pub(crate) use symbolic::analyse;
+pub use symbolic::{diagonal_offsets, factor_flops};
+
+/// Statistics of the symbolic analysis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FactorStats {
+    /// Matrix dimension.
+    pub n: usize,
+    /// Stored entries of the lower triangle of A.
+    pub nnz_lower: usize,
+    /// Stored values of the factor L (supernodal blocks included).
+    pub factor_len: usize,
+    /// Predicted flops of the numeric factorisation, Σ over columns of (column count)².
+    pub flops: f64,
+    /// Ordering actually used (never `Auto`).
+    pub ordering: Ordering,
+    /// Whether faer chose the supernodal (blocked) factorisation.
+    pub supernodal: bool,
+    /// Wall time of the ordering and symbolic analysis.
+    pub symbolic_time: Duration,
+    /// Bytes the numeric factorisation will hold, estimated from the symbolic analysis: the
+    /// factor's values (`factor_len` f64) plus faer's factorisation and solve scratch.
+    pub memory_estimate: u64,
+}
+
+/// Bytes of a factor with `len_val` values and the given scratch sizes.
+fn factor_memory_estimate(len_val: usize, factor_scratch: usize, solve_scratch: usize) -> u64 {
+    (len_val * std::mem::size_of::<f64>() + factor_scratch + solve_scratch) as u64
+}
+
+/// Failure of one numeric factorisation attempt.
+#[derive(Debug)]
+pub enum FactorError {
+    /// faer met a non-positive pivot (index in the permuted order; a diagnostic only).
+    NotPositiveDefinite {
+        /// Failing pivot.
+        pivot: usize,
+    },
+    /// Anything else (pattern mismatch, faer failure).
+    Other(SolverError),
+}
+
+/// A sparse LLᵀ factorisation whose symbolic part, factor storage and scratch memory are reused
+/// for every matrix with the same pattern.
+pub struct SparseCholesky {
+    engine: Engine,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    diag_offsets: Vec<usize>,
+    diag_backup: Vec<f64>,
+    par: Par,
+    stats: FactorStats,
+    factorized: bool,
+}
+
+/// How the numeric factorisation runs (one per factorisation: the size difference of the
+/// variants does not matter).
+#[allow(clippy::large_enum_variant)]
+enum Engine {
+    /// One faer supernodal factorisation, sequential.
+    Whole {
+        symbolic: SymbolicCholesky<usize>,
+        l_values: Vec<f64>,
+        factor_mem: MemBuffer,
+        solve_mem: MemBuffer,
+    },
+    /// The two halves of the top nested-dissection split on two threads ([`SplitFactor`]).
+    Split(Box<SplitFactor>),
+}
+
+impl std::fmt::Debug for SparseCholesky {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SparseCholesky")
+            .field("stats", &self.stats)
+            .field("par", &self.par)
+            .field("factorized", &self.factorized)
+            .finish_non_exhaustive()
+    }
+}
+
+impl SparseCholesky {
+    /// Symbolic analysis of a square pattern holding the lower triangle with every diagonal
+    /// entry present. `coordinates` (per dof, m) feed the geometric nested dissection.
+    ///
+    /// `par`: with [`Par::Seq`] faer factorises the whole matrix sequentially (the fewest
+    /// flops on one thread). With [`Par::Rayon`] of any thread count, an [`Ordering::Metis`]
+    /// ordering (chosen or picked by `Auto`) and predicted flops of at least
+    /// [`SPLIT_MIN_FLOPS`], the factorisation is split at the top-level dissection
+    /// ([`is_split`](Self::is_split)): each half is factorised by faer on one thread, with the
+    /// product of its separator block, and the separator's Schur complement densely on one
+    /// thread; the two halves (and the halves of each solve) run concurrently (`rayon::join`)
+    /// when the pool has ≥ 2 threads, one after the other otherwise. The same floating-point
+    /// operations run in the same order either way, so factors and solutions are bit-identical
+    /// for any `Par::Rayon` thread count (they differ from [`Par::Seq`]'s in the last bits;
+    /// the split does about s³ more flops, s the separator's size; docs/performance.md).
+    /// faer's own parallelism is not used: it only splits the dense kernels inside each
+    /// supernode, which are too small on shell Hessians, and its parallel reductions depend on
+    /// the thread count.
+    pub fn new(
+        pattern: SymbolicSparseColMatRef<'_, usize>,
+        ordering: Ordering,
+        coordinates: Option<&[[f64; 3]]>,
+        par: Par,
+    ) -> Result<SparseCholesky, SolverError> {
+        let start = Instant::now();
+        let n = pattern.ncols();
+        let diag_offsets = diagonal_offsets(pattern)?;
+        let (symbolic, used, split) = analyse(pattern, ordering, coordinates)?;
+        let flops = factor_flops(&symbolic);
+        let factor_len = symbolic.len_val();
+        let supernodal = matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_));
+        let (engine, estimate) = match split {
+            Some((perm, sizes))
+                if matches!(par, Par::Rayon(_))
+                    && flops >= SPLIT_MIN_FLOPS
+                    && sizes.iter().all(|&k| k > 0) =>
+            {
+                // The split holds about the whole factor plus four dense separator blocks:
+                // refuse it before allocating.
+                let [_, _, sep] = sizes;
+                let estimate = factor_memory_estimate(factor_len + 4 * sep * sep, 0, 0);
+                check_budget(symbolic.nrows(), estimate)?;
+                drop(symbolic);
+                let f = SplitFactor::new(pattern, perm, sizes, par)?;
+                let estimate = f.memory();
+                (Engine::Split(Box::new(f)), estimate)
+            }
+            _ => {
+                let factor_req =
+                    symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
+                let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
+                let (factor_mem, solve_mem, estimate) = scratch(&symbolic, factor_req, solve_req)?;
+                (
+                    Engine::Whole {
+                        l_values: vec![0.0; factor_len],
+                        symbolic,
+                        factor_mem,
+                        solve_mem,
+                    },
+                    estimate,
+                )
+            }
+        };
+        let stats = FactorStats {
+            n,
+            nnz_lower: pattern.row_idx().len(),
+            factor_len,
+            flops,
+            ordering: used,
+            supernodal,
+            symbolic_time: start.elapsed(),
+            memory_estimate: estimate,
+        };
+        Ok(SparseCholesky {
+            engine,
+            col_ptr: pattern.col_ptr().to_vec(),
+            row_idx: pattern.row_idx().to_vec(),
+            diag_backup: vec![0.0; n],
+            diag_offsets,
+            par,
+            stats,
+            factorized: false,
+        })
+    }
+
+    /// Matrix dimension.
+    pub fn n(&self) -> usize {
+        self.stats.n
+    }
+
+    /// Statistics of the symbolic analysis.
+    pub fn stats(&self) -> &FactorStats {
+        &self.stats
+    }
+
+    /// Position of each diagonal entry (d, d) in the value array of the pattern.
+    pub fn diagonal_offsets(&self) -> &[usize] {
+        &self.diag_offsets
+    }
+
+    /// Numeric factorisation of `h` (same pattern as given to [`new`](Self::new), lower
+    /// triangle). Allocates nothing.
+    pub fn factorize(&mut self, h: SparseColMatRef<'_, usize, f64>) -> Result<(), FactorError> {
+        self.factorized = false;
+        same_pattern(h, &self.col_ptr, &self.row_idx).map_err(FactorError::Other)?;
+        match &mut self.engine {
+            Engine::Whole {
+                symbolic,
+                l_values,
+                factor_mem,
+                ..
+            } => {
+                let stack = MemStack::new(factor_mem);
+                symbolic
+                    .factorize_numeric_llt(
+                        l_values,
+                        h,
+                        Side::Lower,
+                        Default::default(),
+                        Par::Seq,
+                        stack,
+                        Default::default(),
+                    )
+                    // The low-level API reports the dense error type directly (not wrapped in
+                    // `sparse::linalg::LltError::Numeric` as the high-level `Llt` does).
+                    .map_err(|DenseLltError::NonPositivePivot { index }| {
+                        FactorError::NotPositiveDefinite { pivot: index }
+                    })?;
+            }
+            Engine::Split(f) => f.factorize(h.val())?,
+        }
+        self.factorized = true;
+        Ok(())
+    }
+
+    /// Whether the factorisation is split at the top-level dissection (described at
+    /// [`new`](Self::new)); its halves run concurrently when the pool has ≥ 2 threads.
+    pub fn is_split(&self) -> bool {
+        matches!(self.engine, Engine::Split(_))
+    }
+
+    /// Predicted flops of the split factorisation's parts, `[half A, half B, dense]` (halves as
+    /// [`factor_flops`], each including its copy of the separator block and its Schur
+    /// product, s³/3; dense: the separator's Cholesky, s³/3), `None` when not split. With two
+    /// threads the halves run concurrently, so the critical path is `max(A, B) + dense`,
+    /// against [`FactorStats::flops`] on one thread.
+    pub fn split_flops(&self) -> Option<[f64; 3]> {
+        match &self.engine {
+            Engine::Whole { .. } => None,
+            Engine::Split(f) => {
+                let s = f.sizes[2] as f64;
+                let product = s * s * s / 3.0;
+                Some([
+                    factor_flops(&f.halves[0].symbolic) + product,
+                    factor_flops(&f.halves[1].symbolic) + product,
+                    product,
+                ])
+            }
+        }
+    }
+
+    /// Solves `H x = rhs` in place with the last successful factorisation. Allocates nothing.
+    pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolverError> {
+        let n = self.stats.n;
+        ready_to_solve(self.factorized, n, rhs)?;
+        match &mut self.engine {
+            Engine::Whole {
+                symbolic,
+                l_values,
+                solve_mem,
+                ..
+            } => {
+                let llt = LltRef::new(symbolic, l_values);
+                let stack = MemStack::new(solve_mem);
+                llt.solve_in_place_with_conj(
+                    Conj::No,
+                    MatMut::from_column_major_slice_mut(rhs, n, 1),
+                    Par::Seq,
+                    stack,
+                );
+            }
+            Engine::Split(f) => f.solve_in_place(rhs),
+        }
+        Ok(())
+    }
+}
+
+/// Allocates the factorisation and solve scratch of `symbolic`, after refusing
+/// ([`SolverError::InsufficientMemory`]) a factor whose estimated memory — values plus both
+/// scratch buffers — exceeds [`memory_budget`](crate::memory::memory_budget). Returns the
+/// buffers and the estimate (bytes).
+pub(crate) fn scratch(
+    symbolic: &SymbolicCholesky<usize>,
+    factor_req: faer::dyn_stack::StackReq,
+    solve_req: faer::dyn_stack::StackReq,
+) -> Result<(MemBuffer, MemBuffer, u64), SolverError> {
+    let estimate = factor_memory_estimate(
+        symbolic.len_val(),
+        factor_req.size_bytes(),
+        solve_req.size_bytes(),
+    );
+    check_budget(symbolic.nrows(), estimate)?;
+    let factor_mem = MemBuffer::try_new(factor_req)
+        .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
+    let solve_mem = MemBuffer::try_new(solve_req)
+        .map_err(|_| SolverError::Linear("out of memory for solve scratch".into()))?;
+    Ok((factor_mem, solve_mem, estimate))
+}
+
+/// Refuses ([`SolverError::InsufficientMemory`]) an `n`-dof factor needing `estimate` bytes
+/// beyond [`memory_budget`](crate::memory::memory_budget).
+fn check_budget(n: usize, estimate: u64) -> Result<(), SolverError> {
+    if let Some(budget) = crate::memory::memory_budget()
+        && estimate > budget
+    {
+        return Err(SolverError::InsufficientMemory {
+            n,
+            estimate,
+            budget,
+        });
+    }
+    Ok(())
+}
+
+/// Errors unless `a` has exactly the analysed pattern (`col_ptr`, `row_idx`).
+pub(crate) fn same_pattern(
+    a: SparseColMatRef<'_, usize, f64>,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+) -> Result<(), SolverError> {
+    if a.symbolic().col_ptr() != col_ptr || a.symbolic().row_idx() != row_idx {
+        return Err(SolverError::InvalidPattern {
+            dof: 0,
+            reason: "matrix pattern differs from the analysed pattern",
+        });
+    }
+    Ok(())
+}
+
+/// Errors unless a factorisation succeeded and `rhs` has its dimension `n`.
+pub(crate) fn ready_to_solve(factorized: bool, n: usize, rhs: &[f64]) -> Result<(), SolverError> {
+    if !factorized {
+        return Err(SolverError::Linear(
+            "solve called without a successful factorisation".into(),
+        ));
+    }
+    if rhs.len() != n {
+        return Err(SolverError::DimensionMismatch {
+            what: "right-hand side",
+            expected: n,
+            found: rhs.len(),
+        });
+    }
+    Ok(())
+}

@@ -1,0 +1,48 @@
+//! Why a target is missed: what was measured about the cause (shown only for rows that
+//! miss).
+
+/// The per-face reason of an evaluation kind of the first table.
+pub(super) fn per_face(what: &str) -> &'static str {
+    match what {
+        "energy" => ENERGY,
+        "energy_gradient" => ENERGY_GRADIENT,
+        _ => "",
+    }
+}
+pub(super) const ENERGY: &str = "*Energy only*: this path has no gradient or Hessian \
+    buffers since #17 (`eval_face_energy`: closed-form StVK, constants hoisted; 1 180 → 757 \
+    instructions per face, callgrind, docs/performance.md \"#17 kernels\"). What is left is \
+    the scalar arithmetic of b (three normalised flap normals) and the law, one face at a \
+    time; evaluating several faces per SIMD lane (a structure-of-arrays layout) is untried.";
+pub(super) const ENERGY_GRADIENT: &str = "*Energy + gradient*: one law evaluation and \
+    reverse mode through b (2 786 → 2 526 instructions per face); the rest is the scalar \
+    derivative of the flap normals and the scatter of 18 entries per face, not vectorised \
+    across faces.";
+pub(super) const FACTOR: &str = "*Factorisation*: the same METIS ordering as libshell's \
+    CHOLMOD since issue #31 (the ordering row); what is left is the supernodal kernels' rate.";
+pub(super) const THREADS: &str = "*Two threads*: the split factorises the two halves of the \
+    top separator concurrently, then the separator densely; its predicted critical path is \
+    0.63 of the one-thread flops at 20 480 faces, so small factors gain little.";
+pub(super) const ORDERING: &str = "*Ordering flops*: the default is METIS's own nested \
+    dissection (`METIS_NodeND` through the solver's checked `unsafe` wrapper since issue #31), \
+    the ordering CHOLMOD uses; a residual difference is METIS's random stream and CHOLMOD's \
+    postordering.";
+pub(super) const NEWTON: &str = "*Newton iteration ≥ 4× libshell on 2 threads*: 4× needs \
+    ≤ 149 ms (issue #31's libshell: 594 ms) for assembly, factorisation and solve, and the \
+    two-thread factorisation alone takes about that (Factorisation table); closing it needs \
+    fewer flops (the ordering row), faster supernodal kernels, or skipped factorisations \
+    (factor reuse, below: the default of implicit steps since issue #31, which this row, \
+    one factorisation per iteration, does not count).";
+pub(super) const GROWTH: &str = "*Growth exponent*: nested dissection factorises a 2-D mesh \
+    of n unknowns in O(n^1.5) flops, and the factorisation is most of an iteration from \
+    20 480 faces up, so the slope rises with size; two threads pull it down (the split \
+    pays more on larger factors: speed-up 1.30 at 20 480, 1.68 at 81 920 faces).";
+pub(super) const DIRECTOR_FACE: &str = "*Director forms per face*: 21 dofs per face (the \
+    three edge angles) against 18, and 45 vertex/edge block pairs gathered against 21; the \
+    dihedral angle's Hessian is in closed form since issue #31 (Bridson's gradient \
+    differentiated, instead of the chain rule through three normalised vectors); what \
+    remains is the altitude's Hessian, the fitted/clamped edges' dual numbers and the larger \
+    gather.";
+pub(super) const DIRECTOR_STEP: &str = "*Director forms per implicit step*: twice the \
+    unknowns (one angle per edge) and about 2.2× the predicted factorisation flops with \
+    METIS (1.44e10 against 6.38e9 at 20 480 faces), on top of the per-face cost.";
