@@ -130,13 +130,13 @@ struct Run {
     rms_radius: f64,
 }
 
-/// `steps` implicit Euler steps of `dt` (s) on an icosphere of `level`, with or without
-/// contact; stops at the first meeting faces.
-fn shrink(level: usize, dt: f64, steps: usize, contact: bool) -> Run {
+/// `steps` implicit Euler steps of `dt` (s) on an icosphere of `level` whose start has the
+/// imperfection drawn with `seed`, with or without contact; stops at the first meeting faces.
+fn shrink(level: usize, seed: u64, dt: f64, steps: usize, contact: bool) -> Run {
     let (mut sys, mut x0) = shrinking_sphere(level);
     // The imperfection: without it the icosphere's symmetry holds and it shrinks into a round
     // sphere of radius 1/2 (the only surface of the shrunk metric), never touching itself.
-    let mut rng = Lcg64::new(7);
+    let mut rng = Lcg64::new(seed);
     for p in x0.iter_mut() {
         *p += IMPERFECTION * V::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5);
     }
@@ -200,15 +200,16 @@ fn shrink(level: usize, dt: f64, steps: usize, contact: bool) -> Run {
 
 /// 320 faces, 30 steps of 1 ms (docs/robustness.md's case, with the imperfection): contact
 /// from step 2 on, 239 active pairs at the end, smallest surface gap 1.16·10⁻² m = 0.39 d̂.
+/// Not every imperfection passes yet: see the ignored test below.
 #[test]
 fn shrinking_sphere_crumples_into_self_contact_without_crossing() {
-    let free = shrink(2, 1e-3, 30, false);
+    let free = shrink(2, 7, 1e-3, 30, false);
     eprintln!("without contact: {free:?}");
     assert!(
         free.first_meeting.is_some(),
         "without contact the folds should pass through each other"
     );
-    let run = shrink(2, 1e-3, 30, true);
+    let run = shrink(2, 7, 1e-3, 30, true);
     eprintln!("with contact: {run:?}");
     assert_eq!(run.first_meeting, None);
     assert!(run.min_surface_gap > 0.0, "{run:?}");
@@ -223,4 +224,22 @@ fn shrinking_sphere_crumples_into_self_contact_without_crossing() {
     // Contact does not stop the membrane from following its metric: the mean edge within 5 %
     // of √K = 1/2 of its start (measured 0.49995).
     assert!((run.edge_stretch / K.sqrt() - 1.0).abs() < 0.05, "{run:?}");
+}
+
+/// Other imperfections, and the same on 1280 faces: contact does NOT keep these apart yet. Faces
+/// sharing no vertex cross within one step (seed 1: the 6th step, 9 Newton iterations, no
+/// backtracks; 1280 faces: the 4th step, one watchdog step), while the brute-force vertex–face
+/// and edge–edge distances stay positive (an edge pierces a face: the step tunnelled through a
+/// pair the CCD should have stopped). Kept as the reproducer (`cargo test --release -p
+/// thinshell-solver --test contact_shrink -- --ignored`; fails at seed 1 within seconds; seeds
+/// 2 and 3 pass).
+#[test]
+#[ignore = "fails: faces cross despite contact (issue #30, see docs/robustness.md)"]
+fn shrinking_sphere_other_imperfections_without_crossing() {
+    for (level, seed) in [(2, 1), (2, 2), (2, 3), (3, 7)] {
+        let run = shrink(level, seed, 1e-3, 30, true);
+        eprintln!("level {level}, seed {seed}, with contact: {run:?}");
+        assert_eq!(run.first_meeting, None, "level {level}, seed {seed}");
+        assert!(run.min_surface_gap > 0.0, "{run:?}");
+    }
 }
