@@ -1,16 +1,21 @@
 #![allow(clippy::unwrap_used)]
-//! A closed sphere whose rest metric shrinks to a quarter crumples into self-contact (issue
-//! #30's "shrinking sphere that dimples into self-contact").
+//! A closed sphere whose rest metric shrinks to a quarter (issue #30's "shrinking sphere that
+//! dimples into self-contact"), with contact.
 //!
 //! docs/robustness.md's "Strong growth" case: a unit sphere of damped paper (h = 0.1 mm, η/E =
 //! 1 ms), rest metric ā = 0.25 a⁰ on every face (b̄ = b⁰), implicit Euler at Δt = 1 ms. The
 //! sphere of radius 1/2 fits the shrunk metric, and the perfect icosphere shrinks into it,
-//! keeping its symmetry. But the membrane, 10⁸ times stiffer than bending, contracts within the
-//! first step (at hundreds of m/s), and with an imperfection of the start (random offsets of up
-//! to 5 mm per coordinate, under 3 % of an edge) the shell buckles on the way in and crumples:
-//! without contact its folds pass through each other at the second step. Contact with its
-//! defaults (self-contact on, d̂ = 0.1 × the mean edge length, adaptive κ, thickness offset) and
-//! the solver's defaults (no fallbacks).
+//! keeping its symmetry. The membrane, 10⁸ times stiffer than bending, contracts within the
+//! first step (at hundreds of m/s), so the second step's inertial prediction x̃ = x + Δt v lies
+//! far inside, through the centre. With an imperfection of the start (random offsets of up to
+//! 5 mm per coordinate, under 3 % of an edge) that prediction passes through itself, and Newton,
+//! which starts there, crumples the sphere: without contact its folds pass through each other
+//! at the second step. With contact (its defaults: self-contact on, d̂ = 0.1 × the mean edge
+//! length, adaptive κ, thickness offset; the solver's defaults, no fallbacks) Newton also starts
+//! at x̃ whenever its energy is finite — no CCD guards the jump from xⁿ to x̃ — so it can start
+//! from, and end in, a state whose faces cross (the ignored test below; docs/robustness.md).
+//! Started from xⁿ instead, the imperfect sphere stays round (rms radius 0.5000 m) and never
+//! comes into contact: the crumpling, and the contact it brings, come from the crossing start.
 //!
 //! Every step is checked independently of the contact code's broad phase and CCD, as in
 //! `contact_sphere.rs`: the test kit's exact triangle–triangle test (no two faces sharing no
@@ -198,11 +203,14 @@ fn shrink(level: usize, seed: u64, dt: f64, steps: usize, contact: bool) -> Run 
     run
 }
 
-/// 320 faces, 30 steps of 1 ms (docs/robustness.md's case, with the imperfection): contact
-/// from step 2 on, 239 active pairs at the end, smallest surface gap 1.16·10⁻² m = 0.39 d̂.
-/// Not every imperfection passes yet: see the ignored test below.
+/// 320 faces, 30 steps of 1 ms (docs/robustness.md's case, with the imperfection of seed 7):
+/// with contact no faces cross and the surface gap stays positive; without, they cross at the
+/// second step. (It comes into contact from step 2 on, 239 active pairs at the end, smallest
+/// gap 1.16·10⁻² m = 0.39 d̂, rms radius 0.378 m — but only because Newton starts at the crossing
+/// prediction x̃: see the module documentation. So neither the contact nor the crumpling is
+/// asserted.)
 #[test]
-fn shrinking_sphere_crumples_into_self_contact_without_crossing() {
+fn shrinking_sphere_with_contact_does_not_cross() {
     let free = shrink(2, 7, 1e-3, 30, false);
     eprintln!("without contact: {free:?}");
     assert!(
@@ -213,28 +221,22 @@ fn shrinking_sphere_crumples_into_self_contact_without_crossing() {
     eprintln!("with contact: {run:?}");
     assert_eq!(run.first_meeting, None);
     assert!(run.min_surface_gap > 0.0, "{run:?}");
-    assert!(run.first_contact.is_some(), "{run:?}");
-    let end = run.end.unwrap();
-    assert!(
-        end.active_pairs > 0 && end.min_gap > 0.0 && end.min_gap < run.activation,
-        "{end:?}"
-    );
-    // Crumpled, not round: a sphere of the shrunk metric has radius 1/2 (measured rms 0.378 m).
-    assert!(run.rms_radius < 0.45, "{run:?}");
     // Contact does not stop the membrane from following its metric: the mean edge within 5 %
     // of √K = 1/2 of its start (measured 0.49995).
     assert!((run.edge_stretch / K.sqrt() - 1.0).abs() < 0.05, "{run:?}");
 }
 
-/// Other imperfections, and the same on 1280 faces: contact does NOT keep these apart yet. Faces
-/// sharing no vertex cross within one step (seed 1: the 6th step, 9 Newton iterations, no
-/// backtracks; 1280 faces: the 4th step, one watchdog step), while the brute-force vertex–face
-/// and edge–edge distances stay positive (an edge pierces a face: the step tunnelled through a
-/// pair the CCD should have stopped). Kept as the reproducer (`cargo test --release -p
-/// thinshell-solver --test contact_shrink -- --ignored`; fails at seed 1 within seconds; seeds
-/// 2 and 3 pass).
+/// Other imperfections, and the same on 1280 faces: here contact does NOT keep the faces apart.
+/// Seed 1: the 6th step's prediction x̃ has two faces sharing no vertex crossing (an edge
+/// pierces a face: every vertex–face and edge–edge distance positive, so the barrier is finite
+/// there); Newton starts at x̃ and converges (9 iterations) to a state where they still cross.
+/// The predictions of steps 3 and 5 crossed too, and their solves ended apart only by chance.
+/// Kept as the reproducer of the unguarded start (`cargo test --release -p thinshell-solver
+/// --test contact_shrink -- --ignored`; fails at seed 1 within seconds). With Newton started at
+/// xⁿ under contact, seeds 1–3 pass (and stay round: no contact); 1280 faces then fails to
+/// converge at the second step (100 iterations, relative residual 1.2·10⁻³ → 2.8·10⁻³).
 #[test]
-#[ignore = "fails: faces cross despite contact (issue #30, see docs/robustness.md)"]
+#[ignore = "fails: Newton starts at a crossing prediction x̃ (issue #30, docs/robustness.md)"]
 fn shrinking_sphere_other_imperfections_without_crossing() {
     for (level, seed) in [(2, 1), (2, 2), (2, 3), (3, 7)] {
         let run = shrink(level, seed, 1e-3, 30, true);
