@@ -123,9 +123,8 @@ struct Run {
     /// The first step with active contact pairs, and the most active pairs of any step.
     first_contact: Option<usize>,
     max_active: usize,
-    /// The contact term at the end, and d̂ (m).
+    /// The contact term at the end.
     end: Option<ContactStats>,
-    activation: f64,
     /// Newton iterations over the run.
     iterations: usize,
     /// Mean edge length at the end over the start's (the metric's target: √K).
@@ -166,7 +165,6 @@ fn shrink(level: usize, seed: u64, dt: f64, steps: usize, contact: bool) -> Run 
         first_contact: None,
         max_active: 0,
         end: None,
-        activation,
         iterations: 0,
         edge_stretch: 1.0,
         min_radius: 1.0,
