@@ -77,35 +77,36 @@
 
 pub mod assembly;
 pub mod contact;
-pub mod density;
+pub mod damping;
 pub mod dofs;
 pub mod error;
-pub mod forms;
 pub mod kernel;
 pub mod linalg;
 pub mod mass;
 pub mod material;
+pub mod membrane_strain;
 pub mod rest;
 pub mod sff;
 pub mod shell;
 pub mod stencil;
 pub mod stencils;
+pub mod stvk_quadratic;
 pub mod terms;
 
 pub use assembly::{Assembler, EvalOutput};
 pub use dofs::DofMap;
 pub use error::EnergyError;
-pub use forms::first_fundamental_form;
+pub use damping::FaceDamping;
 pub use kernel::{
-    EnergyConstants, EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want,
-    eval_face, eval_face_energy,
+    EnergyTerms, FaceEval, FaceRest, HessianMode, Terms, Want, eval_face, eval_face_energy,
 };
 pub use linalg::{ProjectPsd, project_psd};
 pub use mass::lumped_mass;
 pub use material::{
-    Bilayer, ElasticLaw, FaceGeometry, LawEval, Layer, Material, MaterialModel, NeoHookean, Order,
-    StVK,
+    Bilayer, ElasticLaw, EnergyConstants, FaceGeometry, LawEval, Layer, Material, MaterialModel,
+    NeoHookean, Order, StVK,
 };
+pub use membrane_strain::first_fundamental_form;
 pub use rest::{DampingState, RestState};
 pub use sff::{
     DIRECTOR_DOFS, DirectorVariant, EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind,
