@@ -100,5 +100,6 @@ pub fn damping_energy(
     let ap_inv = inv2(&d.a_prev);
     let c = k.eta_over_e / d.dt * area;
     c * (k.h_8 * sv_norm_sq_entries(&ap_inv, k.half_alpha, k.beta, &(a - sym_entries(&d.a_prev)))
-        + k.h3_24 * sv_norm_sq_entries(&ap_inv, k.half_alpha, k.beta, &(b - sym_entries(&d.b_prev))))
+        + k.h3_24
+            * sv_norm_sq_entries(&ap_inv, k.half_alpha, k.beta, &(b - sym_entries(&d.b_prev))))
 }

@@ -6,9 +6,7 @@ use crate::damping::{DampingQuadratics, damping_energy};
 use crate::linalg::{ProjectPsd, inv2, sym_entries};
 pub use crate::material::EnergyConstants;
 use crate::material::{FaceGeometry, LawEval, Material, Order};
-use crate::membrane_strain::{
-    add_metric_hessian, edges, metric, metric_gradient, metric_jacobian,
-};
+use crate::membrane_strain::{add_metric_hessian, edges, metric, metric_gradient, metric_jacobian};
 use crate::sff::SecondFundamentalForm;
 use crate::stencil::FaceStencil;
 pub use crate::terms::{EnergyTerms, HessianMode, Terms};

@@ -4,14 +4,16 @@
 //! Two layers:
 //! - **per-face kernels** — pure functions on fixed-size arrays, in dependency order:
 //!   [`stencil`] (the plain face data: [`FaceStencil`] with positions, flap flags and
-//!   [`EdgeAngles`]); [`sff`] (the [`SecondFundamentalForm`]`<N>` trait giving b, its 3×N
-//!   Jacobian and contracted Hessian over a face's N dofs: [`MidEdgeAverage`], N = 18, and the
-//!   edge directors [`EdgeDirector`], N = 21 with one angle per edge, model.md §1.1; chosen by
-//!   [`SffKind`]); [`material`] (the [`ElasticLaw`] trait — energy, 6-gradient and 6×6 Hessian
-//!   in the form entries a, b — with [`StVK`], [`NeoHookean`] and [`Bilayer`], chosen by
-//!   [`MaterialModel`]); and [`eval_face`], the one chain rule from (form, law) to a face's
-//!   energy, N-gradient and N×N Hessian (exact, Gauss–Newton or projected to PSD,
-//!   [`HessianMode`]);
+//!   [`EdgeAngles`]); one file per formula: [`membrane_strain`] (the metric a and its
+//!   derivatives), [`stvk_quadratic`] (the St. Venant–Kirchhoff quadratic: matrix, K·d, value),
+//!   [`damping`] (Kelvin–Voigt); [`sff`] (the [`SecondFundamentalForm`]`<N>` trait giving b,
+//!   its 3×N Jacobian and contracted Hessian over a face's N dofs: [`MidEdgeAverage`], N = 18,
+//!   and the edge directors [`EdgeDirector`], N = 21 with one angle per edge, model.md §1.1;
+//!   chosen by [`SffKind`]); [`material`] (the [`ElasticLaw`] trait — energy, 6-gradient and
+//!   6×6 Hessian in the form entries a, b — with [`StVK`], [`NeoHookean`] and [`Bilayer`],
+//!   chosen by [`MaterialModel`]; every law is evaluated through it); and [`eval_face`], the
+//!   one chain rule from (form, law) to a face's energy, N-gradient and N×N Hessian (exact,
+//!   Gauss–Newton or projected to PSD, [`HessianMode`]);
 //! - **whole mesh** — [`RestState`] (ā, b̄ per face), [`DampingState`], [`lumped_mass`],
 //!   [`DofMap`] (pinned coordinates; edge angles with [`DofMap::with_edges`]) and
 //!   [`Assembler`] ([`Assembler::for_model`] for edge directors), which builds the lower-triangular
@@ -94,9 +96,9 @@ pub mod stvk_quadratic;
 pub mod terms;
 
 pub use assembly::{Assembler, EvalOutput};
+pub use damping::FaceDamping;
 pub use dofs::DofMap;
 pub use error::EnergyError;
-pub use damping::FaceDamping;
 pub use kernel::{
     EnergyTerms, FaceEval, FaceRest, HessianMode, Terms, Want, eval_face, eval_face_energy,
 };

@@ -8,9 +8,11 @@
 //! - [`sv_quadratic_times`]: K·d without forming K (gradients are 2Kd, the energy d·Kd);
 //! - [`sv_norm_sq_entries`]: the value ‖A⁻¹D‖²_SV alone (the energy-only path).
 //!
-//! [`sv_norm_sq`] is the definition on a general 2×2 matrix, for tests.
+//! [`sv_norm_sq`] is the definition on a general 2×2 matrix (in f64 for tests, in dual numbers
+//! for the neo-Hookean bending term).
 
 pub use crate::linalg::{inv2, sym_entries};
+use crate::material::dual::Scalar;
 use nalgebra::{Matrix2, Matrix3, Vector3};
 
 /// The entries (p, q, r) of a symmetric A⁻¹ = [[p, q], [q, r]] (q averaged from both
@@ -71,7 +73,12 @@ pub fn sv_quadratic_times(
 /// ‖A⁻¹D‖²_SV = α/2 tr(M)² + β tr(M²), M = A⁻¹D, from the entries d of D, with `half_alpha`
 /// = α/2 (the quadratic form of [`sv_quadratic`] without its scale, written out: ~20 flops).
 #[inline]
-pub fn sv_norm_sq_entries(a_inv: &Matrix2<f64>, half_alpha: f64, beta: f64, d: &Vector3<f64>) -> f64 {
+pub fn sv_norm_sq_entries(
+    a_inv: &Matrix2<f64>,
+    half_alpha: f64,
+    beta: f64,
+    d: &Vector3<f64>,
+) -> f64 {
     let (p, q, r) = entries(a_inv);
     let m00 = p * d[0] + q * d[1];
     let m01 = p * d[1] + q * d[2];
@@ -81,8 +88,18 @@ pub fn sv_norm_sq_entries(a_inv: &Matrix2<f64>, half_alpha: f64, beta: f64, d: &
     half_alpha * t * t + beta * (m00 * m00 + 2.0 * m01 * m10 + m11 * m11)
 }
 
+/// ‖M‖²_SV = α/2 tr(M)² + β tr(M²) of a general 2×2 matrix M = [[m11, m12], [m21, m22]] over
+/// f64 or dual numbers: the definition, used by the neo-Hookean bending term (M = a⁻¹b − ā⁻¹b̄
+/// in dual numbers) and, through [`sv_norm_sq`], by tests.
+#[inline]
+pub(crate) fn sv_norm_sq_general<S: Scalar>(m: &[[S; 2]; 2], alpha: f64, beta: f64) -> S {
+    let tr = m[0][0] + m[1][1];
+    let tr_sq = m[0][0] * m[0][0] + m[0][1] * m[1][0] + m[1][0] * m[0][1] + m[1][1] * m[1][1];
+    (tr * tr).scale(0.5 * alpha) + tr_sq.scale(beta)
+}
+
 /// Reference SV norm ‖M‖²_SV = α/2 tr(M)² + β tr(M²) of a general 2×2 matrix (for tests).
 pub fn sv_norm_sq(m: &Matrix2<f64>, alpha: f64, beta: f64) -> f64 {
-    let t = m.trace();
-    0.5 * alpha * t * t + beta * (m * m).trace()
+    let rows = [[m[(0, 0)], m[(0, 1)]], [m[(1, 0)], m[(1, 1)]]];
+    sv_norm_sq_general(&rows, alpha, beta)
 }

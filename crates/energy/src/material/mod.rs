@@ -89,7 +89,7 @@ impl LawEval {
 /// the energy, its 6-gradient and 6×6 Hessian in the form entries. Terms switched off in
 /// `terms` must contribute nothing (and with bending off, `b` is not evaluated: it is passed as
 /// b̄). Kelvin–Voigt damping is not part of the law: it stays the StVK-shaped quadratic of the
-/// [`Material`]'s h, E, ν for every model.
+/// [`Material`]'s h, E, ν for every model ([`crate::damping`]).
 pub trait ElasticLaw: std::fmt::Debug + Send + Sync {
     /// Name used in scene files (`[material] model = "…"`).
     fn name(&self) -> &'static str;
