@@ -11,7 +11,6 @@
 //! [`sv_norm_sq`] is the definition on a general 2×2 matrix (in f64 for tests, in dual numbers
 //! for the neo-Hookean bending term).
 
-pub use crate::linalg::{inv2, sym_entries};
 use crate::material::dual::Scalar;
 use nalgebra::{Matrix2, Matrix3, Vector3};
 
