@@ -8,7 +8,7 @@ use nalgebra::{Matrix2, Vector3};
 use thinshell_energy::{
     DirectorVariant, EdgeAngles, EdgeDirector, EnergyConstants, FaceDamping, FaceEval, FaceRest,
     FaceStencil, HessianMode, Layer, Material, MaterialModel, MidEdgeAverage, Terms, Want,
-    eval_face, eval_face_energy, forms::first_fundamental_form,
+    eval_face, eval_face_energy, first_fundamental_form,
 };
 
 /// An interior face of a gently curved sheet with its three flaps.

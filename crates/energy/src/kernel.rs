@@ -1,13 +1,16 @@
 //! The per-face kernel: energy, N-gradient and N×N Hessian of one face for any second
 //! fundamental form (N face dofs) and any material law, by one chain rule through the forms.
 
-use crate::density::sv_quadratic;
+pub use crate::damping::FaceDamping;
+use crate::damping::{DampingQuadratics, damping_energy};
 use crate::linalg::{ProjectPsd, inv2, sym_entries};
-use crate::material::{FaceGeometry, LawEval, Material, MaterialModel, Order};
+pub use crate::material::EnergyConstants;
+use crate::material::{FaceGeometry, LawEval, Material, Order};
+use crate::membrane_strain::{add_metric_hessian, edges, metric, metric_gradient, metric_jacobian};
 use crate::sff::SecondFundamentalForm;
 use crate::stencil::FaceStencil;
 pub use crate::terms::{EnergyTerms, HessianMode, Terms};
-use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
+use nalgebra::{Matrix2, SMatrix, SVector, Vector3};
 use std::cell::{Cell, RefCell};
 
 /// Rest forms of a face: ā (m², SPD) and b̄ (m, symmetric), barycentric basis.
@@ -17,17 +20,6 @@ pub struct FaceRest {
     pub a_bar: Matrix2<f64>,
     /// Rest second fundamental form b̄.
     pub b_bar: Matrix2<f64>,
-}
-
-/// Damping data of a face: forms at the start of the step and the step Δt (s).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FaceDamping {
-    /// a at the start of the step (SPD).
-    pub a_prev: Matrix2<f64>,
-    /// b at the start of the step.
-    pub b_prev: Matrix2<f64>,
-    /// Time step Δt (s), > 0.
-    pub dt: f64,
 }
 
 /// What to compute besides the energy.
@@ -63,11 +55,8 @@ impl<const N: usize> Default for FaceEval<N> {
 
 /// Energy of one face (model.md §2) with b from `form` over its N dofs and the elastic energy
 /// of `material`'s law ([`crate::ElasticLaw`]: stretching and bending as functions of the form
-/// entries a, b), plus Kelvin–Voigt damping, with A = √det ā and ‖M‖²_SV = α/2 tr(M)² + β tr(M²)
-/// (α, β, h, E, η of `material`):
-///
-/// damping = (η/E)/Δt · (h/8 ‖a_prev⁻¹(a − a_prev)‖²_SV + h³/24 ‖a_prev⁻¹(b − b_prev)‖²_SV) · A
-/// (= (η/E) Δt (… ‖·/Δt‖² …) A), skipped when `damping` is `None`.
+/// entries a, b), plus Kelvin–Voigt damping ([`crate::damping`], skipped when `damping` is
+/// `None`); the metric a and its derivatives are [`crate::membrane_strain`]'s.
 ///
 /// One chain rule for every term: with m = (a, b) the six form entries, E(m) the law's energy
 /// plus the damping quadratics, J_a (3×9, the face vertices) and J_b (3×N, from the form),
@@ -109,7 +98,6 @@ pub fn eval_face<const N: usize, F>(
     }
     let law = material.model.law();
     let damping = if terms.damping { damping } else { None };
-    let (h, alpha, beta) = (material.thickness, material.alpha(), material.beta());
     let area = rest.a_bar.determinant().sqrt();
     let face = FaceGeometry {
         a_bar: sym_entries(&rest.a_bar),
@@ -117,27 +105,12 @@ pub fn eval_face<const N: usize, F>(
         a_bar_inv: inv2(&rest.a_bar),
         area,
     };
-    // Damping quadratics (K, centre) in a and in b.
-    let damp = damping.map(|d| {
-        let ap_inv = inv2(&d.a_prev);
-        let c = material.viscosity / material.young / d.dt * area;
-        (
-            (
-                sv_quadratic(&ap_inv, alpha, beta, c * h / 8.0),
-                sym_entries(&d.a_prev),
-            ),
-            (
-                sv_quadratic(&ap_inv, alpha, beta, c * h * h * h / 24.0),
-                sym_entries(&d.b_prev),
-            ),
-        )
-    });
+    let damp = damping.map(|d| DampingQuadratics::new(material, area, d));
     let uses_b = terms.bend || damp.is_some();
     let coupled = law.coupled() && terms.bend;
     let uses_a = terms.stretch || damp.is_some() || coupled;
-    let x = &stencil.x;
-    let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
-    let a = Vector3::new(e1.dot(&e1), e1.dot(&e2), e2.dot(&e2));
+    let (e1, e2) = edges(&[stencil.x[0], stencil.x[1], stencil.x[2]]);
+    let a = metric(&e1, &e2);
     let order = match (need_grad, mode) {
         (_, Some(_)) => Order::Hessian,
         (true, None) => Order::Gradient,
@@ -148,7 +121,7 @@ pub fn eval_face<const N: usize, F>(
     let mut law_done = false;
     // ∂E/∂b of the law plus the damping quadratic in b, at b.
     let grad_b = |le: &LawEval, b: &Vector3<f64>| match &damp {
-        Some((_, (k, c))) => le.gb + k * (b - c) * 2.0,
+        Some(dq) => le.gb + dq.gradient_b(b),
         None => le.gb,
     };
 
@@ -200,15 +173,15 @@ pub fn eval_face<const N: usize, F>(
         let gb = grad_b(&le, &b);
         out.gradient += d.jacobian.transpose() * gb;
         let mut hbb = le.hbb;
-        if let Some((_, (k, _))) = &damp {
-            hbb += k * 2.0;
+        if let Some(dq) = &damp {
+            hbb += dq.hessian_b();
         }
         let kj = hbb * d.jacobian;
         // In place (no N×N temporary): H += Jᵀ (K J).
         out.hessian.gemm_tr(1.0, &d.jacobian, &kj, 1.0);
         if coupled {
             // J_aᵀ H_ab J_b and its transpose; J_a only touches the first 9 dofs.
-            let ja = membrane_jacobian(&e1, &e2);
+            let ja = metric_jacobian(&e1, &e2);
             let cross = ja.transpose() * (le.hab * d.jacobian);
             let mut top = out.hessian.fixed_rows_mut::<9>(0);
             top += cross;
@@ -223,9 +196,8 @@ pub fn eval_face<const N: usize, F>(
     }
     out.energy.stretch = le.stretch;
     out.energy.bend = le.bend;
-    if let Some(((ka, ca), (kb, cb))) = &damp {
-        let (da, db) = (a - ca, b - cb);
-        out.energy.damping = da.dot(&(ka * da)) + db.dot(&(kb * db));
+    if let Some(dq) = &damp {
+        out.energy.damping = dq.energy(&a, &b);
     }
 
     // The a-part: a(x0, x1, x2).
@@ -237,14 +209,11 @@ pub fn eval_face<const N: usize, F>(
     }
 }
 
-/// Damping quadratics (K, centre) of a face in a and in b.
-type DampQuads = Option<((Matrix3<f64>, Vector3<f64>), (Matrix3<f64>, Vector3<f64>))>;
-
 /// Adds J_aᵀ ∂E/∂a to the gradient and, with a Hessian, J_aᵀ (∂²E/∂a²) J_a plus (unless
 /// Gauss–Newton) Σ_k (∂E/∂a_k) ∇²a_k.
 fn add_membrane_part<const N: usize>(
     le: &LawEval,
-    damp: &DampQuads,
+    damp: &Option<DampingQuadratics>,
     a: &Vector3<f64>,
     e1: &Vector3<f64>,
     e2: &Vector3<f64>,
@@ -253,109 +222,31 @@ fn add_membrane_part<const N: usize>(
 ) {
     let mut g = le.ga;
     let mut k_sum = le.haa;
-    if let Some(((ka, ca), _)) = damp {
-        g += ka * (a - ca) * 2.0;
-        k_sum += ka * 2.0;
+    if let Some(dq) = damp {
+        g += dq.gradient_a(a);
+        k_sum += dq.hessian_a();
     }
-    // J_aᵀ g written out (rows of J_a: a11 = e1·e1, a12 = e1·e2, a22 = e2·e2).
-    let g1 = e1 * (2.0 * g[0]) + e2 * g[1];
-    let g2 = e1 * g[1] + e2 * (2.0 * g[2]);
-    for (blk, v) in [(0, -(g1 + g2)), (1, g1), (2, g2)] {
+    for (blk, v) in metric_gradient(&g, e1, e2).iter().enumerate() {
         let mut r = out.gradient.fixed_rows_mut::<3>(3 * blk);
         r += v;
     }
     if mode.is_some() {
-        let ja = membrane_jacobian(e1, e2);
+        let ja = metric_jacobian(e1, e2);
         let kj = k_sum * ja;
         let mut hb = out.hessian.fixed_view_mut::<9, 9>(0, 0);
         hb.gemm_tr(1.0, &ja, &kj, 1.0);
         if mode != Some(HessianMode::GaussNewton) {
-            // Σ_k g_k ∇²a_k = (Sᵀ C S) ⊗ I, C = [[2g11, g12], [g12, 2g22]], S = [e1; e2] selector.
-            let sel = [(-1.0, -1.0), (1.0, 0.0), (0.0, 1.0)];
-            for (i, si) in sel.iter().enumerate() {
-                for (j, sj) in sel.iter().enumerate() {
-                    let c = 2.0 * g[0] * si.0 * sj.0
-                        + g[1] * (si.0 * sj.1 + si.1 * sj.0)
-                        + 2.0 * g[2] * si.1 * sj.1;
-                    for t in 0..3 {
-                        out.hessian[(3 * i + t, 3 * j + t)] += c;
-                    }
-                }
-            }
+            add_metric_hessian(&g, &mut out.hessian);
         }
-    }
-}
-
-/// Jacobian of a = (a11, a12, a22) w.r.t. (x0, x1, x2), e1 = x1 − x0, e2 = x2 − x0.
-#[inline]
-fn membrane_jacobian(e1: &Vector3<f64>, e2: &Vector3<f64>) -> SMatrix<f64, 3, 9> {
-    let rows = [
-        [-2.0 * e1, 2.0 * e1, Vector3::zeros()],
-        [-(e1 + e2), *e2, *e1],
-        [-2.0 * e2, Vector3::zeros(), 2.0 * e2],
-    ];
-    let mut ja = SMatrix::<f64, 3, 9>::zeros();
-    for (k, r) in rows.iter().enumerate() {
-        for (b, v) in r.iter().enumerate() {
-            ja.fixed_view_mut::<1, 3>(k, 3 * b)
-                .copy_from(&v.transpose());
-        }
-    }
-    ja
-}
-
-/// Material constants of the energy-only kernel [`eval_face_energy`], computed once per mesh
-/// evaluation instead of once per face: h/8 and h³/24 (m, m³), α/2 and β (Pa), η/E (s).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct EnergyConstants {
-    h_8: f64,
-    h3_24: f64,
-    half_alpha: f64,
-    beta: f64,
-    eta_over_e: f64,
-    /// The law is St. Venant–Kirchhoff: its energies are evaluated in closed form here.
-    stvk: bool,
-}
-
-impl EnergyConstants {
-    /// The constants of `material` (not validated: [`crate::Assembler::evaluate`] validates).
-    pub fn new(material: &Material) -> Self {
-        let h = material.thickness;
-        Self {
-            h_8: h / 8.0,
-            h3_24: h * h * h / 24.0,
-            half_alpha: 0.5 * material.alpha(),
-            beta: material.beta(),
-            eta_over_e: material.viscosity / material.young,
-            stvk: matches!(material.model, MaterialModel::StVK),
-        }
-    }
-
-    /// ‖A⁻¹D‖²_SV = α/2 tr(M)² + β tr(M²), M = A⁻¹D, for symmetric A⁻¹ and D = (d11, d12, d22):
-    /// the quadratic form of [`sv_quadratic`] (without its scale) written out, ~20 flops.
-    #[inline]
-    fn sv_norm_sq(&self, a_inv: &Matrix2<f64>, d: &Vector3<f64>) -> f64 {
-        let (p, q, r) = (
-            a_inv[(0, 0)],
-            0.5 * (a_inv[(0, 1)] + a_inv[(1, 0)]),
-            a_inv[(1, 1)],
-        );
-        let m00 = p * d[0] + q * d[1];
-        let m01 = p * d[1] + q * d[2];
-        let m10 = q * d[0] + r * d[1];
-        let m11 = q * d[1] + r * d[2];
-        let t = m00 + m11;
-        self.half_alpha * t * t + self.beta * (m00 * m00 + 2.0 * m01 * m10 + m11 * m11)
     }
 }
 
 /// Energy terms (J) of one face, the same quantity as [`eval_face`] with nothing but the
 /// energy wanted, by a lean path for line-search trials: no gradient or Hessian buffers, b
-/// from [`SecondFundamentalForm::b`] only when bending or damping is on, and the St.
-/// Venant–Kirchhoff and damping energies in closed form (‖ā⁻¹(a − ā)‖²_SV directly, not
-/// through the 3×3 quadratic-form matrices) with `constants` hoisted out of the face loop.
-/// Other laws go through [`ElasticLaw::eval`](crate::ElasticLaw::eval) at [`Order::Energy`].
-/// Agrees with [`eval_face`] to round-off (tested to 1e-12 relative).
+/// from [`SecondFundamentalForm::b`] only when bending or damping is on, the law's energies by
+/// [`ElasticLaw::energy`](crate::ElasticLaw::energy) (St. Venant–Kirchhoff in closed form,
+/// statically dispatched) and the damping by [`damping_energy`], with `constants` hoisted out
+/// of the face loop. Agrees with [`eval_face`] to round-off (tested to 1e-12 relative).
 pub fn eval_face_energy<const N: usize, F>(
     form: &F,
     material: &Material,
@@ -368,11 +259,9 @@ pub fn eval_face_energy<const N: usize, F>(
 where
     F: SecondFundamentalForm<N> + ?Sized,
 {
-    let k = constants;
     let damping = if terms.damping { damping } else { None };
-    let x = &stencil.x;
-    let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
-    let a = Vector3::new(e1.dot(&e1), e1.dot(&e2), e2.dot(&e2));
+    let (e1, e2) = edges(&[stencil.x[0], stencil.x[1], stencil.x[2]]);
+    let a = metric(&e1, &e2);
     let b_bar = sym_entries(&rest.b_bar);
     let b = if terms.bend || damping.is_some() {
         sym_entries(&form.b(stencil))
@@ -380,36 +269,18 @@ where
         b_bar
     };
     let area = rest.a_bar.determinant().sqrt();
-    let a_bar_inv = inv2(&rest.a_bar);
-    let mut e = EnergyTerms::default();
-    if k.stvk {
-        if terms.stretch {
-            e.stretch = k.h_8 * area * k.sv_norm_sq(&a_bar_inv, &(a - sym_entries(&rest.a_bar)));
-        }
-        if terms.bend {
-            e.bend = k.h3_24 * area * k.sv_norm_sq(&a_bar_inv, &(b - b_bar));
-        }
-    } else {
-        let face = FaceGeometry {
-            a_bar: sym_entries(&rest.a_bar),
-            b_bar,
-            a_bar_inv,
-            area,
-        };
-        let mut le = LawEval::default();
-        material
-            .model
-            .law()
-            .eval(material, &face, &a, &b, terms, Order::Energy, &mut le);
-        e.stretch = le.stretch;
-        e.bend = le.bend;
+    let face = FaceGeometry {
+        a_bar: sym_entries(&rest.a_bar),
+        b_bar,
+        a_bar_inv: inv2(&rest.a_bar),
+        area,
+    };
+    let (stretch, bend) = material
+        .model
+        .energy(material, constants, &face, &a, &b, terms);
+    EnergyTerms {
+        stretch,
+        bend,
+        damping: damping.map_or(0.0, |d| damping_energy(constants, area, &a, &b, d)),
     }
-    if let Some(d) = damping {
-        let ap_inv = inv2(&d.a_prev);
-        let c = k.eta_over_e / d.dt * area;
-        e.damping = c
-            * (k.h_8 * k.sv_norm_sq(&ap_inv, &(a - sym_entries(&d.a_prev)))
-                + k.h3_24 * k.sv_norm_sq(&ap_inv, &(b - sym_entries(&d.b_prev))));
-    }
-    e
 }

@@ -4,14 +4,16 @@
 //! Two layers:
 //! - **per-face kernels** — pure functions on fixed-size arrays, in dependency order:
 //!   [`stencil`] (the plain face data: [`FaceStencil`] with positions, flap flags and
-//!   [`EdgeAngles`]); [`sff`] (the [`SecondFundamentalForm`]`<N>` trait giving b, its 3×N
-//!   Jacobian and contracted Hessian over a face's N dofs: [`MidEdgeAverage`], N = 18, and the
-//!   edge directors [`EdgeDirector`], N = 21 with one angle per edge, model.md §1.1; chosen by
-//!   [`SffKind`]); [`material`] (the [`ElasticLaw`] trait — energy, 6-gradient and 6×6 Hessian
-//!   in the form entries a, b — with [`StVK`], [`NeoHookean`] and [`Bilayer`], chosen by
-//!   [`MaterialModel`]); and [`eval_face`], the one chain rule from (form, law) to a face's
-//!   energy, N-gradient and N×N Hessian (exact, Gauss–Newton or projected to PSD,
-//!   [`HessianMode`]);
+//!   [`EdgeAngles`]); one file per formula: [`membrane_strain`] (the metric a and its
+//!   derivatives), [`stvk_quadratic`] (the St. Venant–Kirchhoff quadratic: matrix, K·d, value),
+//!   [`damping`] (Kelvin–Voigt); [`sff`] (the [`SecondFundamentalForm`]`<N>` trait giving b,
+//!   its 3×N Jacobian and contracted Hessian over a face's N dofs: [`MidEdgeAverage`], N = 18,
+//!   and the edge directors [`EdgeDirector`], N = 21 with one angle per edge, model.md §1.1;
+//!   chosen by [`SffKind`]); [`material`] (the [`ElasticLaw`] trait — energy, 6-gradient and
+//!   6×6 Hessian in the form entries a, b — with [`StVK`], [`NeoHookean`] and [`Bilayer`],
+//!   chosen by [`MaterialModel`]; every law is evaluated through it); and [`eval_face`], the
+//!   one chain rule from (form, law) to a face's energy, N-gradient and N×N Hessian (exact,
+//!   Gauss–Newton or projected to PSD, [`HessianMode`]);
 //! - **whole mesh** — [`RestState`] (ā, b̄ per face), [`DampingState`], [`lumped_mass`],
 //!   [`DofMap`] (pinned coordinates; edge angles with [`DofMap::with_edges`]) and
 //!   [`Assembler`] ([`Assembler::for_model`] for edge directors), which builds the lower-triangular
@@ -77,35 +79,36 @@
 
 pub mod assembly;
 pub mod contact;
-pub mod density;
+pub mod damping;
 pub mod dofs;
 pub mod error;
-pub mod forms;
 pub mod kernel;
 pub mod linalg;
 pub mod mass;
 pub mod material;
+pub mod membrane_strain;
 pub mod rest;
 pub mod sff;
 pub mod shell;
 pub mod stencil;
 pub mod stencils;
+pub mod stvk_quadratic;
 pub mod terms;
 
 pub use assembly::{Assembler, EvalOutput};
+pub use damping::FaceDamping;
 pub use dofs::DofMap;
 pub use error::EnergyError;
-pub use forms::first_fundamental_form;
 pub use kernel::{
-    EnergyConstants, EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want,
-    eval_face, eval_face_energy,
+    EnergyTerms, FaceEval, FaceRest, HessianMode, Terms, Want, eval_face, eval_face_energy,
 };
 pub use linalg::{ProjectPsd, project_psd};
 pub use mass::lumped_mass;
 pub use material::{
-    Bilayer, ElasticLaw, FaceGeometry, LawEval, Layer, Material, MaterialModel, NeoHookean, Order,
-    StVK,
+    Bilayer, ElasticLaw, EnergyConstants, FaceGeometry, LawEval, Layer, Material, MaterialModel,
+    NeoHookean, Order, StVK,
 };
+pub use membrane_strain::first_fundamental_form;
 pub use rest::{DampingState, RestState};
 pub use sff::{
     DIRECTOR_DOFS, DirectorVariant, EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind,

@@ -5,7 +5,7 @@
 
 use crate::dofs::check_len;
 use crate::error::EnergyError;
-use crate::forms::first_fundamental_form;
+use crate::membrane_strain::first_fundamental_form;
 use crate::sff::SffKind;
 use crate::stencils::Stencils;
 use nalgebra::{Matrix2, Vector3};

@@ -4,7 +4,7 @@
 
 use nalgebra::{Matrix2, Vector3};
 use std::f64::consts::PI;
-use thinshell_energy::forms::first_fundamental_form;
+use thinshell_energy::first_fundamental_form;
 use thinshell_energy::{
     Assembler, DampingState, DofMap, EnergyError, EvalOutput, Material, RestState, SffKind,
     ShellModel, Terms, lumped_mass,

@@ -499,7 +499,7 @@ fn cylinder_case(flat: &Mesh) -> (Vec<Vector3<f64>>, Vec<FaceRest>) {
             );
             let t = Matrix2::new(q.x - p.x, r.x - p.x, q.y - p.y, r.y - p.y);
             FaceRest {
-                a_bar: forms::first_fundamental_form(&[
+                a_bar: membrane_strain::first_fundamental_form(&[
                     x[f[0].idx()],
                     x[f[1].idx()],
                     x[f[2].idx()],

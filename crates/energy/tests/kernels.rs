@@ -68,7 +68,7 @@ fn damping_of(s: &FaceStencil) -> FaceDamping {
     }
     let xs = [p.x[0], p.x[1], p.x[2]];
     FaceDamping {
-        a_prev: forms::first_fundamental_form(&xs),
+        a_prev: membrane_strain::first_fundamental_form(&xs),
         b_prev: MidEdgeAverage.b(&p),
         dt: 0.1,
     }
@@ -137,7 +137,7 @@ proptest! {
         let (al, be) = (m.alpha(), m.beta());
         let area = r.a_bar.determinant().sqrt();
         let ai = r.a_bar.try_inverse().unwrap();
-        let a = forms::first_fundamental_form(&[s.x[0], s.x[1], s.x[2]]);
+        let a = membrane_strain::first_fundamental_form(&[s.x[0], s.x[1], s.x[2]]);
         let b = MidEdgeAverage.b(&s);
         let sv = |mm: Matrix2<f64>| { let tr = mm.trace(); 0.5 * al * tr * tr + be * (mm * mm).trace() };
         let h = m.thickness;
@@ -161,7 +161,7 @@ proptest! {
         let out = eval(&s, &r, None, Terms::ALL, Some(HessianMode::GaussNewton));
         let ev = out.hessian.symmetric_eigenvalues();
         prop_assert!(ev.min() >= -1e-10 * out.hessian.abs().max());
-        let at_rest = FaceRest { a_bar: forms::first_fundamental_form(&[s.x[0], s.x[1], s.x[2]]), b_bar: MidEdgeAverage.b(&s) };
+        let at_rest = FaceRest { a_bar: membrane_strain::first_fundamental_form(&[s.x[0], s.x[1], s.x[2]]), b_bar: MidEdgeAverage.b(&s) };
         let gn = eval(&s, &at_rest, None, Terms::ALL, Some(HessianMode::GaussNewton));
         let ex = eval(&s, &at_rest, None, Terms::ALL, Some(HessianMode::Exact));
         prop_assert!((gn.hessian - ex.hessian).abs().max() <= 1e-10 * ex.hessian.abs().max());
@@ -182,7 +182,7 @@ proptest! {
         let e0 = eval(&s, &r, None, Terms::ALL, Some(HessianMode::Exact));
         let e1 = eval(&moved, &r, None, Terms::ALL, None);
         prop_assert!((e0.energy.total() - e1.energy.total()).abs() < 1e-10 * e0.energy.total().abs().max(1e-300));
-        let at_rest = FaceRest { a_bar: forms::first_fundamental_form(&[s.x[0], s.x[1], s.x[2]]), b_bar: MidEdgeAverage.b(&s) };
+        let at_rest = FaceRest { a_bar: membrane_strain::first_fundamental_form(&[s.x[0], s.x[1], s.x[2]]), b_bar: MidEdgeAverage.b(&s) };
         let er = eval(&s, &at_rest, None, Terms::ALL, Some(HessianMode::Exact));
         for axis in 0..3 {
             let mut tmode = nalgebra::SVector::<f64, 18>::zeros();
@@ -246,7 +246,7 @@ fn sphere_gives_minus_a_over_r() {
             x.swap(4, 5);
         }
         let s = FaceStencil::new(x, [true; 3]);
-        let a = forms::first_fundamental_form(&[x[0], x[1], x[2]]);
+        let a = membrane_strain::first_fundamental_form(&[x[0], x[1], x[2]]);
         let b = MidEdgeAverage.b(&s);
         errs.push((b + a / r).abs().max() / (a / r).abs().max());
     }
@@ -275,7 +275,7 @@ fn cylinder_bending_energy_close_to_exact() {
         x.swap(4, 5);
     }
     let s = FaceStencil::new(x, [true; 3]);
-    let a = forms::first_fundamental_form(&[x[0], x[1], x[2]]);
+    let a = membrane_strain::first_fundamental_form(&[x[0], x[1], x[2]]);
     let rest = FaceRest {
         a_bar: a,
         b_bar: Matrix2::zeros(),

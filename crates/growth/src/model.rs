@@ -7,6 +7,7 @@
 
 use nalgebra::{Matrix2, Vector2, Vector3};
 use thinshell_energy::RestState;
+use thinshell_energy::membrane_strain::{edges, first_fundamental_form};
 use thinshell_mesh::{FaceId, Mesh};
 
 use crate::error::{GrowthError, check, check_len};
@@ -196,10 +197,9 @@ impl Anisotropy {
         let d = d.normalize();
         let mut directions = Vec::with_capacity(mesh.n_faces());
         for (f, face) in mesh.faces().iter().enumerate() {
-            let p = x[face[0].idx()];
-            let e1 = x[face[1].idx()] - p;
-            let e2 = x[face[2].idx()] - p;
-            let a = Matrix2::new(e1.dot(&e1), e1.dot(&e2), e1.dot(&e2), e2.dot(&e2));
+            let corners = [x[face[0].idx()], x[face[1].idx()], x[face[2].idx()]];
+            let (e1, e2) = edges(&corners);
+            let a = first_fundamental_form(&corners);
             // Least-squares barycentric coordinates of d: its projection onto the face plane.
             let rhs = Vector2::new(e1.dot(&d), e2.dot(&d));
             let delta = a.try_inverse().map(|ai| ai * rhs);

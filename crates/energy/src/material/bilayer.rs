@@ -1,8 +1,8 @@
 //! Two bonded layers with their own moduli and eigenstrains (model.md §2.2).
 
 use super::{ElasticLaw, FaceGeometry, LawEval, Material, Order};
-use crate::density::sv_quadratic;
 use crate::error::EnergyError;
+use crate::stvk_quadratic::sv_quadratic;
 use crate::terms::Terms;
 use nalgebra::Vector3;
 

@@ -113,9 +113,76 @@ pub(crate) fn mat_mul(p: &DualMat, q: &DualMat) -> DualMat {
     std::array::from_fn(|i| std::array::from_fn(|j| p[i][0] * q[0][j] + p[i][1] * q[1][j]))
 }
 
-/// ‖M‖²_SV = α/2 tr(M)² + β tr(M²) of a general 2×2 matrix.
-pub(crate) fn sv_norm_sq(m: &DualMat, alpha: f64, beta: f64) -> Dual {
-    let tr = m[0][0] + m[1][1];
-    let tr_sq = m[0][0] * m[0][0] + m[0][1] * m[1][0] + m[1][0] * m[0][1] + m[1][1] * m[1][1];
-    (tr * tr).scale(0.5 * alpha) + tr_sq.scale(beta)
+/// The arithmetic that formulas written once for values and derivatives need: f64 for values,
+/// [`DualN`] for exact gradients and Hessians (the free-edge fit, the SV norm of a general
+/// matrix).
+pub(crate) trait Scalar:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self>
+{
+    /// The constant c.
+    fn cst(c: f64) -> Self;
+    /// 1/x.
+    fn recip(self) -> Self;
+    /// √x.
+    fn sqrt(self) -> Self;
+    /// c·x.
+    fn scale(self, c: f64) -> Self;
+    /// g(x) for g with value f0, first derivative f1, second derivative f2 at x.
+    fn apply(self, f0: f64, f1: f64, f2: f64) -> Self;
+    /// The value.
+    fn value(self) -> f64;
+}
+
+impl Scalar for f64 {
+    #[inline]
+    fn cst(c: f64) -> Self {
+        c
+    }
+    #[inline]
+    fn recip(self) -> Self {
+        1.0 / self
+    }
+    #[inline]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+    #[inline]
+    fn scale(self, c: f64) -> Self {
+        self * c
+    }
+    #[inline]
+    fn apply(self, f0: f64, _: f64, _: f64) -> Self {
+        f0
+    }
+    #[inline]
+    fn value(self) -> f64 {
+        self
+    }
+}
+
+impl<const N: usize> Scalar for DualN<N> {
+    #[inline]
+    fn cst(c: f64) -> Self {
+        DualN::constant(c)
+    }
+    #[inline]
+    fn recip(self) -> Self {
+        DualN::recip(self)
+    }
+    #[inline]
+    fn sqrt(self) -> Self {
+        DualN::sqrt(self)
+    }
+    #[inline]
+    fn scale(self, c: f64) -> Self {
+        DualN::scale(self, c)
+    }
+    #[inline]
+    fn apply(self, f0: f64, f1: f64, f2: f64) -> Self {
+        self.chain(f0, f1, f2)
+    }
+    #[inline]
+    fn value(self) -> f64 {
+        self.v
+    }
 }

@@ -89,7 +89,7 @@ impl LawEval {
 /// the energy, its 6-gradient and 6×6 Hessian in the form entries. Terms switched off in
 /// `terms` must contribute nothing (and with bending off, `b` is not evaluated: it is passed as
 /// b̄). Kelvin–Voigt damping is not part of the law: it stays the StVK-shaped quadratic of the
-/// [`Material`]'s h, E, ν for every model.
+/// [`Material`]'s h, E, ν for every model ([`crate::damping`]).
 pub trait ElasticLaw: std::fmt::Debug + Send + Sync {
     /// Name used in scene files (`[material] model = "…"`).
     fn name(&self) -> &'static str;
@@ -118,6 +118,50 @@ pub trait ElasticLaw: std::fmt::Debug + Send + Sync {
         order: Order,
         out: &mut LawEval,
     );
+
+    /// The energies (stretch, bend) (J) alone, for the energy-only kernel
+    /// ([`crate::eval_face_energy`]), with `constants` = [`EnergyConstants::new`]`(material)`
+    /// computed once per mesh evaluation. Default: [`eval`](Self::eval) at [`Order::Energy`];
+    /// a law with a cheaper closed form overrides it (and has `eval` at [`Order::Energy`]
+    /// agree with it).
+    fn energy(
+        &self,
+        material: &Material,
+        _constants: &EnergyConstants,
+        face: &FaceGeometry,
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+        terms: Terms,
+    ) -> (f64, f64) {
+        let mut le = LawEval::default();
+        self.eval(material, face, a, b, terms, Order::Energy, &mut le);
+        (le.stretch, le.bend)
+    }
+}
+
+/// Constants of a [`Material`] that the energy-only kernel needs at every face, computed once
+/// per mesh evaluation instead of once per face: h/8 and h³/24 (m, m³), α/2 and β (Pa), η/E (s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EnergyConstants {
+    pub(crate) h_8: f64,
+    pub(crate) h3_24: f64,
+    pub(crate) half_alpha: f64,
+    pub(crate) beta: f64,
+    pub(crate) eta_over_e: f64,
+}
+
+impl EnergyConstants {
+    /// The constants of `material` (not validated: [`crate::Assembler::evaluate`] validates).
+    pub fn new(material: &Material) -> Self {
+        let h = material.thickness;
+        Self {
+            h_8: h / 8.0,
+            h3_24: h * h * h / 24.0,
+            half_alpha: 0.5 * material.alpha(),
+            beta: material.beta(),
+            eta_over_e: material.viscosity / material.young,
+        }
+    }
 }
 
 /// The elastic model of a [`Material`] (scene key `[material] model`).
@@ -149,6 +193,25 @@ impl MaterialModel {
     /// Scene name (`stvk`, `neo_hookean`, `bilayer`).
     pub fn name(&self) -> &'static str {
         self.law().name()
+    }
+
+    /// [`ElasticLaw::energy`] of the model's law, dispatched statically (the energy-only
+    /// kernel's per-face call, where a closed form such as [`StVK`]'s is inlined).
+    #[inline]
+    pub fn energy(
+        &self,
+        material: &Material,
+        constants: &EnergyConstants,
+        face: &FaceGeometry,
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+        terms: Terms,
+    ) -> (f64, f64) {
+        match self {
+            MaterialModel::StVK => StVK.energy(material, constants, face, a, b, terms),
+            MaterialModel::NeoHookean => NeoHookean.energy(material, constants, face, a, b, terms),
+            MaterialModel::Bilayer(l) => l.energy(material, constants, face, a, b, terms),
+        }
     }
 }
 

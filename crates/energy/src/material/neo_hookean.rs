@@ -1,7 +1,8 @@
 //! Compressible neo-Hookean shell (model.md §2.1).
 
-use super::dual::{Dual, DualMat, mat_mul, sv_norm_sq};
+use super::dual::{Dual, DualMat, mat_mul};
 use super::{ElasticLaw, FaceGeometry, LawEval, Material, Order};
+use crate::stvk_quadratic::sv_norm_sq_general;
 use crate::terms::Terms;
 use nalgebra::Vector3;
 
@@ -81,7 +82,7 @@ impl ElasticLaw for NeoHookean {
             let diff: DualMat = std::array::from_fn(|i| {
                 std::array::from_fn(|j| s[i][j] - Dual::constant(s_bar[i][j]))
             });
-            let e = sv_norm_sq(&diff, alpha, beta).scale(h * h * h / 24.0 * face.area);
+            let e = sv_norm_sq_general(&diff, alpha, beta).scale(h * h * h / 24.0 * face.area);
             out.bend = e.v;
             total = total + e;
         }

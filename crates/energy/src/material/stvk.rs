@@ -1,7 +1,7 @@
 //! St. Venant–Kirchhoff shell (model.md §2): the quadratic SV-norm energies of the paper.
 
-use super::{ElasticLaw, FaceGeometry, LawEval, Material, Order};
-use crate::density::sv_quadratic;
+use super::{ElasticLaw, EnergyConstants, FaceGeometry, LawEval, Material, Order};
+use crate::stvk_quadratic::{sv_norm_sq_entries, sv_quadratic, sv_quadratic_times};
 use crate::terms::Terms;
 use nalgebra::Vector3;
 
@@ -11,7 +11,9 @@ use nalgebra::Vector3;
 /// - stretch = h/8 · ‖ā⁻¹a − I‖²_SV · A,
 /// - bend = h³/24 · ‖ā⁻¹(b − b̄)‖²_SV · A.
 ///
-/// Each is a quadratic dᵀKd in the three form entries ([`sv_quadratic`]); no a–b coupling.
+/// Each is a quadratic dᵀKd in the three form entries ([`crate::stvk_quadratic`]); no a–b
+/// coupling. The energy alone is the SV norm written out ([`sv_norm_sq_entries`]), the gradient
+/// 2Kd without forming K, the Hessian 2K.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct StVK;
 
@@ -35,6 +37,10 @@ impl ElasticLaw for StVK {
         out: &mut LawEval,
     ) {
         out.clear(order);
+        if order == Order::Energy {
+            (out.stretch, out.bend) = self.energy(m, &EnergyConstants::new(m), face, a, b, terms);
+            return;
+        }
         let (h, alpha, beta) = (m.thickness, m.alpha(), m.beta());
         let quadratic = |scale: f64, d: Vector3<f64>, stretch: bool, out: &mut LawEval| {
             let c = scale * face.area;
@@ -49,21 +55,9 @@ impl ElasticLaw for StVK {
                 *e = d.dot(&kd);
                 *g = kd * 2.0;
                 *hh = k * 2.0;
-                return;
-            }
-            // K d without forming K (energy and gradient paths): K = c (α/2 v vᵀ + β Q) with
-            // v = (p, 2q, r) and Q of `sv_quadratic`, for ā⁻¹ = [[p, q], [q, r]].
-            let ai = &face.a_bar_inv;
-            let (p, q, r) = (ai[(0, 0)], 0.5 * (ai[(0, 1)] + ai[(1, 0)]), ai[(1, 1)]);
-            let v = Vector3::new(p, 2.0 * q, r);
-            let qd = Vector3::new(
-                p * p * d[0] + 2.0 * p * q * d[1] + q * q * d[2],
-                2.0 * p * q * d[0] + 2.0 * (q * q + p * r) * d[1] + 2.0 * q * r * d[2],
-                q * q * d[0] + 2.0 * q * r * d[1] + r * r * d[2],
-            );
-            let kd = (v * (0.5 * alpha * v.dot(&d)) + qd * beta) * c;
-            *e = d.dot(&kd);
-            if order == Order::Gradient {
+            } else {
+                let kd = sv_quadratic_times(&face.a_bar_inv, alpha, beta, c, &d);
+                *e = d.dot(&kd);
                 *g = kd * 2.0;
             }
         };
@@ -73,5 +67,30 @@ impl ElasticLaw for StVK {
         if terms.bend {
             quadratic(h * h * h / 24.0, b - face.b_bar, false, out);
         }
+    }
+
+    /// The SV norms written out, no 3×3 matrices ([`sv_norm_sq_entries`]).
+    #[inline]
+    fn energy(
+        &self,
+        _material: &Material,
+        k: &EnergyConstants,
+        face: &FaceGeometry,
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+        terms: Terms,
+    ) -> (f64, f64) {
+        let norm = |d: Vector3<f64>| sv_norm_sq_entries(&face.a_bar_inv, k.half_alpha, k.beta, &d);
+        let stretch = if terms.stretch {
+            k.h_8 * face.area * norm(a - face.a_bar)
+        } else {
+            0.0
+        };
+        let bend = if terms.bend {
+            k.h3_24 * face.area * norm(b - face.b_bar)
+        } else {
+            0.0
+        };
+        (stretch, bend)
     }
 }

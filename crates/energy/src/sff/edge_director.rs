@@ -27,7 +27,7 @@
 // Index loops over vertex blocks mirror the block formulas in the comments.
 #![allow(clippy::needless_range_loop)]
 
-use super::mid_edge_average::{cross_normal, normalize_jac, skew};
+use super::normals::{add_cross_hess, cross_normal, normalize_jac, skew};
 use super::{SecondFundamentalForm, SffDerivatives};
 use crate::material::dual::DualN;
 use crate::stencil::{EdgeAngles, FaceStencil};
@@ -86,20 +86,6 @@ fn add_block<const N: usize>(h: &mut SMatrix<f64, N, N>, a: usize, b: usize, m: 
 fn add_vec<const N: usize>(g: &mut SVector<f64, N>, a: usize, v: &Vector3<f64>) {
     let mut r = g.fixed_rows_mut::<3>(3 * a);
     r += v;
-}
-
-/// Adds the Hessian of ν·((p1 − p0) × (p2 − p0)) on local blocks `idx`:
-/// ∂²/∂p_a∂p_b = K_ab [ν]×, K = [[0, −1, 1], [1, 0, −1], [−1, 1, 0]].
-fn add_cross_hess<const N: usize>(h: &mut SMatrix<f64, N, N>, idx: [usize; 3], nu: &Vector3<f64>) {
-    const K: [[f64; 3]; 3] = [[0.0, -1.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 0.0]];
-    let s = skew(nu);
-    for a in 0..3 {
-        for b in 0..3 {
-            if K[a][b] != 0.0 {
-                add_block(h, idx[a], idx[b], &(s * K[a][b]));
-            }
-        }
-    }
 }
 
 /// Altitude d = |c_f| / |p2 − p1| from p0 onto the edge (m), its gradient on the local blocks

@@ -11,6 +11,7 @@
 // Index loops over the stencil's vertex blocks mirror the block formulas in the comments.
 #![allow(clippy::needless_range_loop)]
 
+use super::normals::{add_cross_hess, cross_normal, normalize_hess, normalize_jac};
 use super::{SecondFundamentalForm, SffDerivatives};
 use crate::stencil::FaceStencil;
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
@@ -40,58 +41,10 @@ type InteriorEdge = (Vector3<f64>, f64, Vector3<f64>, f64);
 /// 3×18 matrix stored as six 3×3 blocks (one per stencil vertex).
 type Blocks = [Matrix3<f64>; 6];
 
-#[inline]
-pub(super) fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
-}
-
 /// Vertex-block indices of the triangle (p0, p1, p2) whose normal is the neighbour across edge e.
 #[inline]
 fn neighbour_blocks(e: usize) -> [usize; 3] {
     [(e + 2) % 3, (e + 1) % 3, 3 + e]
-}
-
-/// Unnormalised normal c = (p1 − p0) × (p2 − p0) and its Jacobian blocks w.r.t. p0, p1, p2:
-/// dc = [p2 − p1]× dp0 − [p2 − p0]× dp1 + [p1 − p0]× dp2.
-#[inline]
-pub(super) fn cross_normal(p: [&Vector3<f64>; 3]) -> (Vector3<f64>, [Matrix3<f64>; 3]) {
-    let e1 = p[1] - p[0];
-    let e2 = p[2] - p[0];
-    (e1.cross(&e2), [skew(&(p[2] - p[1])), -skew(&e2), skew(&e1)])
-}
-
-/// Unit vector m = u/|u|, and P/|u| with P = I − m mᵀ (Jacobian of u ↦ u/|u|).
-#[inline]
-pub(super) fn normalize_jac(u: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>, f64) {
-    let len = u.norm();
-    let m = u / len;
-    let p = (Matrix3::identity() - m * m.transpose()) / len;
-    (m, p, len)
-}
-
-/// Contracted Hessian ∇²_u (w·u/|u|) = −(m (Pw)ᵀ + (Pw) mᵀ + (m·w) P)/|u|², P = I − m mᵀ.
-#[inline]
-pub(super) fn normalize_hess(m: &Vector3<f64>, len: f64, w: &Vector3<f64>) -> Matrix3<f64> {
-    let p = Matrix3::identity() - m * m.transpose();
-    let pw = p * w;
-    let mpw = m * pw.transpose();
-    -(mpw + mpw.transpose() + p * m.dot(w)) / (len * len)
-}
-
-/// Adds the constant contracted Hessian of ν·((p1 − p0) × (p2 − p0)) on the blocks `idx`:
-/// block (i, j) = C_ij [ν]× with C = [[0, −1, 1], [1, 0, −1], [−1, 1, 0]].
-#[inline]
-fn add_cross_hess(h: &mut SMatrix<f64, 18, 18>, idx: [usize; 3], nu: &Vector3<f64>) {
-    const C: [[f64; 3]; 3] = [[0.0, -1.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 0.0]];
-    let s = skew(nu);
-    for (i, &bi) in idx.iter().enumerate() {
-        for (j, &bj) in idx.iter().enumerate() {
-            if C[i][j] != 0.0 {
-                let mut v = h.fixed_view_mut::<3, 3>(3 * bi, 3 * bj);
-                v += s * C[i][j];
-            }
-        }
-    }
 }
 
 /// Adds Jᵀ M J for J given as blocks on `idx` (3×3 each) and symmetric M.

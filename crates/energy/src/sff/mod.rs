@@ -2,6 +2,7 @@
 
 mod edge_director;
 mod mid_edge_average;
+pub(crate) mod normals;
 
 pub use edge_director::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
 pub(crate) use edge_director::{fit_quality, fitted_moments};

@@ -8,70 +8,7 @@
 //! Written once over [`Scalar`], evaluated in f64 for values and in second-order dual numbers
 //! for the exact gradient and Hessian.
 
-use crate::material::dual::DualN;
-use std::ops::{Add, Mul, Sub};
-
-/// The arithmetic the fit needs: f64 for values, [`DualN`] for derivatives.
-pub(crate) trait Scalar:
-    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self>
-{
-    /// The constant c.
-    fn cst(c: f64) -> Self;
-    /// 1/x.
-    fn recip(self) -> Self;
-    /// √x.
-    fn sqrt(self) -> Self;
-    /// g(x) for g with value f0, first derivative f1, second derivative f2 at x.
-    fn apply(self, f0: f64, f1: f64, f2: f64) -> Self;
-    /// The value.
-    fn value(self) -> f64;
-}
-
-impl Scalar for f64 {
-    #[inline]
-    fn cst(c: f64) -> Self {
-        c
-    }
-    #[inline]
-    fn recip(self) -> Self {
-        1.0 / self
-    }
-    #[inline]
-    fn sqrt(self) -> Self {
-        f64::sqrt(self)
-    }
-    #[inline]
-    fn apply(self, f0: f64, _: f64, _: f64) -> Self {
-        f0
-    }
-    #[inline]
-    fn value(self) -> f64 {
-        self
-    }
-}
-
-impl<const N: usize> Scalar for DualN<N> {
-    #[inline]
-    fn cst(c: f64) -> Self {
-        DualN::constant(c)
-    }
-    #[inline]
-    fn recip(self) -> Self {
-        DualN::recip(self)
-    }
-    #[inline]
-    fn sqrt(self) -> Self {
-        DualN::sqrt(self)
-    }
-    #[inline]
-    fn apply(self, f0: f64, f1: f64, f2: f64) -> Self {
-        self.chain(f0, f1, f2)
-    }
-    #[inline]
-    fn value(self) -> f64 {
-        self.v
-    }
-}
+use crate::material::dual::Scalar;
 
 type V<T> = [T; 3];
 

@@ -5,7 +5,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::{C, DirectorVariant, hinge_blocks, local_to_face};
-use crate::sff::mid_edge_average::{cross_normal, normalize_hess, normalize_jac, skew};
+use crate::sff::normals::{add_cross_hess, cross_normal, normalize_hess, normalize_jac, skew};
 use crate::stencil::{EdgeAngles, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
@@ -46,20 +46,6 @@ fn add_normal_hess(
         }
     }
     add_cross_hess(h, idx, &(p_over_len * w));
-}
-
-/// Adds the Hessian of ν·((p1 − p0) × (p2 − p0)) on local blocks `idx`:
-/// ∂²/∂p_a∂p_b = K_ab [ν]×, K = [[0, −1, 1], [1, 0, −1], [−1, 1, 0]].
-fn add_cross_hess(h: &mut LMat, idx: [usize; 3], nu: &Vector3<f64>) {
-    const K: [[f64; 3]; 3] = [[0.0, -1.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 0.0]];
-    let s = skew(nu);
-    for a in 0..3 {
-        for b in 0..3 {
-            if K[a][b] != 0.0 {
-                add_block(h, idx[a], idx[b], &(s * K[a][b]));
-            }
-        }
-    }
 }
 
 /// Altitude d = |c_f| / |p2 − p1| from p0 onto the edge (m), with gradient and (if `hess`)
