@@ -4,11 +4,11 @@
 //! a caller who gives those values directly.
 
 use nalgebra::Vector3;
-use thinshell_energy::{EnergyError, RestState, ShellModel, Terms};
+use thinshell_energy::{EnergyTerms, RestState, ShellModel, Terms};
 use thinshell_mesh::Mesh;
 use thinshell_solver::{
     Boundary, ContactSettings, ExplicitEuler, ImplicitEuler, Integrator, Loads, NewtonSettings,
-    ShellSystem, State,
+    ShellSystem, SolverError, State,
 };
 
 use thinshell_growth::{Growth, GrowthModel, StimulusField, apply_growth};
@@ -425,17 +425,17 @@ impl SimulationBuilder {
             }
             None => (None, None),
         };
-        let energy = elastic_energy(&self.mesh, &self.model, &rest, &x).map_err(energy_err)?;
-        let energy_grown = match &grown_rest {
-            Some(r) => Some(elastic_energy(&self.mesh, &self.model, r, &x).map_err(energy_err)?),
-            None => None,
-        };
         let mut system = ShellSystem::new(self.mesh, self.model, rest, self.boundary, self.loads)
             .map_err(solver_err)?;
         if x != x_ref {
             // Clamps hold the directors of the start state (model.md §1.3).
             system.set_clamp_reference(&x).map_err(solver_err)?;
         }
+        let (energy, energy_grown) =
+            initial_energies(&mut system, &x, grown_rest).map_err(|e| match e {
+                SolverError::Energy(source) => energy_err(source),
+                source => solver_err(source),
+            })?;
         if let Some(settings) = &self.contact {
             system.set_contact(settings, &x).map_err(solver_err)?;
         }
@@ -477,36 +477,40 @@ impl SimulationBuilder {
     }
 }
 
-/// Stretching and bending energy of `x` (J), without the damping term (which needs a previous
-/// state): used to report the initial state.
-fn elastic_energy(
-    mesh: &Mesh,
-    model: &ShellModel,
-    rest: &RestState,
+/// The elastic energies (J; stretching and bending, no damping) of the start positions `x`,
+/// as [`ShellSystem::energy`] gives them: edge angles at their minimiser for `x`, clamps held;
+/// with growth also against the `grown` rest forms (the system's rest forms are put back).
+///
+/// The angle relaxation factorises the angle block. When the memory budget refuses that factor
+/// the energies are NaN (not evaluated) rather than a build error: the first step then meets
+/// the run's own memory check, whose refusal names the mesh and the estimates, or runs by its
+/// iterative fallback and reports its own energies.
+fn initial_energies(
+    system: &mut ShellSystem,
     x: &[Vector3<f64>],
-) -> Result<thinshell_energy::EnergyTerms, EnergyError> {
-    let terms = Terms {
-        damping: false,
-        ..model.terms
+    grown: Option<RestState>,
+) -> Result<(EnergyTerms, Option<EnergyTerms>), SolverError> {
+    let not_evaluated = EnergyTerms {
+        stretch: f64::NAN,
+        bend: f64::NAN,
+        damping: 0.0,
     };
-    let model = ShellModel { terms, ..*model };
-    // Edge-director angles start at 0.
-    let n_angles = if ShellSystem::has_edge_unknowns_for(&model) {
-        mesh.n_edges()
-    } else {
-        0
+    let energy = match system.energy(x) {
+        Ok(e) => e,
+        Err(SolverError::InsufficientMemory { .. })
+        | Err(SolverError::InsufficientMemoryForIterative { .. }) => {
+            return Ok((not_evaluated, grown.map(|_| not_evaluated)));
+        }
+        Err(e) => return Err(e),
     };
-    let dofs = thinshell_energy::DofMap::all_free(mesh.n_vertices()).with_edges(n_angles, [])?;
-    let mut assembler = thinshell_energy::Assembler::for_model(mesh, &dofs, &model)?;
-    assembler.evaluate_with_angles(
-        &model,
-        x,
-        &vec![0.0; n_angles],
-        rest,
-        None,
-        thinshell_energy::EvalOutput {
-            gradient: None,
-            hessian: None,
-        },
-    )
+    let energy_grown = match grown {
+        Some(grown) => {
+            let own = std::mem::replace(&mut system.rest, grown);
+            let e = system.energy(x);
+            system.rest = own;
+            Some(e?)
+        }
+        None => None,
+    };
+    Ok((energy, energy_grown))
 }

@@ -366,8 +366,11 @@ impl Simulation {
     pub fn steps_total(&self) -> usize {
         self.steps_total
     }
-    /// Energies of the current state, J (before the first step: against the rest forms
-    /// before growth; see [`Simulation::initial_energy_grown`]).
+    /// Energies of the current state, J. Before the first step: the start state's elastic
+    /// energies as [`ShellSystem::energy`] gives them (edge angles at their minimiser, clamps
+    /// held), against the rest forms before growth (see [`Simulation::initial_energy_grown`]);
+    /// NaN when the memory budget refused the angle relaxation's factor (the first step then
+    /// meets the same budget).
     pub fn energy(&self) -> EnergyTerms {
         self.energy
     }
