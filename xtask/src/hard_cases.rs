@@ -629,7 +629,7 @@ fn past_critical(rows: &mut Vec<Value>) -> Result<()> {
     ];
     for (name, build) in cases {
         let (mut sys, x0) = build(k);
-        let faces = sys.mesh.n_faces();
+        let faces = sys.mesh().n_faces();
         let mut state = State::at_rest(x0.clone());
         let mut st = Static::default();
         verbose(&mut st);
