@@ -25,7 +25,7 @@ fn bench(c: &mut Criterion) {
         for sff in SffKind::ALL {
             let (sys, state) = shrinking_sphere(level, sff);
             let faces = sys.mesh().n_faces();
-            let mut asm = Assembler::for_model(&sys.mesh(), sys.dofs(), sys.model()).unwrap();
+            let mut asm = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model()).unwrap();
             let mut g = vec![0.0; sys.dofs().n_coordinates()];
             let mut h = asm.hessian_template();
             // A rippled configuration and small angles, so that nothing is trivially zero.

@@ -64,7 +64,7 @@ fn main() {
     for level in levels {
         for sff in [SffKind::MidEdgeAverage, SffKind::default()] {
             let (sys, _) = shrinking_sphere(level, sff);
-            let asm = Assembler::for_model(&sys.mesh(), sys.dofs(), sys.model()).unwrap();
+            let asm = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model()).unwrap();
             let mut h = asm.hessian_template();
             spd(&mut h);
             let n = h.ncols();
@@ -179,7 +179,7 @@ fn threads(levels: &[usize]) {
     for &level in levels {
         for sff in [SffKind::MidEdgeAverage, SffKind::default()] {
             let (sys, _) = shrinking_sphere(level, sff);
-            let asm = Assembler::for_model(&sys.mesh(), sys.dofs(), sys.model()).unwrap();
+            let asm = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model()).unwrap();
             let mut h = asm.hessian_template();
             spd(&mut h);
             let mut seq =
@@ -223,7 +223,7 @@ fn repeat(levels: &[usize], two: bool) {
     use thinshell_solver::{Ordering, SparseCholesky};
     for &level in levels {
         let (sys, _) = shrinking_sphere(level, SffKind::MidEdgeAverage);
-        let asm = Assembler::for_model(&sys.mesh(), sys.dofs(), sys.model()).unwrap();
+        let asm = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model()).unwrap();
         let mut h = asm.hessian_template();
         spd(&mut h);
         let par = if two { Par::rayon(2) } else { Par::Seq };

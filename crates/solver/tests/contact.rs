@@ -294,7 +294,7 @@ fn scroll(contact: bool, steps: usize) -> (bool, f64, usize, usize, bool) {
     let mut sys =
         ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default()).unwrap();
     // The same contact term, attached or only measuring.
-    let probe = Contact::new(&sys.mesh(), 2e-4, 1e6, &ContactSettings::default()).unwrap();
+    let probe = Contact::new(sys.mesh(), 2e-4, 1e6, &ContactSettings::default()).unwrap();
     if contact {
         sys.set_contact(&ContactSettings::default(), &x0).unwrap();
     }
@@ -565,7 +565,7 @@ fn contact_rejects_non_finite_input_and_stays_finite_on_degenerate_faces() {
             self_contact,
             ..plane_only.clone()
         };
-        let c = Contact::new(&sys.mesh(), h, 1e6, &settings).unwrap();
+        let c = Contact::new(sys.mesh(), h, 1e6, &settings).unwrap();
         let stats = c.stats(&x);
         let mut g = vec![0.0; 3 * x.len()];
         c.add_gradient(&x, &mut g);

@@ -450,7 +450,7 @@ fn strong_uniform_growth() {
         assert!(rob.is_none_or(|o| o.failure.is_none()), "{label}");
         let (r, s) = (
             rms_radius(&state.x),
-            edge_stretch(&grown_sphere(k).0.mesh(), &state.x),
+            edge_stretch(grown_sphere(k).0.mesh(), &state.x),
         );
         println!(
             "  rms radius {r:.4} m, mean edge stretch {s:.4} (metric: {:.4})",
@@ -573,7 +573,7 @@ fn start_with_inverted_faces() {
         p.z += 1e-3 * ((rng >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
     }
     x0[4 * 9 + 4].z += 0.05;
-    let n_inv = inverted_faces(&sys.mesh(), &x0);
+    let n_inv = inverted_faces(sys.mesh(), &x0);
     assert!(n_inv >= 2, "{n_inv}");
     let build = || {
         let (sys, _) = flat_sheet(8, true);
@@ -586,7 +586,7 @@ fn start_with_inverted_faces() {
     let e1 = total_energy(&mut dyn_sys, &state);
     // Faces with a −z normal at the end: the released energy throws the free sheet into
     // bending waves, so this counts wrinkles as much as inversions.
-    let after = inverted_faces(&sys.mesh(), &state.x);
+    let after = inverted_faces(sys.mesh(), &state.x);
     println!("  energy {e0:.3e} -> {e1:.3e} J; faces facing -z: {n_inv} -> {after}");
     assert!(e1 <= e0, "{e0} -> {e1}");
     // Static from the inverted start (no damping).
@@ -594,7 +594,7 @@ fn start_with_inverted_faces() {
     let (_, fb, st) = static_plain_then_fallback(&label, &mut st_sys, &x0, &|_| {});
     assert!(fb.is_none_or(|o| o.failure.is_none()));
     let e = st_sys.energy(&st.x).unwrap().total();
-    let inv = inverted_faces(&st_sys.mesh(), &st.x);
+    let inv = inverted_faces(st_sys.mesh(), &st.x);
     println!("  static: inverted faces {inv}, energy {e0:.3e} -> {e:.3e} J");
     // The static solve unfolds the sheet completely: back to the flat, zero-energy rest state.
     assert!(inv == 0 && e < 1e-9 * e0, "{inv} inverted, energy {e}");

@@ -59,7 +59,7 @@ fn static_flat_case(a_xy: Matrix2<f64>, start_map: Matrix2<f64>) -> f64 {
     let e = sys.energy(&x).unwrap();
     // Stretching energy scale E h |Ω| ~ 2e5 J; the equilibrium is exactly zero-energy.
     assert!(e.total() < 1e-12, "energy {e:?}");
-    metric_error(&sys.mesh(), &x, a_xy)
+    metric_error(sys.mesh(), &x, a_xy)
 }
 
 #[test]

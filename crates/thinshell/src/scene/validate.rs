@@ -68,7 +68,7 @@ fn static_only(s: &SceneFile, on: &dyn Fn(Effect) -> bool) -> Check {
              remove it or use a dynamic integrator",
         ));
     }
-    if s.integrator.load_ramp.is_some() && !(has_loads(on) || !s.boundary.prescribed.is_empty()) {
+    if s.integrator.load_ramp.is_some() && !has_loads(on) && s.boundary.prescribed.is_empty() {
         return Err(problem(
             "integrator.load_ramp",
             "has nothing to ramp: it needs effect `gravity`, `pressure` or `point_loads`, or \
