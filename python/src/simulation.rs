@@ -20,7 +20,7 @@ use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use thinshell::scene::Scene;
-use thinshell::sim::{BuildError, Energies, Simulation, StepError, StepRecord};
+use thinshell::sim::{BuildError, Simulation, StepError, StepRecord};
 use thinshell_energy::{EnergyTerms, RestState};
 use thinshell_growth::FaceStimulus;
 
@@ -498,7 +498,7 @@ impl PySimulation {
             "steps": s.steps_done(),
             "steps_requested": s.steps_total(),
             "time_s": s.time(),
-            "energy": Energies::from(s.energy()),
+            "energy": s.energy(),
             "load_factor": s.load_factor(),
         });
         t.write_into(&mut value);
@@ -815,7 +815,7 @@ impl PySimulation {
 
 /// The energies of a snapshot by term, J.
 fn energies_dict<'py>(py: Python<'py>, s: &Snapshot) -> PyResult<Bound<'py, PyDict>> {
-    let e = Energies::from(s.energy);
+    let e = s.energy;
     let d = PyDict::new(py);
     d.set_item("stretch", e.stretch)?;
     d.set_item("bend", e.bend)?;

@@ -41,9 +41,9 @@ use anyhow::{Context, Result, bail};
 use nalgebra::Vector3;
 use serde_json::{Value, json};
 use thinshell::scene::Scene;
-use thinshell::sim::Simulation;
+use thinshell::sim::{Simulation, SimulationBuilder};
 use thinshell_energy::{HessianMode, Material, RestState, SffKind, ShellModel, Terms};
-use thinshell_growth::{FaceStimulus, Growth, Prescribed, Swelling};
+use thinshell_growth::{FaceStimulus, Prescribed, Swelling};
 use thinshell_mesh::{VertexId, generators};
 use thinshell_solver::{
     Boundary, HessianPolicy, ImplicitEuler, Integrator, Loads, NewtonReport, NewtonSettings,
@@ -104,6 +104,14 @@ fn residual_tail(e: &SolverError) -> String {
             let t: Vec<String> = tail.iter().map(|r| format!("{r:.2e}")).collect();
             format!(" (last residuals {})", t.join(" "))
         }
+        _ => String::new(),
+    }
+}
+
+/// [`residual_tail`] of a failed simulation step's Newton solve.
+fn step_residual_tail(e: &thinshell::StepError) -> String {
+    match &e.source {
+        thinshell::StepFailure::Solver(s) => residual_tail(s),
         _ => String::new(),
     }
 }
@@ -412,30 +420,24 @@ fn strip(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
         ] {
             let mesh = generators::rectangle(0.1, 0.002, 50, ny)?;
             let x0 = mesh.positions().to_vec();
-            let initial = RestState::from_mesh(&mesh, &x0, form)?;
             let material = Material {
                 thickness: 1e-3,
                 ..Material::paper()
             };
+            // A simulation's step k solves against the stimulus at t = k − 1 (then advances
+            // it): (k/4 of the full swelling at step k).
             let ramp = Prescribed::function(
                 &mesh,
                 &x0,
                 Box::new(|t, _| FaceStimulus {
-                    top: (t / 4.0).min(1.0),
+                    top: ((t + 1.0) / 4.0).min(1.0),
                     bottom: 0.0,
                 }),
             )?;
             let swelling = Box::new(Swelling::linear(0.01));
-            let mut growth = Growth::new(swelling, Box::new(ramp), initial.clone(), 1e-3)?;
-            let mut sys = ShellSystem::new(
-                mesh,
-                model(material, false, form),
-                initial,
-                Boundary::default(),
-                Loads::default(),
-            )?;
-            // Default settings: the solver's scale-free convergence test, adaptive Hessian.
-            let mut st = Static::default();
+            // The run loop's static solver (the scenes' settings: its failures are continued
+            // by `Simulation::step` from the previous step's rest forms).
+            let mut st = thinshell::scene::integrator::run_loop_static();
             match variant {
                 "default (adaptive)" => {}
                 "adaptive_psd (before #26)" => st.newton.hessian = HessianPolicy::AdaptivePsd,
@@ -459,21 +461,22 @@ fn strip(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
                 }
             }
             verbose(&mut st);
-            let mut state = State::at_rest(x0);
+            let mut sim = SimulationBuilder::new(mesh, model(material, false, form))
+                .name("swelling strip")
+                .growth(swelling, Box::new(ramp), None)
+                .integrator(st, 1.0)
+                .steps(4)
+                .build()?;
             let mut its = Vec::new();
             let mut failure = None;
             let t0 = Instant::now();
-            for step in 1..=4 {
-                // Stimulus at t = step: the ramp's step/4 of the full swelling.
-                growth.advance(step as f64 - 1.0, 1.0)?;
-                state.t = step as f64;
-                growth.update_rest(&mut sys.rest)?;
-                match st.step(&mut sys, &mut state) {
+            for _ in 1..=4 {
+                match sim.step() {
                     Ok(r) => {
-                        if let Some(n) = &r.newton {
-                            check_newton(n, "strip")?;
-                            its.push(n.iterations);
+                        if !(r.energy.total().is_finite() && r.residual.is_finite()) {
+                            bail!("strip: non-finite energy or residual in step {}", r.step);
                         }
+                        its.push(r.newton_iterations);
                     }
                     Err(e) => {
                         failure = Some(e);
@@ -485,7 +488,7 @@ fn strip(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
             let case = format!("swelling strip, {ny} cells across, {variant}");
             let outcome = match &failure {
                 None => format!("4 steps, Newton iterations {its:?}"),
-                Some(e) => format!("iterations {its:?}, then: {e}{}", residual_tail(e)),
+                Some(e) => format!("iterations {its:?}, then: {e}{}", step_residual_tail(e)),
             };
             let detail = json!({
                 "newton_iterations": its, "failure": failure.map(|e| e.to_string()),
@@ -629,7 +632,7 @@ fn past_critical(rows: &mut Vec<Value>) -> Result<()> {
     ];
     for (name, build) in cases {
         let (mut sys, x0) = build(k);
-        let faces = sys.mesh.n_faces();
+        let faces = sys.mesh().n_faces();
         let mut state = State::at_rest(x0.clone());
         let mut st = Static::default();
         verbose(&mut st);

@@ -40,8 +40,10 @@ pub enum HessianMode {
     ProjectedPsd,
 }
 
-/// Energies per term (J).
+/// Energies per term (J). With the crate's `serde` feature it serialises as
+/// `{"stretch", "bend", "damping"}` (the run output's `energy` records).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct EnergyTerms {
     /// Stretching energy (J).
     pub stretch: f64,
@@ -55,6 +57,11 @@ impl EnergyTerms {
     /// Sum of the terms (J).
     pub fn total(&self) -> f64 {
         self.stretch + self.bend + self.damping
+    }
+
+    /// Elastic energy, stretching + bending (J).
+    pub fn elastic(&self) -> f64 {
+        self.stretch + self.bend
     }
 }
 

@@ -34,7 +34,7 @@ fn relaxed_strip_curvature(model: Swelling, ny: usize) -> f64 {
     // Centre line: row j = 1 of the (NX + 1) × 3 vertex grid.
     let p: Vec<Vector3<f64>> = (0..=NX).map(|i| state.x[(ny / 2) * (NX + 1) + i]).collect();
     let normal = {
-        let f = sys.mesh.faces()[NX]; // a face in the middle of the strip
+        let f = sys.mesh().faces()[NX]; // a face in the middle of the strip
         let q = |k: usize| state.x[f[k].idx()];
         (q(1) - q(0)).cross(&(q(2) - q(0))).normalize()
     };

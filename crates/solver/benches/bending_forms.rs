@@ -24,8 +24,8 @@ fn bench(c: &mut Criterion) {
     for level in [3usize, 5] {
         for sff in SffKind::ALL {
             let (sys, state) = shrinking_sphere(level, sff);
-            let faces = sys.mesh.n_faces();
-            let mut asm = Assembler::for_model(&sys.mesh, sys.dofs(), sys.model()).unwrap();
+            let faces = sys.mesh().n_faces();
+            let mut asm = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model()).unwrap();
             let mut g = vec![0.0; sys.dofs().n_coordinates()];
             let mut h = asm.hessian_template();
             // A rippled configuration and small angles, so that nothing is trivially zero.
@@ -71,7 +71,7 @@ fn bench(c: &mut Criterion) {
     for level in [3usize, 5] {
         for sff in SffKind::ALL {
             let (mut sys, state0) = shrinking_sphere(level, sff);
-            let faces = sys.mesh.n_faces();
+            let faces = sys.mesh().n_faces();
             let mut ie = ImplicitEuler::new(1e-3);
             let mut s = state0.clone();
             let t = Instant::now();

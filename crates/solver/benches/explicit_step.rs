@@ -66,7 +66,7 @@ fn bench(c: &mut Criterion) {
         }
         let before = sys.angle_relaxation_totals();
         let mut steps = 0usize;
-        group.bench_function(format!("{}/{}", sff.name(), sys.mesh.n_faces()), |b| {
+        group.bench_function(format!("{}/{}", sff.name(), sys.mesh().n_faces()), |b| {
             b.iter(|| {
                 ex.step(&mut sys, &mut state).unwrap();
                 steps += 1;

@@ -21,7 +21,7 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     for level in [3usize, 5, 6] {
         let (mut sys, state0) = shrinking_sphere(level, SffKind::MidEdgeAverage);
-        let faces = sys.mesh.n_faces();
+        let faces = sys.mesh().n_faces();
         let mut ie = ImplicitEuler::new(1e-3);
         // One reported step (also builds the workspace).
         let mut s = state0.clone();

@@ -76,12 +76,12 @@ fn main() {
     for level in levels {
         for sff in [SffKind::MidEdgeAverage, SffKind::default()] {
             let (sys, _) = shrinking_sphere(level, sff);
-            let asm = Assembler::for_model(&sys.mesh, sys.dofs(), sys.model()).unwrap();
+            let asm = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model()).unwrap();
             let mut h = asm.hessian_template();
             spd(&mut h);
             let n = h.ncols();
-            let p = sys.mesh.positions();
-            let edges = sys.mesh.topology().edges();
+            let p = sys.mesh().positions();
+            let edges = sys.mesh().topology().edges();
             let n3 = 3 * p.len();
             let coords: Vec<[f64; 3]> = sys
                 .dofs()
@@ -175,7 +175,7 @@ fn main() {
                 println!(
                     "L{level} {:>18} faces {:>6} n {:>7} {:>9}: flops {:.3e} len {:>10} order {:.3}s num {:.3}s",
                     sff.name(),
-                    sys.mesh.n_faces(),
+                    sys.mesh().n_faces(),
                     n,
                     name,
                     factor_flops(&sym),
@@ -195,7 +195,7 @@ fn threads(levels: &[usize]) {
     for &level in levels {
         for sff in [SffKind::MidEdgeAverage, SffKind::default()] {
             let (sys, _) = shrinking_sphere(level, sff);
-            let asm = Assembler::for_model(&sys.mesh, sys.dofs(), sys.model()).unwrap();
+            let asm = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model()).unwrap();
             let mut h = asm.hessian_template();
             spd(&mut h);
             let mut seq =
@@ -239,7 +239,7 @@ fn repeat(levels: &[usize], two: bool) {
     use thinshell_solver::{Ordering, SparseCholesky};
     for &level in levels {
         let (sys, _) = shrinking_sphere(level, SffKind::MidEdgeAverage);
-        let asm = Assembler::for_model(&sys.mesh, sys.dofs(), sys.model()).unwrap();
+        let asm = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model()).unwrap();
         let mut h = asm.hessian_template();
         spd(&mut h);
         let par = if two { Par::rayon(2) } else { Par::Seq };

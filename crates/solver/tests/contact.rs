@@ -45,13 +45,13 @@ fn sheet(n: usize, lift: f64) -> (ShellSystem, Vec<V>) {
 
 fn faces_edges(sys: &ShellSystem) -> (Vec<[usize; 3]>, Vec<[usize; 2]>) {
     let f = sys
-        .mesh
+        .mesh()
         .faces()
         .iter()
         .map(|f| f.map(|v| v.idx()))
         .collect();
     let e = sys
-        .mesh
+        .mesh()
         .topology()
         .edges()
         .iter()
@@ -70,7 +70,7 @@ fn contact_gradient_matches_fd() {
     // A sheet folded so that its two halves are within d̂, above a plane and beside a sphere.
     let (mut sys, _) = sheet(6, 0.0);
     let x: Vec<V> = sys
-        .mesh
+        .mesh()
         .positions()
         .iter()
         .map(|p| {
@@ -294,7 +294,7 @@ fn scroll(contact: bool, steps: usize) -> (bool, f64, usize, usize, bool) {
     let mut sys =
         ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default()).unwrap();
     // The same contact term, attached or only measuring.
-    let probe = Contact::new(&sys.mesh, 2e-4, 1e6, &ContactSettings::default()).unwrap();
+    let probe = Contact::new(sys.mesh(), 2e-4, 1e6, &ContactSettings::default()).unwrap();
     if contact {
         sys.set_contact(&ContactSettings::default(), &x0).unwrap();
     }
@@ -444,7 +444,7 @@ fn adaptive_stiffness_carries_the_weight_at_half_the_activation_distance() {
     let h = sys.model().material.thickness;
     let d_hat = 1e-3;
     let mut x: Vec<V> = sys
-        .mesh
+        .mesh()
         .positions()
         .iter()
         .map(|p| p + V::new(0.0, 0.0, 0.5 * h + 0.9 * d_hat))
@@ -653,7 +653,7 @@ fn contact_rejects_non_finite_input_and_stays_finite_on_degenerate_faces() {
             self_contact,
             ..plane_only.clone()
         };
-        let c = Contact::new(&sys.mesh, h, 1e6, &settings).unwrap();
+        let c = Contact::new(sys.mesh(), h, 1e6, &settings).unwrap();
         let stats = c.stats(&x);
         let mut g = vec![0.0; 3 * x.len()];
         c.add_gradient(&x, &mut g);

@@ -88,13 +88,13 @@ fn pyramid() -> (Vec<V>, Vec<[usize; 3]>) {
 
 fn topology(sys: &ShellSystem) -> (Vec<[usize; 3]>, Vec<[usize; 2]>) {
     let f = sys
-        .mesh
+        .mesh()
         .faces()
         .iter()
         .map(|f| f.map(|v| v.idx()))
         .collect();
     let e = sys
-        .mesh
+        .mesh()
         .topology()
         .edges()
         .iter()
@@ -300,7 +300,7 @@ fn pressed_static(obstacle: Obstacle, top: f64) -> [f64; 4] {
     let (sys0, _) = sheet(10, 0.0);
     let h = sys0.model().material.thickness;
     let d_hat = 1e-3;
-    let mesh = sys0.mesh.clone();
+    let mesh = sys0.mesh().clone();
     let model = *sys0.model();
     let rest = sys0.rest.clone();
     let centre = mesh

@@ -361,7 +361,7 @@ fn explicit_euler_with_the_default_form_matches_implicit() {
         ..Default::default()
     };
     let mut sys = ShellSystem::new(mesh, model, rest, boundary, Loads::default()).unwrap();
-    let x0 = sys.mesh.positions().to_vec();
+    let x0 = sys.mesh().positions().to_vec();
     let mut start = State::at_rest(x0.clone());
     for (i, v) in start.v.iter_mut().enumerate() {
         if sys.dofs().dof(VertexId::new(i), 2).is_some() {

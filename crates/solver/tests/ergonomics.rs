@@ -39,11 +39,11 @@ fn face_energies_of_a_uniform_stretch() {
         .map(|p| Vector3::new(p.x * (1.0 + eps), p.y, p.z))
         .collect();
     let faces = sys.face_energies(&x, &[]).unwrap();
-    assert_eq!(faces.len(), sys.mesh.n_faces());
+    assert_eq!(faces.len(), sys.mesh().n_faces());
     let (e, nu, h) = (material.young, material.poisson, material.thickness);
     let (alpha, beta) = (e * nu / (1.0 - nu * nu), e / (2.0 * (1.0 + nu)));
     let s = 2.0 * eps + eps * eps;
-    for (f, terms) in sys.mesh.faces().iter().zip(&faces) {
+    for (f, terms) in sys.mesh().faces().iter().zip(&faces) {
         let [a, b, c] = [x0[f[0].idx()], x0[f[1].idx()], x0[f[2].idx()]];
         let sqrt_det = (b - a).cross(&(c - a)).norm();
         let expected = h / 8.0 * s * s * (alpha / 2.0 + beta) * sqrt_det;

@@ -225,7 +225,7 @@ fn total_energy(sys: &mut ShellSystem, s: &State) -> f64 {
     let mut m = *sys.model();
     m.terms = terms;
     let mut probe = ShellSystem::new(
-        sys.mesh.clone(),
+        sys.mesh().clone(),
         m,
         sys.rest.clone(),
         Boundary::default(),
@@ -411,7 +411,7 @@ fn without_damping(sys: &ShellSystem) -> ShellSystem {
         gravity: sys.loads.gravity,
         ..Default::default()
     };
-    ShellSystem::new(sys.mesh.clone(), m, sys.rest.clone(), b, loads).unwrap()
+    ShellSystem::new(sys.mesh().clone(), m, sys.rest.clone(), b, loads).unwrap()
 }
 
 /// The same free system with damped paper and the damping term.
@@ -423,7 +423,7 @@ fn with_damping(sys: &ShellSystem) -> ShellSystem {
         ..m.material
     };
     let (b, l) = (Boundary::default(), Loads::default());
-    ShellSystem::new(sys.mesh.clone(), m, sys.rest.clone(), b, l).unwrap()
+    ShellSystem::new(sys.mesh().clone(), m, sys.rest.clone(), b, l).unwrap()
 }
 
 /// Uniform growth ā = k a⁰ on the unit sphere with b̄ = b⁰ (the seed's p = 0).
@@ -450,7 +450,7 @@ fn strong_uniform_growth() {
         assert!(rob.is_none_or(|o| o.failure.is_none()), "{label}");
         let (r, s) = (
             rms_radius(&state.x),
-            edge_stretch(&grown_sphere(k).0.mesh, &state.x),
+            edge_stretch(grown_sphere(k).0.mesh(), &state.x),
         );
         println!(
             "  rms radius {r:.4} m, mean edge stretch {s:.4} (metric: {:.4})",
@@ -573,7 +573,7 @@ fn start_with_inverted_faces() {
         p.z += 1e-3 * ((rng >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
     }
     x0[4 * 9 + 4].z += 0.05;
-    let n_inv = inverted_faces(&sys.mesh, &x0);
+    let n_inv = inverted_faces(sys.mesh(), &x0);
     assert!(n_inv >= 2, "{n_inv}");
     let build = || {
         let (sys, _) = flat_sheet(8, true);
@@ -586,7 +586,7 @@ fn start_with_inverted_faces() {
     let e1 = total_energy(&mut dyn_sys, &state);
     // Faces with a −z normal at the end: the released energy throws the free sheet into
     // bending waves, so this counts wrinkles as much as inversions.
-    let after = inverted_faces(&sys.mesh, &state.x);
+    let after = inverted_faces(sys.mesh(), &state.x);
     println!("  energy {e0:.3e} -> {e1:.3e} J; faces facing -z: {n_inv} -> {after}");
     assert!(e1 <= e0, "{e0} -> {e1}");
     // Static from the inverted start (no damping).
@@ -594,7 +594,7 @@ fn start_with_inverted_faces() {
     let (_, fb, st) = static_plain_then_fallback(&label, &mut st_sys, &x0, &|_| {});
     assert!(fb.is_none_or(|o| o.failure.is_none()));
     let e = st_sys.energy(&st.x).unwrap().total();
-    let inv = inverted_faces(&st_sys.mesh, &st.x);
+    let inv = inverted_faces(st_sys.mesh(), &st.x);
     println!("  static: inverted faces {inv}, energy {e0:.3e} -> {e:.3e} J");
     // The static solve unfolds the sheet completely: back to the flat, zero-energy rest state.
     assert!(inv == 0 && e < 1e-9 * e0, "{inv} inverted, energy {e}");
@@ -956,7 +956,7 @@ fn extreme_parameters() {
         // Static: the equilibrium is known exactly.
         let (mut sys, x0) = extreme_sheet(material, false);
         let e0 = sys.energy(&x0).unwrap().total();
-        let p = sys.mesh.positions().to_vec();
+        let p = sys.mesh().positions().to_vec();
         // h = 1e-6 m on a 1 m sheet is a membrane: its out-of-plane modes are 1e-12 as stiff
         // as the in-plane ones, and Newton converges on them only linearly. The former gradient
         // test stopped it after 29 iterations with the metric 7.7e-3 off; the scale-free test
@@ -1189,13 +1189,13 @@ fn thin_strip_with_aspect_16_triangles() {
 fn crumpled_start_with_edge_directors() {
     let (base, x0) = crumpled();
     let sff = SffKind::EdgeDirector(thinshell_energy::DirectorVariant::Sin);
-    let rest = RestState::from_mesh(&base.mesh, base.mesh.positions(), sff).unwrap();
+    let rest = RestState::from_mesh(base.mesh(), base.mesh().positions(), sff).unwrap();
     let m = ShellModel {
         sff,
         ..*base.model()
     };
     let mut sys = ShellSystem::new(
-        base.mesh.clone(),
+        base.mesh().clone(),
         m,
         rest,
         Boundary::default(),

@@ -66,7 +66,7 @@ fn implicit_steps_reuse_the_factor_by_default() {
     // Each step converges once its Newton correction is below 1e-3 of its move
     // (`relative_step_tolerance`), so two solves of it may differ by about that much; reuse
     // changes the positions far less (2.5e-7 m for a motion of 5e-2 m).
-    let x0 = sys.mesh.positions();
+    let x0 = sys.mesh().positions();
     let moved = state
         .x
         .iter()

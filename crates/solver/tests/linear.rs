@@ -306,7 +306,7 @@ fn bad_patterns_are_rejected() {
 fn shell_laplacian(shift: f64) -> SparseColMat<usize, f64> {
     use thinshell_energy::{Assembler, SffKind};
     let (sys, _) = thinshell_testkit::fixtures::shrinking_sphere(4, SffKind::MidEdgeAverage);
-    let mut h = Assembler::for_model(&sys.mesh, sys.dofs(), sys.model())
+    let mut h = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model())
         .unwrap()
         .hessian_template();
     let n = h.ncols();

@@ -66,8 +66,8 @@ fn forces_and_pressure_scale_with_the_load_factor() {
 #[test]
 fn static_response_is_linear_in_the_load_factor_for_small_loads() {
     let probe = system(Loads::default(), Boundary::default());
-    let topo = probe.mesh.topology();
-    let p = probe.mesh.positions();
+    let topo = probe.mesh().topology();
+    let p = probe.mesh().positions();
     let clamped = topo
         .boundary_edges()
         .iter()
@@ -99,7 +99,7 @@ fn static_response_is_linear_in_the_load_factor_for_small_loads() {
             force_scale: Some(3e-6),
             ..Static::default()
         };
-        let mut x = sys.mesh.positions().to_vec();
+        let mut x = sys.mesh().positions().to_vec();
         st.solve(&mut sys, &mut x).unwrap();
         -tip.iter().map(|v| x[v.idx()].z).sum::<f64>() / tip.len() as f64
     };

@@ -59,7 +59,7 @@ fn static_flat_case(a_xy: Matrix2<f64>, start_map: Matrix2<f64>) -> f64 {
     let e = sys.energy(&x).unwrap();
     // Stretching energy scale E h |Ω| ~ 2e5 J; the equilibrium is exactly zero-energy.
     assert!(e.total() < 1e-12, "energy {e:?}");
-    metric_error(&sys.mesh, &x, a_xy)
+    metric_error(sys.mesh(), &x, a_xy)
 }
 
 #[test]
@@ -101,7 +101,7 @@ fn pinned_sheet(damping: bool) -> (ShellSystem, Vec<VertexId>) {
 fn gravity_on_a_pinned_sheet_sags_and_reactions_carry_the_weight() {
     let (mut sys, pinned) = pinned_sheet(false);
     let weight: f64 = sys.mass().iter().sum::<f64>() * 9.81;
-    let x0 = sys.mesh.positions().to_vec();
+    let x0 = sys.mesh().positions().to_vec();
     let mut x = x0.clone();
     let mut solver = Static {
         // The weight (~0.25 N) is far below E·h·L: measure residuals against it.
@@ -143,7 +143,7 @@ fn max_disp(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> f64 {
 #[test]
 fn explicit_and_implicit_euler_agree_for_small_steps() {
     let (mut sys, _) = pinned_sheet(false);
-    let x0 = sys.mesh.positions().to_vec();
+    let x0 = sys.mesh().positions().to_vec();
     // Give the sheet an initial out-of-plane velocity so that bending dynamics matter.
     let mut start = State::at_rest(x0.clone());
     for (i, v) in start.v.iter_mut().enumerate() {
@@ -177,7 +177,7 @@ fn explicit_and_implicit_euler_agree_for_small_steps() {
 #[test]
 fn explicit_blows_up_above_its_stability_limit_implicit_does_not() {
     let (mut sys, _) = pinned_sheet(false);
-    let x0 = sys.mesh.positions().to_vec();
+    let x0 = sys.mesh().positions().to_vec();
     let dt = 1e-3;
     let mut state = State::at_rest(x0.clone());
     let mut ex = ExplicitEuler { dt };
@@ -223,7 +223,7 @@ fn implicit_with_damping_and_prescribed_motion() {
     // Drive one corner upwards at 1 mm/s; every other pin stays put. The boundary is fixed at
     // construction: a new system with the changed one.
     let corner = pinned[0];
-    let p0 = sys.mesh.positions()[corner.idx()];
+    let p0 = sys.mesh().positions()[corner.idx()];
     let mut boundary = thinshell_solver::Boundary {
         pinned_vertices: sys.boundary().pinned_vertices.clone(),
         pinned_coordinates: sys.boundary().pinned_coordinates.clone(),
@@ -236,13 +236,13 @@ fn implicit_with_damping_and_prescribed_motion() {
         position: Box::new(move |t| p0 + Vector3::new(0.0, 0.0, 1e-3 * t)),
     });
     let (mesh, model, rest, loads) = (
-        sys.mesh.clone(),
+        sys.mesh().clone(),
         *sys.model(),
         sys.rest.clone(),
         sys.loads.clone(),
     );
     let mut sys = ShellSystem::new(mesh, model, rest, boundary, loads).unwrap();
-    let x0 = sys.mesh.positions().to_vec();
+    let x0 = sys.mesh().positions().to_vec();
     let mut state = State::at_rest(x0.clone());
     let mut im = ImplicitEuler::new(1e-3);
     im.force_scale = Some(1e-2);

@@ -15,7 +15,7 @@ use thinshell_solver::{Ordering, SparseCholesky};
 /// orders). Positive definite for `shift > 0`, indefinite for `shift < 0`.
 fn weighted_shell_laplacian(shift: f64) -> SparseColMat<usize, f64> {
     let (sys, _) = thinshell_testkit::fixtures::shrinking_sphere(4, SffKind::MidEdgeAverage);
-    let mut h = Assembler::for_model(&sys.mesh, sys.dofs(), sys.model())
+    let mut h = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model())
         .unwrap()
         .hessian_template();
     let n = h.ncols();

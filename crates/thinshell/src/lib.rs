@@ -24,7 +24,7 @@ pub mod vtk;
 pub use output::{Failure, OutputWriter};
 pub use scene::{Scene, SceneError};
 pub use sim::{
-    BuildError, Energies, NoObserver, Observer, RunSummary, Simulation, SimulationBuilder,
+    BuildError, EnergyTerms, NoObserver, Observer, RunSummary, Simulation, SimulationBuilder,
     StepError, StepFailure, StepRecord,
 };
 

@@ -18,7 +18,7 @@ use thinshell_solver::SolverError;
 
 use crate::scene::Scene;
 use crate::scene::schema::Format;
-use crate::sim::{Energies, Observer, Simulation, StepError, StepFailure, StepRecord};
+use crate::sim::{EnergyTerms, Observer, Simulation, StepError, StepFailure, StepRecord};
 
 /// Why writing a run (or the run itself) failed; the command-line tool maps it to its exit
 /// code.
@@ -278,7 +278,7 @@ pub struct Summary {
     /// Time of the last good state, s.
     pub time_s: f64,
     /// Energies of the last good state (the start state when step 1 failed), J.
-    pub energy: Energies,
+    pub energy: EnergyTerms,
     /// Frames written.
     pub frames: usize,
     /// Load factor of the last good state.
@@ -775,7 +775,7 @@ impl OutputWriter {
             steps: sim.steps_done(),
             steps_requested: sim.steps_total(),
             time_s: sim.time(),
-            energy: Energies::from(sim.energy()),
+            energy: sim.energy(),
             frames: self.frames,
             load_factor: sim.load_factor(),
             totals: self.totals.clone(),

@@ -17,13 +17,13 @@ fn sheet_on_sphere_scene_is_intersection_free_and_settles() {
     let sys = sim.system();
     assert!(sys.contact.is_some());
     let faces: Vec<[usize; 3]> = sys
-        .mesh
+        .mesh()
         .faces()
         .iter()
         .map(|f| f.map(|v| v.idx()))
         .collect();
     let edges: Vec<[usize; 2]> = sys
-        .mesh
+        .mesh()
         .topology()
         .edges()
         .iter()
@@ -203,13 +203,13 @@ fn sheet_on_pyramid_scene_reads_its_obj_and_stays_intersection_free() {
         .collect();
     let sys = sim.system();
     let faces: Vec<[usize; 3]> = sys
-        .mesh
+        .mesh()
         .faces()
         .iter()
         .map(|f| f.map(|v| v.idx()))
         .collect();
     let edges: Vec<[usize; 2]> = sys
-        .mesh
+        .mesh()
         .topology()
         .edges()
         .iter()
@@ -330,7 +330,7 @@ fn swelling_scroll(contact: bool, steps: usize) -> (Option<(usize, [usize; 2])>,
     let mut sim = Simulation::build(&scene).unwrap();
     let faces: Vec<[usize; 3]> = sim
         .system()
-        .mesh
+        .mesh()
         .faces()
         .iter()
         .map(|f| f.map(|v| v.idx()))

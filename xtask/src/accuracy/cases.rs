@@ -2,16 +2,21 @@
 
 use anyhow::{Result, anyhow, bail};
 use nalgebra::Matrix2;
+use std::time::Instant;
+
 use thinshell::reference::{SquareCase, wrap_cylinder};
-use thinshell_energy::{HessianMode, Material, RestState, SffKind};
-use thinshell_growth::{FaceStimulus, Growth, Prescribed, Swelling};
+use thinshell::scene::integrator::run_loop_static;
+use thinshell::{SimulationBuilder, StepFailure};
+use thinshell_energy::{HessianMode, Material, RestState, SffKind, ShellModel, Terms};
+use thinshell_growth::{FaceStimulus, Prescribed, Swelling};
 use thinshell_mesh::{Mesh, generators};
 use thinshell_solver::{
-    Boundary, ExplicitEuler, ImplicitEuler, Loads, NewtonSettings, ShellSystem, State,
+    Boundary, ExplicitEuler, ImplicitEuler, Loads, NewtonSettings, ShellSystem, State, Static,
 };
 
 use super::runner::{
-    Cost, Knobs, best_equilibrium, elastic, integrate, paper, rms, rms_rigid, shell, static_solve,
+    Cost, Knobs, best_equilibrium, elastic, integrate, iterations_of, paper, rms, rms_rigid, shell,
+    static_solve,
 };
 use super::{CASE_NAMES, Case, Refinement, Run, STATIC_MAX_ITERATIONS, V3};
 
@@ -504,52 +509,77 @@ pub(super) fn strip(bilayer: bool, sff: SffKind, quick: bool) -> Result<Case> {
         let initial = RestState::from_mesh(&mesh, &x0, sff)?;
         let material = paper(STRIP_THICKNESS);
         let faces = mesh.n_faces();
-        let mesh_copy = mesh.clone();
-        let mut sys = shell(
-            mesh,
+        // The force scale of the knobs' gradient test (no loads: E·h·L).
+        let force_scale = shell(
+            mesh.clone(),
             initial.clone(),
             sff,
             material,
             Boundary::default(),
             Loads::default(),
-        )?;
+        )?
+        .force_scale();
         for hessian in [HessianMode::Exact, HessianMode::GaussNewton] {
             let k = Knobs {
                 hessian,
                 ..Knobs::tight()
             };
-            let mut x = x0.clone();
+            // A simulation's step s solves against the stimulus at t = s − 1 (then advances it):
+            // s/STRIP_RAMP of the full swelling at step s.
+            let ramp = Prescribed::function(
+                &mesh,
+                &x0,
+                Box::new(|t, _| FaceStimulus {
+                    top: ((t + 1.0) / STRIP_RAMP as f64).min(1.0),
+                    bottom: 0.0,
+                }),
+            )?;
+            let integrator = Static {
+                newton: k.settings(STRIP_MAX_ITERATIONS),
+                force_scale: Some(force_scale),
+                ..run_loop_static()
+            };
+            let shell_model = ShellModel {
+                material,
+                terms: Terms::ELASTIC,
+                sff,
+            };
             // Edge angles are carried from one ramp step to the next, like the positions.
-            let mut phi = Vec::new();
+            let mut sim = SimulationBuilder::new(mesh.clone(), shell_model)
+                .rest(initial.clone())
+                .growth(Box::new(model.clone()), Box::new(ramp), None)
+                .integrator(integrator, 1.0)
+                .steps(STRIP_RAMP)
+                .build()?;
             let mut cost = Cost {
                 ok: true,
                 ..Cost::default()
             };
-            for step in 1..=STRIP_RAMP {
-                let m = FaceStimulus {
-                    top: step as f64 / STRIP_RAMP as f64,
-                    bottom: 0.0,
-                };
-                let field = Prescribed::uniform(faces, m)?;
-                let mut growth = Growth::new(
-                    Box::new(model.clone()),
-                    Box::new(field),
-                    initial.clone(),
-                    STRIP_THICKNESS,
-                )?;
-                growth.update_rest(&mut sys.rest)?;
-                let c = static_solve(&mut sys, &mut x, &mut phi, k, STRIP_MAX_ITERATIONS);
-                cost.wall_s += c.wall_s;
-                cost.iterations += c.iterations;
+            for _ in 0..STRIP_RAMP {
+                let t0 = Instant::now();
+                let r = sim.step();
+                cost.wall_s += t0.elapsed().as_secs_f64();
                 cost.steps += 1;
-                cost.ok &= c.ok;
+                match r {
+                    Ok(r) => cost.iterations += r.newton_iterations,
+                    Err(e) => {
+                        cost.ok = false;
+                        if let StepFailure::Solver(s) = &e.source {
+                            cost.iterations += iterations_of(s);
+                        }
+                        break;
+                    }
+                }
             }
+            let x = sim.positions().to_vec();
+            let phi = sim.edge_angles().to_vec();
             let f_mid = faces / 2;
-            let ainv = sys.rest.a_bar[f_mid]
+            let rest = &sim.system().rest;
+            let ainv = rest.a_bar[f_mid]
                 .try_inverse()
                 .ok_or_else(|| anyhow!("singular rest metric"))?;
-            let kappa0 = -(ainv * sys.rest.b_bar[f_mid]).trace() / 2.0;
-            let kappa = centre_line_curvature(&x, &x0, &mesh_copy, nx, ny);
+            let kappa0 = -(ainv * rest.b_bar[f_mid]).trace() / 2.0;
+            let kappa = centre_line_curvature(&x, &x0, &mesh, nx, ny);
             let error = (kappa / kappa0 - 1.0).abs();
             if ny == 4 && hessian == HessianMode::Exact {
                 let narrowness = STRIP_WIDTH.powi(2) * kappa0.abs() / STRIP_THICKNESS;
@@ -573,7 +603,7 @@ pub(super) fn strip(bilayer: bool, sff: SffKind, quick: bool) -> Result<Case> {
                 newton_iterations: cost.iterations,
                 steps: cost.steps,
                 converged: cost.ok,
-                energy: elastic(&mut sys, &x, &phi),
+                energy: elastic(sim.system_mut(), &x, &phi),
                 to_discrete: None,
             });
         }

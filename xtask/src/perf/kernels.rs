@@ -101,7 +101,7 @@ pub(crate) fn measures(sizes: &Sizes, out: &mut Vec<Measure>, facts: &mut Facts)
         let phi: Vec<f64> = (0..sys.n_edge_angles())
             .map(|e| 0.01 * (e as f64 * 0.51).cos())
             .collect();
-        let assembler = Assembler::for_model(&sys.mesh, sys.dofs(), &model)?;
+        let assembler = Assembler::for_model(sys.mesh(), sys.dofs(), &model)?;
         let eval = Rc::new(RefCell::new(Eval {
             gradient: vec![0.0; assembler.n_coordinates()],
             hessian: assembler.hessian_template(),

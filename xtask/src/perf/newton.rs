@@ -292,7 +292,7 @@ pub(crate) fn measures(
     for sff in SffKind::ALL {
         let (sys, state0) = shrinking_system(sizes.per_face, sff)?;
         facts.step_unknowns.insert(sff.name().to_string(), {
-            let a = Assembler::for_model(&sys.mesh, sys.dofs(), sys.model())?;
+            let a = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model())?;
             a.n_free()
         });
         let sys = Rc::new(RefCell::new((sys, ImplicitEuler::new(DT))));

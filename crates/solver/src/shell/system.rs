@@ -48,8 +48,9 @@ impl State {
 /// A mesh with material, rest state, boundary conditions and loads, plus the assembler (pattern
 /// built once over the free dofs) and the lumped masses.
 pub struct ShellSystem {
-    /// The mesh (connectivity; its positions are the reference configuration).
-    pub mesh: Mesh,
+    /// The mesh (connectivity; its positions are the reference configuration; read with
+    /// [`ShellSystem::mesh`]: the unknowns, masses and assembler are built from it).
+    pub(crate) mesh: Mesh,
     /// Material, active terms, second fundamental form (read with [`ShellSystem::model`]: the
     /// unknowns, masses and assembler are built from it).
     pub(crate) model: ShellModel,
@@ -106,6 +107,12 @@ impl ShellSystem {
     /// different model needs a new system).
     pub fn model(&self) -> &ShellModel {
         &self.model
+    }
+
+    /// The mesh, as given to [`ShellSystem::new`] (fixed: connectivity and reference positions
+    /// of the unknowns, masses and assembler).
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
     }
 
     /// Held coordinates, clamps and prescribed motion, as given to [`ShellSystem::new`] (fixed:

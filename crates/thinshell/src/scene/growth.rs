@@ -12,7 +12,7 @@ use thinshell_growth::{
 };
 use thinshell_mesh::Mesh;
 
-use super::problem::{Check, absent, finite, positive, problem};
+use super::problem::{Check, absent, finite, positive, problem, v3};
 use super::region::RegionSpec;
 
 /// Growth model name.
@@ -427,8 +427,4 @@ pub fn build(
         }
     };
     Ok((model, field))
-}
-
-fn v3(a: &[f64; 3]) -> Vector3<f64> {
-    Vector3::new(a[0], a[1], a[2])
 }

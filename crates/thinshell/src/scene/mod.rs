@@ -17,12 +17,21 @@
 //! assert_eq!(scene.file.material.young(), 2e9); // paper by default
 //! ```
 
+pub mod bending;
+pub mod boundary;
+pub mod contact;
+pub mod effects;
 pub mod growth;
+pub mod initial;
+pub mod integrator;
+pub mod loads;
 pub mod material;
 pub mod mesh;
+pub mod output;
 pub mod path;
 mod problem;
 pub mod region;
+pub mod rest;
 pub mod schema;
 pub mod validate;
 

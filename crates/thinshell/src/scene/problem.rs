@@ -1,5 +1,8 @@
 //! [`Problem`]: one problem found in a scene (the key it concerns and what is wrong), shared by
-//! the whole-file checks (`validate`) and the sections that check themselves (`path`).
+//! the whole-file checks (`validate`) and the sections, with the checks and the array → nalgebra
+//! conversions the sections share.
+
+use nalgebra::{Matrix2, Vector3};
 
 /// One problem found in a scene: the key it concerns and what is wrong.
 #[derive(Clone, Debug, PartialEq)]
@@ -72,4 +75,14 @@ pub(crate) fn absent<T>(key: &str, v: &Option<T>, why: &str) -> Check {
         Some(_) => Err(problem(key, format!("does not apply {why}"))),
         None => Ok(()),
     }
+}
+
+/// A scene's `[x, y, z]` as a vector.
+pub(crate) fn v3(a: &[f64; 3]) -> Vector3<f64> {
+    Vector3::new(a[0], a[1], a[2])
+}
+
+/// A scene's row-major 2×2 matrix.
+pub(crate) fn m2(m: &[[f64; 2]; 2]) -> Matrix2<f64> {
+    Matrix2::new(m[0][0], m[0][1], m[1][0], m[1][1])
 }

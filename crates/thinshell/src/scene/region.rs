@@ -2,11 +2,10 @@
 //! `[boundary]` and `[growth.stimulus]`): its spec, its validation and the growth crate's
 //! [`Region`] it builds.
 
-use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use thinshell_growth::Region;
 
-use super::problem::{Check, finite_all, positive, problem};
+use super::problem::{Check, finite_all, positive, problem, v3};
 
 /// A region of space (exactly one key).
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq, Default)]
@@ -128,8 +127,4 @@ pub fn build(spec: &RegionSpec) -> Region {
     } else {
         Region::All
     }
-}
-
-fn v3(a: &[f64; 3]) -> Vector3<f64> {
-    Vector3::new(a[0], a[1], a[2])
 }

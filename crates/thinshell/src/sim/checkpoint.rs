@@ -526,8 +526,8 @@ impl Simulation {
         let load_factor = r.f64()?;
         let system_load_factor = r.f64()?;
         let t = r.f64()?;
-        let n = self.system.mesh.n_vertices();
-        let n_faces = self.system.mesh.n_faces();
+        let n = self.system.mesh().n_vertices();
+        let n_faces = self.system.mesh().n_faces();
         let vecs = |r: &mut Reader, what: &str| -> Result<Vec<Vector3<f64>>, CheckpointError> {
             let flat = r.f64s()?;
             if flat.len() != 3 * n {

@@ -214,7 +214,7 @@ impl Simulation {
         Ok(StepRecord {
             step,
             time: self.state.t,
-            energy: energy.into(),
+            energy,
             newton_iterations: point.iterations,
             residual: point.residuals.last().copied().unwrap_or(0.0),
             load_factor: point.load_factor,

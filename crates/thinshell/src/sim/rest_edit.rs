@@ -51,7 +51,7 @@ impl Simulation {
     /// hold until the stimulus next changes (a time-dependent or diffusing stimulus changes every
     /// step; [`Simulation::set_stimulus`] is the way to drive those scenes).
     pub fn set_rest_forms(&mut self, rest: RestState) -> Result<(), RestEditError> {
-        rest.validate(&self.system.mesh)?;
+        rest.validate(self.system.mesh())?;
         let (energy, _) = elastic_faces(&self.system, &rest, &self.state.x, &self.state.phi)?;
         if let Some(g) = &mut self.growth {
             let mut scratch = self.system.rest.clone();
@@ -79,7 +79,7 @@ impl Simulation {
     /// moved here is held where it now is, a prescribed motion is applied from the next step).
     /// Errors on a wrong length or a non-finite value, leaving the simulation unchanged.
     pub fn set_positions(&mut self, x: Vec<Vector3<f64>>) -> Result<(), RestEditError> {
-        check_vectors("positions", &x, self.system.mesh.n_vertices())?;
+        check_vectors("positions", &x, self.system.mesh().n_vertices())?;
         let (energy, _) = elastic_faces(&self.system, &self.system.rest, &x, &self.state.phi)?;
         self.state.x = x;
         self.energy = energy;
@@ -90,7 +90,7 @@ impl Simulation {
     /// from them (static solves ignore velocities). Errors on a wrong length or a non-finite
     /// value, leaving the simulation unchanged.
     pub fn set_velocities(&mut self, v: Vec<Vector3<f64>>) -> Result<(), RestEditError> {
-        check_vectors("velocities", &v, self.system.mesh.n_vertices())?;
+        check_vectors("velocities", &v, self.system.mesh().n_vertices())?;
         self.state.v = v;
         Ok(())
     }
@@ -148,7 +148,7 @@ fn elastic_faces(
         ..*system.model()
     };
     let n_angles = if ShellSystem::has_edge_unknowns_for(&model) {
-        system.mesh.n_edges()
+        system.mesh().n_edges()
     } else {
         0
     };
