@@ -297,7 +297,7 @@ fn supernodes(levels: &[usize]) {
     use thinshell_solver::ordering::metis_node_nd;
     for &level in levels {
         let (sys, _) = shrinking_sphere(level, SffKind::MidEdgeAverage);
-        let asm = Assembler::for_model(&sys.mesh, sys.dofs(), sys.model()).unwrap();
+        let asm = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model()).unwrap();
         let h = asm.hessian_template();
         let n = h.ncols();
         let fwd = metis_node_nd(h.symbolic()).unwrap();
@@ -376,7 +376,7 @@ fn relax(levels: &[usize]) {
     ];
     for &level in levels {
         let (sys, _) = shrinking_sphere(level, SffKind::MidEdgeAverage);
-        let asm = Assembler::for_model(&sys.mesh, sys.dofs(), sys.model()).unwrap();
+        let asm = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model()).unwrap();
         let mut h = asm.hessian_template();
         spd(&mut h);
         let n = h.ncols();

@@ -490,7 +490,7 @@ fn moving_an_obstacle_keeps_the_learned_adaptive_stiffness() {
     let young_h = sys.model().material.young * h;
     let d_hat = 1e-3;
     let mut x: Vec<V> = sys
-        .mesh
+        .mesh()
         .positions()
         .iter()
         .map(|p| p + V::new(0.0, 0.0, 0.5 * h + 0.9 * d_hat))

@@ -64,13 +64,13 @@ fn shrinking_sphere(level: usize) -> (ShellSystem, Vec<V>) {
 
 fn topology(sys: &ShellSystem) -> (Vec<[usize; 3]>, Vec<[usize; 2]>) {
     let f = sys
-        .mesh
+        .mesh()
         .faces()
         .iter()
         .map(|f| f.map(|v| v.idx()))
         .collect();
     let e = sys
-        .mesh
+        .mesh()
         .topology()
         .edges()
         .iter()

@@ -68,13 +68,13 @@ fn sphere(level: usize, p: f64) -> (ShellSystem, Vec<V>, [(usize, V); 2]) {
 
 fn topology(sys: &ShellSystem) -> (Vec<[usize; 3]>, Vec<[usize; 2]>) {
     let f = sys
-        .mesh
+        .mesh()
         .faces()
         .iter()
         .map(|f| f.map(|v| v.idx()))
         .collect();
     let e = sys
-        .mesh
+        .mesh()
         .topology()
         .edges()
         .iter()

@@ -155,7 +155,7 @@ fn metis_node_nd_beats_the_other_orderings_on_the_shell_hessian() {
     use thinshell_solver::{Ordering, SparseCholesky};
     for sff in [SffKind::MidEdgeAverage, SffKind::default()] {
         let (sys, _) = thinshell_testkit::fixtures::shrinking_sphere(4, sff);
-        let h = Assembler::for_model(&sys.mesh, sys.dofs(), sys.model())
+        let h = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model())
             .unwrap()
             .hessian_template();
         let p = h.symbolic();
