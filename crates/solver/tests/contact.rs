@@ -12,6 +12,7 @@ use thinshell_solver::{
     Boundary, Contact, ContactSettings, ImplicitEuler, Integrator, Loads, Obstacle, ShellSystem,
     State, Static, shell::contact::first_edge_crossing_face,
 };
+use thinshell_testkit::contact::face_edge_indices;
 use thinshell_testkit::fd::{fd_gradient, rel_err_scaled};
 
 type V = Vector3<f64>;
@@ -41,23 +42,6 @@ fn sheet(n: usize, lift: f64) -> (ShellSystem, Vec<V>) {
     };
     let sys = ShellSystem::new(mesh, model, rest, Boundary::default(), loads).unwrap();
     (sys, x0)
-}
-
-fn faces_edges(sys: &ShellSystem) -> (Vec<[usize; 3]>, Vec<[usize; 2]>) {
-    let f = sys
-        .mesh()
-        .faces()
-        .iter()
-        .map(|f| f.map(|v| v.idx()))
-        .collect();
-    let e = sys
-        .mesh()
-        .topology()
-        .edges()
-        .iter()
-        .map(|e| e.vertices.map(|v| v.idx()))
-        .collect();
-    (f, e)
 }
 
 /// Σ|v|² (m²/s²): the kinetic energy up to the (nearly uniform) lumped masses.
@@ -145,7 +129,7 @@ fn intersecting_start_is_an_error_naming_the_pair() {
         e.contains("initial state intersects") && (e.contains("face") || e.contains("edges")),
         "{e}"
     );
-    let (faces, edges) = faces_edges(&sys);
+    let (faces, edges) = face_edge_indices(sys.mesh());
     assert!(first_edge_crossing_face(&x, &faces, &edges).is_some());
     // Bad settings are errors too.
     let bad = ContactSettings {
@@ -170,7 +154,7 @@ fn drop_onto(obstacle: Obstacle, lift: f64, steps: usize) -> [f64; 7] {
         ..ContactSettings::default()
     };
     sys.set_contact(&settings, &x0).unwrap();
-    let (faces, edges) = faces_edges(&sys);
+    let (faces, edges) = face_edge_indices(sys.mesh());
     let gap = |y: &V| match &obstacle {
         Obstacle::Plane { point, normal } => normal.normalize().dot(&(y - point)) - 0.5 * h,
         Obstacle::Sphere { center, radius } => (y - center).norm() - radius - 0.5 * h,
@@ -298,7 +282,7 @@ fn scroll(contact: bool, steps: usize) -> (bool, f64, usize, usize, bool) {
     if contact {
         sys.set_contact(&ContactSettings::default(), &x0).unwrap();
     }
-    let (faces, edges) = faces_edges(&sys);
+    let (faces, edges) = face_edge_indices(sys.mesh());
     let mut state = State::at_rest(x0);
     let mut ie = ImplicitEuler::new(5e-3);
     let mut crossed = false;

@@ -14,6 +14,7 @@ use thinshell_mesh::generators;
 use thinshell_solver::{
     Boundary, ContactSettings, ImplicitEuler, Integrator, Loads, Obstacle, ShellSystem, State,
 };
+use thinshell_testkit::contact::face_edge_indices;
 
 type V = Vector3<f64>;
 
@@ -86,23 +87,6 @@ fn pyramid() -> (Vec<V>, Vec<[usize; 3]>) {
     (v, f)
 }
 
-fn topology(sys: &ShellSystem) -> (Vec<[usize; 3]>, Vec<[usize; 2]>) {
-    let f = sys
-        .mesh()
-        .faces()
-        .iter()
-        .map(|f| f.map(|v| v.idx()))
-        .collect();
-    let e = sys
-        .mesh()
-        .topology()
-        .edges()
-        .iter()
-        .map(|e| e.vertices.map(|v| v.idx()))
-        .collect();
-    (f, e)
-}
-
 fn edges_of(faces: &[[usize; 3]]) -> Vec<[usize; 2]> {
     let mut e: Vec<[usize; 2]> = faces
         .iter()
@@ -167,7 +151,7 @@ fn drop_onto_mesh(y: Vec<V>, y_faces: Vec<[usize; 3]>, lift: f64, steps: usize) 
         ..ContactSettings::default()
     };
     sys.set_contact(&settings, &x0).unwrap();
-    let (faces, edges) = topology(&sys);
+    let (faces, edges) = face_edge_indices(sys.mesh());
     let mut state = State::at_rest(x0);
     let mut ie = ImplicitEuler::new(1e-3);
     let (mut min_gap, mut peak) = (f64::INFINITY, 0.0f64);
@@ -339,7 +323,7 @@ fn pressed_static(obstacle: Obstacle, top: f64) -> [f64; 4] {
     let weight: f64 = sys.mass().iter().map(|m| m * 9.81).sum();
     let (gap, crossed) = match &obstacle {
         Obstacle::Mesh { vertices, faces } => {
-            let (sf, se) = topology(&sys);
+            let (sf, se) = face_edge_indices(sys.mesh());
             let (d, c) = brute_force(&x, (&sf, &se), vertices, faces);
             (d - 0.5 * h, c)
         }

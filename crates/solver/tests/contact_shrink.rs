@@ -23,12 +23,12 @@
 //! pairs sharing no vertex above h, the two half-thicknesses).
 
 use nalgebra::Vector3;
-use thinshell_energy::contact::{edge_edge_distance2, point_triangle_distance2};
 use thinshell_energy::{RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::generators;
 use thinshell_solver::{
     Boundary, ContactSettings, ContactStats, ImplicitEuler, Integrator, Loads, ShellSystem, State,
 };
+use thinshell_testkit::contact::{brute_force_distance, face_edge_indices};
 use thinshell_testkit::fixtures::damped_paper;
 use thinshell_testkit::rng::Lcg64;
 
@@ -60,57 +60,6 @@ fn shrinking_sphere(level: usize) -> (ShellSystem, Vec<V>) {
     };
     let sys = ShellSystem::new(mesh, model, rest, Boundary::default(), Loads::default()).unwrap();
     (sys, x0)
-}
-
-fn topology(sys: &ShellSystem) -> (Vec<[usize; 3]>, Vec<[usize; 2]>) {
-    let f = sys
-        .mesh()
-        .faces()
-        .iter()
-        .map(|f| f.map(|v| v.idx()))
-        .collect();
-    let e = sys
-        .mesh()
-        .topology()
-        .edges()
-        .iter()
-        .map(|e| e.vertices.map(|v| v.idx()))
-        .collect();
-    (f, e)
-}
-
-/// The smallest distance (m) of every vertex–face and edge–edge pair sharing no vertex, by
-/// brute force over all pairs (those whose bounding spheres are farther apart than `reach` are
-/// skipped: their distance exceeds it). The same check as `contact_sphere.rs`'s.
-fn brute_force_distance(x: &[V], faces: &[[usize; 3]], edges: &[[usize; 2]], reach: f64) -> f64 {
-    let sphere_of = |pts: &[V]| {
-        let c = pts.iter().sum::<V>() / pts.len() as f64;
-        let r = pts.iter().map(|p| (p - c).norm()).fold(0.0, f64::max);
-        (c, r)
-    };
-    let face_spheres: Vec<(V, f64)> = faces.iter().map(|f| sphere_of(&f.map(|v| x[v]))).collect();
-    let edge_spheres: Vec<(V, f64)> = edges.iter().map(|e| sphere_of(&e.map(|v| x[v]))).collect();
-    let mut d = f64::INFINITY;
-    for (v, p) in x.iter().enumerate() {
-        for (t, &(c, r)) in faces.iter().zip(&face_spheres) {
-            if t.contains(&v) || (p - c).norm() - r > reach {
-                continue;
-            }
-            let q = [*p, x[t[0]], x[t[1]], x[t[2]]];
-            d = d.min(point_triangle_distance2(&q).0.sqrt());
-        }
-    }
-    for (i, a) in edges.iter().enumerate() {
-        for (b, &(c, r)) in edges.iter().zip(&edge_spheres).skip(i + 1) {
-            let (ca, ra) = edge_spheres[i];
-            if b.contains(&a[0]) || b.contains(&a[1]) || (ca - c).norm() - ra - r > reach {
-                continue;
-            }
-            let q = [x[a[0]], x[a[1]], x[b[0]], x[b[1]]];
-            d = d.min(edge_edge_distance2(&q).0.sqrt());
-        }
-    }
-    d
 }
 
 /// What a run of the shrinking sphere did.
@@ -149,7 +98,7 @@ fn shrink(level: usize, seed: u64, dt: f64, steps: usize, contact: bool) -> Run 
     }
     let activation = sys.contact.as_ref().map_or(0.0, |c| c.activation);
     let h = sys.model().material.thickness;
-    let (faces, edges) = topology(&sys);
+    let (faces, edges) = face_edge_indices(sys.mesh());
     let mean_edge = |x: &[V]| {
         edges
             .iter()

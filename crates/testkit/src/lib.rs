@@ -16,6 +16,7 @@
 //! dev-dependency only; the crates' `#[cfg(test)]` unit tests inside `src/` cannot use it (they
 //! compile a second copy of their crate, whose types would not unify with the ones here).
 
+pub mod contact;
 pub mod exact;
 pub mod fd;
 pub mod fixtures;
