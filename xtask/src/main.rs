@@ -13,6 +13,7 @@
 mod accuracy;
 mod bench_sphere;
 mod bench_square;
+mod clock;
 mod contact_cost;
 mod hard_cases;
 #[cfg(test)]

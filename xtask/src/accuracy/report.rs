@@ -1,6 +1,7 @@
 //! The written results: `accuracy.md` (tables, plots, generated prose) and the JSON with
 //! every run.
 
+use crate::clock::today;
 use std::fmt::Write as _;
 
 use serde_json::{Value, json};
@@ -21,24 +22,6 @@ pub(crate) fn machine() -> (usize, String) {
         })
         .unwrap_or_else(|| "unknown".into());
     (nproc, cpu)
-}
-
-/// Today's date (UTC) as YYYY-MM-DD, from the system clock (days-to-civil conversion of the
-/// proleptic Gregorian calendar).
-pub(super) fn today() -> String {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs());
-    let z = (secs / 86_400) as i64 + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
-    format!("{y:04}-{m:02}-{d:02}")
 }
 
 pub(crate) fn slug(s: &str) -> String {
