@@ -359,3 +359,30 @@ fn load_control_lands_on_the_arc_length_branch(form: &str) {
         "{form}: {w_load} vs {w_path}"
     );
 }
+
+/// The shipped arch-on-a-plane scene (contact's defaults, the default bending form): the path
+/// lands on the plane instead of passing it, `steps.csv` has the contact columns after the path
+/// ones, the smallest gap stays positive and the load climbs past the free arch's limit load
+/// (0.166 on this mesh, `the_arch_scene_snaps_through_continuously`'s scene) once the plane
+/// carries the arch.
+#[test]
+fn the_arch_lands_on_the_plane_under_arc_length() {
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data/scenes/arch_lands_on_plane.toml");
+    let (header, rows) = run(&scene, "arch-plane", &[]);
+    assert_eq!(
+        header.last().map(String::as_str),
+        Some("contact_pattern_rebuilds")
+    );
+    let gap = column(&header, &rows, "contact_min_gap_m");
+    assert!(gap.iter().all(|g| *g > 0.0), "{gap:?}");
+    let pairs = column(&header, &rows, "contact_pairs");
+    assert!(pairs.iter().any(|p| *p > 0.0), "{pairs:?}");
+    // The crown's mid-surface stays above the plane (−15 mm) plus h/2 (5 mm).
+    let w = column(&header, &rows, "u_31_z_m");
+    let crown_z0 = 0.015;
+    assert!(w.iter().all(|d| crown_z0 + d > -0.010), "{w:?}");
+    let lambda = column(&header, &rows, "load_factor");
+    let last = lambda.last().copied().unwrap_or(0.0);
+    assert!(last > 0.3, "{lambda:?}");
+}

@@ -45,7 +45,7 @@ use faer::sparse::SparseColMat;
 
 use crate::error::PathFailure;
 use crate::ldlt::SparseLdlt;
-use crate::{Objective, Ordering, SolverError};
+use crate::{NewtonSettings, NewtonWorkspace, Objective, Ordering, SolverError, newton_solve};
 
 /// Displacement control: a converged increment longer than this × its predictor is a jump to
 /// another branch, refused (the step is cut back, and fails at a snap-back of the dof).
@@ -311,7 +311,13 @@ pub struct PathTracer {
     hessian: Option<SparseColMat<usize, f64>>,
     /// Whether `factor` holds the tangent at the last converged point.
     tangent_current: bool,
+    /// Whether the objective changed itself during the current step's attempt
+    /// ([`Objective::begin_iteration`] reported a new value).
+    function_changed: bool,
 }
+
+/// How often one step may re-equilibrate its start after the objective changed itself there.
+const MAX_REEQUILIBRATIONS: usize = 8;
 
 /// Why one attempt of a step failed (it is then cut back).
 struct Attempt {
@@ -332,6 +338,7 @@ impl PathTracer {
             factor: None,
             hessian: None,
             tangent_current: false,
+            function_changed: false,
         }
     }
 
@@ -360,6 +367,11 @@ impl PathTracer {
     /// Takes one step from the equilibrium `u` at the objective's current load factor
     /// (`u` and the load factor are overwritten with the next point; on error both are left
     /// at the start point). `u` must be an equilibrium (e.g. the undeformed state at λ = 0).
+    ///
+    /// An objective that changes itself ([`Objective::begin_iteration`], e.g. contact raising
+    /// its barrier stiffness) has its start re-equilibrated at the same load factor first; an
+    /// update that [`Objective::max_step`] does not admit whole (with contact: one that would
+    /// make primitives cross) fails the attempt, which is cut back.
     pub fn step<O: LoadedObjective + ?Sized>(
         &mut self,
         obj: &mut O,
@@ -382,6 +394,28 @@ impl PathTracer {
                     "must be an unknown of the objective (a free dof)",
                 ));
             }
+        }
+        self.step_from_equilibrium(obj, u, 0)
+    }
+
+    /// [`PathTracer::step`] after the checks; `reequilibrations`: how often the start has been
+    /// re-equilibrated because the objective changed itself.
+    fn step_from_equilibrium<O: LoadedObjective + ?Sized>(
+        &mut self,
+        obj: &mut O,
+        u: &mut [f64],
+        mut reequilibrations: usize,
+    ) -> Result<PathPoint, SolverError> {
+        let n = u.len();
+        self.function_changed = false;
+        // The objective may change itself at the start point (contact: new pairs near u, a
+        // stiffer barrier).
+        let update = obj.begin_iteration(u, 0)?;
+        if update.pattern_changed {
+            self.factor = None;
+        }
+        if update.value_changed {
+            self.reequilibrate(obj, u)?;
         }
         if self.factor.as_ref().is_none_or(|f| f.n() != n) {
             let template = obj.hessian_template();
@@ -456,6 +490,15 @@ impl PathTracer {
                 Err(failure) => {
                     u.copy_from_slice(&u0);
                     obj.set_load_factor(lambda0)?;
+                    if std::mem::take(&mut self.function_changed)
+                        && reequilibrations < MAX_REEQUILIBRATIONS
+                    {
+                        // The attempt changed the objective (a stiffer barrier): the start is
+                        // no longer an equilibrium of it, and no arc from there would close.
+                        reequilibrations += 1;
+                        self.reequilibrate(obj, u)?;
+                        return self.step_from_equilibrium(obj, u, reequilibrations);
+                    }
                     let next = ds * 0.5;
                     if cutbacks >= self.settings.max_cutbacks
                         || next < self.first_step * self.settings.min_step_ratio
@@ -540,6 +583,77 @@ impl PathTracer {
         }
     }
 
+    /// Re-solves the equilibrium at the current load factor from `u` (overwritten) after the
+    /// objective changed itself there (e.g. contact raised its barrier stiffness), with
+    /// [`newton_solve`]'s defaults and its line search (which, with contact, is collision
+    /// checked): a path step starts from an equilibrium of the function it follows.
+    fn reequilibrate<O: LoadedObjective + ?Sized>(
+        &mut self,
+        obj: &mut O,
+        u: &mut [f64],
+    ) -> Result<(), SolverError> {
+        self.tangent_current = false;
+        let settings = NewtonSettings {
+            ordering: self.settings.ordering,
+            ..NewtonSettings::default()
+        };
+        let mut ws = NewtonWorkspace::new(obj, &settings)?;
+        newton_solve(obj, u, &settings, &mut ws)?;
+        // newton_solve may have widened the Hessian pattern (contact pairs came near).
+        let template = obj.hessian_template();
+        self.factor = Some(SparseLdlt::new(
+            template.symbolic(),
+            self.settings.ordering,
+            Par::Seq,
+        )?);
+        self.hessian = Some(template);
+        Ok(())
+    }
+
+    /// Moves the iterate from `previous` to `u` if the objective admits the whole straight
+    /// motion ([`Objective::max_step`]: with contact, no pair of primitives crosses on the
+    /// way), then lets the objective update itself at `u` ([`Objective::begin_iteration`]),
+    /// rebuilding the tangent's symbolic factorisation when its pattern changed. A motion
+    /// admitted only in part fails the attempt, which is then cut back: the bordered Newton
+    /// step has no line search to shorten it, and a shorter arc keeps the path on the side
+    /// it came from. `previous` becomes `u`.
+    fn admit<O: LoadedObjective + ?Sized>(
+        &mut self,
+        obj: &mut O,
+        previous: &mut [f64],
+        u: &[f64],
+        iteration: usize,
+    ) -> Result<(), String> {
+        let step: Vec<f64> = u.iter().zip(&*previous).map(|(a, b)| a - b).collect();
+        if step.iter().any(|d| *d != 0.0) {
+            let alpha = obj.max_step(previous, &step).map_err(|e| e.to_string())?;
+            if alpha < 1.0 || alpha.is_nan() {
+                return Err(format!(
+                    "iteration {iteration}: the update would make two parts of the shell (or \
+                     the shell and an obstacle) cross; continuous collision detection admits \
+                     {alpha:.3e} of it"
+                ));
+            }
+        }
+        previous.copy_from_slice(u);
+        let update = obj
+            .begin_iteration(u, iteration)
+            .map_err(|e| e.to_string())?;
+        if update.pattern_changed {
+            let template = obj.hessian_template();
+            self.factor = Some(
+                SparseLdlt::new(template.symbolic(), self.settings.ordering, Par::Seq)
+                    .map_err(|e| e.to_string())?,
+            );
+            self.hessian = Some(template);
+        }
+        if update.pattern_changed || update.value_changed {
+            self.tangent_current = false;
+        }
+        self.function_changed |= update.value_changed;
+        Ok(())
+    }
+
     /// The signed prescribed quantity of the step: arc length Δs, or the dof increment.
     fn predictor(&self, v: &[f64], v_norm2: f64, ds: f64) -> f64 {
         match self.settings.control {
@@ -605,10 +719,13 @@ impl PathTracer {
         let predictor_dir = (du.clone(), dl);
         let mut r = vec![0.0; n];
         let mut q = vec![0.0; n];
+        let mut previous = u0.to_vec();
         for iteration in 0..=self.settings.max_iterations {
             for ((ui, u0i), dui) in u.iter_mut().zip(u0).zip(&du) {
                 *ui = u0i + dui;
             }
+            self.admit(obj, &mut previous, u, iteration)
+                .map_err(|reason| fail(reason, &residuals))?;
             let lambda = lambda0 + dl;
             obj.set_load_factor(lambda)
                 .map_err(|e| fail(e.to_string(), &residuals))?;
@@ -705,6 +822,8 @@ impl PathTracer {
                 for ((ui, u0i), dui) in u.iter_mut().zip(u0).zip(&du) {
                     *ui = u0i + dui;
                 }
+                self.admit(obj, &mut previous, u, iteration + 1)
+                    .map_err(|reason| fail(reason, &residuals))?;
                 obj.set_load_factor(lam)
                     .map_err(|e| fail(e.to_string(), &residuals))?;
                 obj.gradient(u, &mut r)

@@ -311,8 +311,8 @@ impl Contact {
     /// same E·h). κ scales the run's contact forces at the gaps d̂ sets (κ₀ carries the load on
     /// the active pairs at d̂/2, and the raises within and between solves keep adapting it as
     /// the pairs change), so moving an obstacle leaves it meaningful; a new d̂ or offset changes
-    /// the gaps the barrier acts at, and κ restarts at E·h. Returns whether κ was taken over.
-    pub(crate) fn keep_stiffness_of(&mut self, previous: &Contact) -> bool {
+    /// the gaps the barrier acts at, and κ restarts at E·h.
+    pub(crate) fn keep_stiffness_of(&mut self, previous: &Contact) {
         let same_geometry = self.activation == previous.activation
             && self.offset_self == previous.offset_self
             && self.offset_obstacle == previous.offset_obstacle;
@@ -320,9 +320,8 @@ impl Contact {
             (Some(a), Some(p)) if same_geometry && a.min == p.min && a.max == p.max => {
                 *a = p;
                 self.stiffness = previous.stiffness;
-                true
             }
-            _ => false,
+            _ => {}
         }
     }
 

@@ -85,12 +85,11 @@ impl ImplicitEuler {
         let mut obj = ShellObjective::incremental(system, state, &x1, dt, self.force_scale)?
             .with_hessian(self.newton.own_hessian);
         let mut u = obj.prediction().map(<[f64]>::to_vec).unwrap_or_default();
-        // Start from the given point (a retry), else the inertial prediction x̃ unless it is an
-        // invalid (e.g. inverted) configuration; then from xⁿ.
         if let Some(s) = start.filter(|s| s.len() == u.len()) {
+            // A retry: its start is a former iterate, reached by collision-limited steps.
             u.copy_from_slice(s);
-        } else if !obj.value(&u)?.is_finite() {
-            u = obj.sys.gather(&state.x, &state.phi);
+        } else {
+            u = collision_free_start(&mut obj, &state.x, &state.phi, u)?;
         }
         let ws = self.cache.fit(&obj, &self.newton)?;
         let report = newton_solve(&mut obj, &mut u, &self.newton, ws)?;
@@ -107,6 +106,40 @@ impl ImplicitEuler {
             report,
             energies,
         ))
+    }
+}
+
+/// Where Newton starts a step: the inertial prediction x̃ (`prediction`, free dofs), as far as
+/// the straight path from xⁿ to it stays free of collisions, and at xⁿ when that point is not a
+/// valid configuration (e.g. an inverted face).
+///
+/// Without contact the step limit is 1 and this is x̃ itself. With contact x̃ can lie on the far
+/// side of a face: every vertex–face and edge–edge distance there is positive, so the barrier is
+/// finite, yet an edge passes through a face, and Newton would converge from there to a state
+/// that crosses. The continuous collision check of the path xⁿ → x̃ (the same as every Newton
+/// step's) stops the start short of the first crossing, so every iterate of the step is reached
+/// from the collision-free xⁿ by collision-checked motion.
+fn collision_free_start(
+    obj: &mut ShellObjective<'_>,
+    x: &[nalgebra::Vector3<f64>],
+    phi: &[f64],
+    prediction: Vec<f64>,
+) -> Result<Vec<f64>, SolverError> {
+    let un = obj.sys.gather(x, phi);
+    if prediction.len() != un.len() {
+        return Ok(un);
+    }
+    let du: Vec<f64> = prediction.iter().zip(&un).map(|(p, a)| p - a).collect();
+    let alpha = obj.max_step(&un, &du)?;
+    let start = if alpha >= 1.0 {
+        prediction
+    } else {
+        un.iter().zip(&du).map(|(a, d)| a + alpha * d).collect()
+    };
+    if obj.value(&start)?.is_finite() {
+        Ok(start)
+    } else {
+        Ok(un)
     }
 }
 

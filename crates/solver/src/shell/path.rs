@@ -11,7 +11,7 @@ use super::loads::{add_pressure_gradient, unit_axis};
 use super::objective::ShellObjective;
 use super::system::ShellSystem;
 use crate::path::{LoadedObjective, PathControl, PathPoint, PathSettings, PathTracer};
-use crate::{Objective, SolverError};
+use crate::{IterationUpdate, Objective, SolverError};
 
 /// Arc-length or displacement-controlled path following of a shell's static equilibria
 /// under its loads ([`ShellSystem::loads`] at load factor 1: gravity, point forces and
@@ -182,6 +182,16 @@ impl Objective for ShellLoaded<'_> {
     }
     fn dof_coordinates(&self) -> Option<Vec<[f64; 3]>> {
         self.obj.dof_coordinates()
+    }
+    fn max_step(&mut self, u: &[f64], du: &[f64]) -> Result<f64, SolverError> {
+        self.obj.max_step(u, du)
+    }
+    fn begin_iteration(
+        &mut self,
+        u: &[f64],
+        iteration: usize,
+    ) -> Result<IterationUpdate, SolverError> {
+        self.obj.begin_iteration(u, iteration)
     }
 }
 

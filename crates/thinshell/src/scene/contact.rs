@@ -90,24 +90,16 @@ pub struct ContactContext {
     pub on: bool,
     /// The integrator is explicit Euler.
     pub explicit: bool,
-    /// The scene follows a path (`[path]`).
-    pub path: bool,
 }
 
-/// Checks `[contact]`: effect `contact` only with a Newton integrator and without path
-/// following, something to keep apart, each obstacle with exactly its kind's keys in range.
+/// Checks `[contact]`: effect `contact` only with a Newton integrator (static, implicit or
+/// path following), something to keep apart, each obstacle with exactly its kind's keys in range.
 pub fn validate(spec: &Option<ContactSpec>, cx: ContactContext) -> Check {
     if cx.on && cx.explicit {
         // Explicit Euler takes no Newton step for the CCD to limit.
         return Err(problem(
             "integrator.kind",
             "effect `contact` needs the `implicit` or `static` integrator",
-        ));
-    }
-    if cx.on && cx.path {
-        return Err(problem(
-            "path",
-            "effect `contact` is not available with path following yet",
         ));
     }
     let Some(c) = spec else {

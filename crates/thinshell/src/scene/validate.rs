@@ -37,7 +37,6 @@ pub fn validate(s: &SceneFile) -> Result<(), Problem> {
     let contact = super::contact::ContactContext {
         on: on(Effect::Contact),
         explicit: s.integrator.kind == IntegratorKind::Explicit,
-        path: s.path.is_some(),
     };
     super::contact::validate(&s.contact, contact)?;
     super::output::validate(&s.output)

@@ -220,6 +220,10 @@ impl Simulation {
             load_factor: point.load_factor,
             stable: Some(point.stable()),
             wall_s: start.elapsed().as_secs_f64(),
+            contact: self
+                .system
+                .contact_stats(&self.state.x)
+                .map(super::ContactRecord::from),
             path: Some(PathRecord {
                 load_increment: point.load_increment,
                 step_length: point.step_length,
