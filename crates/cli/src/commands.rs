@@ -169,7 +169,10 @@ fn drive(
     match (result, options.quiet) {
         (Err(e), _) => match crate::resume::memory_refusal(&e, &sim) {
             Some(line) => Err(Failure::BadInput(line)),
-            None => Err(Failure::Simulation(e.to_string())),
+            None => Err(Failure::Simulation(format!(
+                "{e}{}",
+                failed_step_hint(&e, &sim)
+            ))),
         },
         (Ok(s), false) => {
             let stability = match s.stable {
@@ -194,5 +197,25 @@ fn drive(
             Ok(())
         }
         (Ok(_), true) => Ok(()),
+    }
+}
+
+/// What to try after a failed step that the message alone does not say: an implicit step whose
+/// Newton solve ran out of iterations has usually been asked to follow a fast instability in one
+/// step (empty otherwise).
+fn failed_step_hint(e: &thinshell::sim::StepError, sim: &Simulation) -> &'static str {
+    let newton_limit = matches!(
+        &e.source,
+        thinshell::sim::StepFailure::Solver(
+            thinshell_solver::SolverError::NewtonDidNotConverge { .. }
+        )
+    );
+    if newton_limit && sim.integrator() == thinshell::scene::integrator::IntegratorKind::Implicit {
+        "\nhint: an implicit step that has to follow a fast instability (buckling, collapse, \
+         snap-through) within one Δt can need more Newton iterations than the limit: \
+         `integrator.adaptive_dt = true` halves Δt where a step fails; a smaller \
+         `integrator.dt` or a larger `integrator.newton.max_iterations` also help"
+    } else {
+        ""
     }
 }

@@ -267,3 +267,26 @@ fn a_factor_beyond_the_memory_budget_is_refused_before_factorising() {
     assert!(o.status.success(), "{err}");
     assert!(!err.contains("preconditioned CG"), "{err}");
 }
+
+/// An implicit step that runs out of Newton iterations (the shipped pressure-dimpling sphere at
+/// 2.5× its Δt: the second step has to follow the buckling in one step) fails with the solver's
+/// message and a hint at adaptive Δt; with `adaptive_dt = true` the same run completes.
+#[test]
+fn an_implicit_step_out_of_iterations_hints_at_adaptive_dt() {
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data/scenes/sphere_pressure_dimples.toml");
+    let d = temp_dir("implicit-hint");
+    let fixed = ["--set", "integrator.dt=5e-4", "--set", "integrator.steps=3"];
+    let out = run(&scene, &d.join("fixed"), &fixed);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("Newton did not converge in 100 iterations"), "{err}");
+    assert!(err.contains("hint:") && err.contains("integrator.adaptive_dt = true"), "{err}");
+    let adaptive = [&fixed[..], &["--set", "integrator.adaptive_dt=true"]].concat();
+    let out = run(&scene, &d.join("adaptive"), &adaptive);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
