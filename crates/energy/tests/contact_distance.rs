@@ -394,7 +394,12 @@ proptest! {
             return Err(TestCaseError::fail("pair should be active"));
         };
         prop_assert!((e.value - pair_energy(&x, kind, geometry)).abs() <= 1e-12 * e.value.abs().max(1e-12));
-        let g_fd = fd_gradient(|v| pair_energy(&unflat(v), kind, geometry), &flat(&x), H);
+        // The barrier varies on the scale of the gap and of its distance to d̂ (down to 5 % of
+        // a gap of 10⁻³ here): the FD step is 10⁻³ of the smaller, so that the truncation error
+        // O((h/scale)²) stays far below the tolerance (a fixed h = 10⁻⁶ failed at 3.4·10⁻⁵).
+        let gap = d - offset;
+        let h = H.min(1e-3 * gap.min(geometry.activation - gap));
+        let g_fd = fd_gradient(|v| pair_energy(&unflat(v), kind, geometry), &flat(&x), h);
         let err = rel_err_scaled(e.gradient.as_slice(), &g_fd, 1e-6);
         prop_assert!(err < TOL, "gradient error {err}");
         let h_fd = fd_jacobian(
@@ -403,7 +408,7 @@ proptest! {
                 _ => vec![f64::NAN; 12],
             },
             &flat(&x),
-            H,
+            h,
         )
         .concat();
         let err = rel_err_scaled(&hess_rows(&e.hessian), &h_fd, 1e-6);
