@@ -16,6 +16,7 @@
 //! threads (and on either path), and nothing is allocated per evaluation beyond rayon's
 //! bookkeeping.
 
+mod batch;
 mod pattern;
 
 use crate::dofs::{DofMap, check_len};
@@ -25,6 +26,7 @@ use crate::kernel::{
     eval_face, eval_face_energy,
 };
 use crate::linalg::ProjectPsd;
+use crate::material::MaterialModel;
 use crate::rest::{DampingState, RestState};
 use crate::sff::{EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind};
 use crate::shell::ShellModel;
@@ -311,8 +313,13 @@ impl Assembler {
         let parallel = n_faces.saturating_mul(face_work(want)) >= PARALLEL_MIN_WORK
             && rayon::current_num_threads() > 1;
 
-        // One monomorphised per-face loop per form (adding a form adds an arm here).
+        // One monomorphised per-face loop per form (adding a form adds an arm here); StVK with
+        // the mid-edge average, energy or gradient, runs batched across faces.
+        let batched = want.hessian.is_none() && model.material.model == MaterialModel::StVK;
         match model.sff {
+            SffKind::MidEdgeAverage if batched => {
+                self.evaluate_faces_batched(model, x, rest, damping, want.gradient, parallel)?
+            }
             SffKind::MidEdgeAverage => self.evaluate_faces(
                 &MidEdgeAverage,
                 model,
@@ -353,6 +360,62 @@ impl Assembler {
             self.gather_hessian_values(values, parallel);
         }
         Ok(total)
+    }
+
+    /// The energy or energy + gradient pass of StVK with the mid-edge average, [`batch::LANES`]
+    /// faces at a time ([`batch`]), in parallel over chunks of [`batch::CHUNK`] faces or on the
+    /// calling thread (the same per-face results either way), into `self.energies` and the
+    /// gradient slots.
+    fn evaluate_faces_batched(
+        &mut self,
+        model: &ShellModel,
+        x: &[Vector3<f64>],
+        rest: &RestState,
+        damping: Option<&DampingState>,
+        gradient: bool,
+        parallel: bool,
+    ) -> Result<(), EnergyError> {
+        let inputs = batch::Inputs {
+            constants: batch::Constants::new(&model.material, damping),
+            terms: model.terms,
+            stencils: &self.stencils,
+            x,
+            rest,
+            damping,
+            slots: self.n_slots,
+            grad_stride: self.pattern.grad_stride,
+        };
+        let arch = pulp::Arch::new();
+        let chunk = |(c, slots): (usize, batch::FaceSlots2<'_>)| {
+            arch.dispatch(batch::ChunkOp {
+                inputs: &inputs,
+                first: c * batch::CHUNK,
+                slots,
+                gradient,
+            })
+        };
+        let stride = batch::CHUNK * self.pattern.grad_stride;
+        let bad_face = if parallel {
+            self.energies
+                .par_chunks_mut(batch::CHUNK)
+                .zip(self.grad_buffer.par_chunks_mut(stride))
+                .enumerate()
+                .filter_map(chunk)
+                .min()
+        } else {
+            self.energies
+                .chunks_mut(batch::CHUNK)
+                .zip(self.grad_buffer.chunks_mut(stride))
+                .enumerate()
+                .filter_map(chunk)
+                .min()
+        };
+        match bad_face {
+            Some(f) => Err(EnergyError::NonFinite {
+                face: FaceId::new(f),
+            }),
+            None => Ok(()),
+        }
     }
 
     /// Per-face kernels ([`eval_face`] over the form's N dofs), in parallel, into the per-face
