@@ -409,10 +409,9 @@ fn faces(first: usize, start: usize, count: usize) -> [usize; LANES] {
 
 /// Gathers the stencil positions, flap masks and rest (and damping) forms of faces `f`.
 #[inline(always)]
-fn load(inp: &Inputs<'_>, f: &[usize; LANES]) -> (Batch, Rest) {
+fn load(inp: &Inputs<'_>, f: &[usize; LANES], batch: &mut Batch) -> Rest {
     let st = inp.stencils;
-    let mut x = [V3::zero(); 6];
-    let mut flap = [[false; LANES]; 3];
+    let Batch { x, flap } = batch;
     let mut a_bar = [Matrix2::zeros(); LANES];
     let mut b_bar = [Matrix2::zeros(); LANES];
     for (l, &fl) in f.iter().enumerate() {
@@ -439,16 +438,13 @@ fn load(inp: &Inputs<'_>, f: &[usize; LANES]) -> (Batch, Rest) {
         }
         (inv_sym(&ap), sym(&ap), sym(&bp))
     });
-    (
-        Batch { x, flap },
-        Rest {
-            a_bar: sym(&a_bar),
-            b_bar: sym(&b_bar),
-            a_bar_inv: inv_sym(&a_bar),
-            area: sqrt_det(&a_bar),
-            prev,
-        },
-    )
+    Rest {
+        a_bar: sym(&a_bar),
+        b_bar: sym(&b_bar),
+        a_bar_inv: inv_sym(&a_bar),
+        area: sqrt_det(&a_bar),
+        prev,
+    }
 }
 
 /// Energies of a batch (`eval_face_energy` for StVK and the mid-edge average).
@@ -504,7 +500,7 @@ fn pull(m: &V3, len: Lanes, v: &V3) -> V3 {
 /// Energies and the gradient blocks (one per stencil slot) of a batch (`eval_face` with the
 /// gradient: the law's 2Kd, reverse mode through the mid-edge normals, J_aᵀ ∂E/∂a).
 #[inline(always)]
-fn energy_gradient(inp: &Inputs<'_>, s: &Batch, r: &Rest) -> ([Lanes; 3], [V3; 6]) {
+fn energy_gradient(inp: &Inputs<'_>, s: &Batch, r: &Rest, g: &mut [V3; 6]) -> [Lanes; 3] {
     let k = &inp.constants;
     let t = inp.terms;
     let x = &s.x;
@@ -531,7 +527,7 @@ fn energy_gradient(inp: &Inputs<'_>, s: &Batch, r: &Rest) -> ([Lanes; 3], [V3; 6
             + quadratic(k, inv, c * k.h3_24, &sub3(&b, bp), &mut gb);
     }
 
-    let mut g = [V3::zero(); 6];
+    *g = [V3::zero(); 6];
     if let Some(nm) = &nm {
         // w·b = Σ_e n_e·p_e, p_e = A_e e1 + B_e e2 (the coefficients of `edge_weights`).
         let w = gb;
@@ -571,7 +567,7 @@ fn energy_gradient(inp: &Inputs<'_>, s: &Batch, r: &Rest) -> ([Lanes; 3], [V3; 6
         g[1] += g1;
         g[2] += g2;
     }
-    (energies, g)
+    energies
 }
 
 /// Energies (and, with `gradient`, the per-face gradient slots) of the faces of one chunk,
@@ -586,12 +582,17 @@ pub(crate) fn run_chunk(
     let count = energies.len();
     let mut bad = None;
     let mut start = 0;
+    let mut batch = Batch {
+        x: [V3::zero(); 6],
+        flap: [[false; LANES]; 3],
+    };
+    let mut g = [V3::zero(); 6];
     while start < count {
         let f = faces(first, start, count);
-        let (batch, rest) = load(inp, &f);
+        let rest = load(inp, &f, &mut batch);
         let live = (count - start).min(LANES);
         if gradient {
-            let (e, g) = energy_gradient(inp, &batch, &rest);
+            let e = energy_gradient(inp, &batch, &rest, &mut g);
             for l in 0..live {
                 let i = start + l;
                 energies[i] = EnergyTerms {
