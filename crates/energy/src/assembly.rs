@@ -12,9 +12,10 @@
 //! Small passes (below `PARALLEL_MIN_WORK` face work or `PARALLEL_MIN_GATHER` entries) run on
 //! the calling thread instead: handing them to rayon's pool costs more than they take.
 //!
-//! St. Venant–Kirchhoff with the mid-edge average (the form the paper authors' library shares)
-//! evaluates energy and energy + gradient four faces at a time, one face per SIMD lane
-//! (`batch`); every other combination, and every Hessian, runs the per-face kernels.
+//! St. Venant–Kirchhoff evaluates energy and energy + gradient with the mid-edge average (the
+//! form the paper authors' library shares), and the energy alone with the edge-director forms,
+//! four faces at a time, one face per SIMD lane (`batch`); every other combination, and every
+//! Hessian, runs the per-face kernels.
 //!
 //! No thread ever adds into shared memory, so results are bit-identical for any number of
 //! threads (and on either path), and nothing is allocated per evaluation beyond rayon's
@@ -226,9 +227,9 @@ impl Assembler {
     /// state `rest` and, when damping is on, the damping state; writes the gradient and/or
     /// Hessian requested in `out`. With neither requested (`EvalOutput::default()`, the
     /// line-search case) the faces run the lean energy-only kernel
-    /// [`crate::eval_face_energy`] and no per-face buffer is touched. St. Venant–Kirchhoff with
-    /// the mid-edge average runs energy and energy + gradient batched across faces instead
-    /// (the same values to round-off, 1e-13 relative).
+    /// [`crate::eval_face_energy`] and no per-face buffer is touched. St. Venant–Kirchhoff runs
+    /// batched across faces instead (the same values to round-off, 1e-13 relative): energy and
+    /// energy + gradient with the mid-edge average, the energy with the edge-director forms.
     ///
     /// Errors: `model.terms` differ from the assembler's ([`EnergyError::TermsMismatch`]);
     /// invalid material; wrong lengths; damping on without a [`DampingState`]; a Hessian not
@@ -319,13 +320,29 @@ impl Assembler {
         let parallel = n_faces.saturating_mul(face_work(want)) >= PARALLEL_MIN_WORK
             && rayon::current_num_threads() > 1;
 
-        // One monomorphised per-face loop per form (adding a form adds an arm here); StVK with
-        // the mid-edge average, energy or gradient, runs batched across faces.
+        // One monomorphised per-face loop per form (adding a form adds an arm here); StVK runs
+        // batched across faces where `batch` covers it.
         let batched = want.hessian.is_none() && model.material.model == MaterialModel::StVK;
         match model.sff {
-            SffKind::MidEdgeAverage if batched => {
-                self.evaluate_faces_batched(model, x, rest, damping, want.gradient, parallel)?
-            }
+            SffKind::MidEdgeAverage if batched => self.evaluate_faces_batched(
+                batch::Form::MidEdgeAverage,
+                model,
+                x,
+                rest,
+                damping,
+                want.gradient,
+                parallel,
+            )?,
+            SffKind::EdgeDirector(variant) if batched && !want.gradient => self
+                .evaluate_faces_batched(
+                    batch::Form::EdgeDirector(variant, phi),
+                    model,
+                    x,
+                    rest,
+                    damping,
+                    false,
+                    parallel,
+                )?,
             SffKind::MidEdgeAverage => self.evaluate_faces(
                 &MidEdgeAverage,
                 model,
@@ -368,12 +385,14 @@ impl Assembler {
         Ok(total)
     }
 
-    /// The energy or energy + gradient pass of StVK with the mid-edge average, [`batch::LANES`]
-    /// faces at a time ([`batch`]), in parallel over chunks of [`batch::CHUNK`] faces or on the
+    /// The energy pass of StVK with `form`, or its energy + gradient pass with the mid-edge
+    /// average, [`batch::LANES`] faces at a time ([`batch`]), in parallel over chunks of [`batch::CHUNK`] faces or on the
     /// calling thread (the same per-face results either way), into `self.energies` and the
     /// gradient slots.
+    #[allow(clippy::too_many_arguments)] // mirrors `evaluate_with_angles`
     fn evaluate_faces_batched(
         &mut self,
+        form: batch::Form<'_>,
         model: &ShellModel,
         x: &[Vector3<f64>],
         rest: &RestState,
@@ -383,6 +402,9 @@ impl Assembler {
     ) -> Result<(), EnergyError> {
         let inputs = batch::Inputs {
             constants: batch::Constants::new(&model.material, damping),
+            form,
+            material: &model.material,
+            energy_constants: EnergyConstants::new(&model.material),
             terms: model.terms,
             stencils: &self.stencils,
             x,

@@ -1,14 +1,18 @@
 //! The assembler's energy and energy + gradient passes for St. Venant–Kirchhoff with the mid-edge
-//! average (model.md §1–2), [`LANES`] faces at a time in structure-of-arrays form.
+//! average, and its energy pass for the edge-director forms (model.md §1–2), [`LANES`] faces at
+//! a time in structure-of-arrays form.
 //!
 //! Every quantity of the scalar kernels ([`crate::eval_face_energy`], [`crate::eval_face`] with
-//! the gradient: the mid-edge normals, b, the SV quadratics, the reverse-mode pull-back through
-//! the normals) is a [`Lanes`] here, one face per lane, so that each arithmetic operation is
-//! one SIMD instruction. Lanes never mix: a face's result does not depend on its lane, on the
-//! other faces of its batch or on the chunking, and only IEEE-exact operations are used (no
-//! fused multiply-add), so results are bit-identical whatever the instruction set and the
-//! thread count. They equal the scalar kernels to round-off (the operation order differs
-//! slightly; `tests/batch.rs` checks 1e-13 relative).
+//! the gradient: the mid-edge normals or the edge directors' second moments, b, the SV
+//! quadratics, the reverse-mode pull-back through the normals) is a [`Lanes`] here, one face
+//! per lane, so that each arithmetic operation is one SIMD instruction. Lanes never mix: a
+//! face's result does not depend on its lane, on the other faces of its batch or on the
+//! chunking, and only IEEE-exact operations are used (no fused multiply-add; the edge angles'
+//! tan, sin and cos are the scalar libm calls, per lane), so results are bit-identical
+//! whatever the instruction set and the thread count. They equal the scalar kernels to
+//! round-off (the operation order differs slightly; `tests/batch.rs` checks 1e-13 relative).
+//! Edge-director faces with a fitted or clamped free edge (dual numbers, model.md §1.2–1.3),
+//! and any face whose batched energy is not finite, are evaluated by the per-face kernel.
 //!
 //! Branches of the scalar code become selects: a face without a flap across edge e (its
 //! stencil slot repeats the opposite face vertex, which makes the neighbour normal's sum
@@ -18,9 +22,12 @@
 //! build's baseline otherwise): the whole chunk loop is inlined into pulp's dispatch, whose
 //! target features then apply to the plain array arithmetic below, which LLVM vectorises.
 
-use crate::kernel::EnergyTerms;
+use crate::kernel::{EnergyTerms, FaceDamping, FaceRest, eval_face_energy};
+use crate::material::EnergyConstants;
 use crate::material::Material;
 use crate::rest::{DampingState, RestState};
+use crate::sff::{DirectorVariant, EdgeDirector};
+use crate::stencil::EdgeAngles;
 use crate::stencils::Stencils;
 use crate::terms::Terms;
 use nalgebra::{Matrix2, Vector3};
@@ -234,6 +241,11 @@ impl Constants {
 /// Everything a chunk of faces reads.
 pub(crate) struct Inputs<'a> {
     pub(crate) constants: Constants,
+    /// The second fundamental form (the gradient pass: the mid-edge average only).
+    pub(crate) form: Form<'a>,
+    /// The material and its constants, for faces the batch hands back to the per-face kernel.
+    pub(crate) material: &'a Material,
+    pub(crate) energy_constants: EnergyConstants,
     pub(crate) terms: Terms,
     pub(crate) stencils: &'a Stencils,
     pub(crate) x: &'a [Vector3<f64>],
@@ -242,6 +254,16 @@ pub(crate) struct Inputs<'a> {
     /// Gradient slots written per face (3, or 6 with flap vertices) and the buffer stride.
     pub(crate) slots: usize,
     pub(crate) grad_stride: usize,
+}
+
+/// The bending form of a batched pass.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Form<'a> {
+    /// [`crate::MidEdgeAverage`].
+    MidEdgeAverage,
+    /// [`crate::EdgeDirector`] with the edge angles `phi` (rad, one per edge; empty when the
+    /// assembler has no edge unknowns: all 0).
+    EdgeDirector(DirectorVariant, &'a [f64]),
 }
 
 /// One batch's rest (and damping) data: ā⁻¹ entries, A = √det ā, b̄, ā, and per damping
@@ -340,6 +362,22 @@ const NEIGHBOUR: [[usize; 3]; 3] = [[2, 1, 3], [0, 2, 4], [1, 0, 5]];
 struct Batch {
     x: [V3; 6],
     flap: [[bool; LANES]; 3],
+    /// Edge-director form, per local edge: tan(σφ) (tan) or sin(σφ) (sin), and cos(σφ) (sin).
+    angle: [[Lanes; 2]; 3],
+    /// Faces the batch hands back to the per-face kernel (edge-director faces with a fitted
+    /// or clamped free edge, whose director comes from dual numbers).
+    special: [bool; LANES],
+}
+
+impl Batch {
+    fn new() -> Self {
+        Batch {
+            x: [V3::zero(); 6],
+            flap: [[false; LANES]; 3],
+            angle: [[Lanes::zero(); 2]; 3],
+            special: [false; LANES],
+        }
+    }
 }
 
 /// The mid-edge normals and b of a batch, with what the reverse pass reuses.
@@ -411,7 +449,12 @@ fn faces(first: usize, start: usize, count: usize) -> [usize; LANES] {
 #[inline(always)]
 fn load(inp: &Inputs<'_>, f: &[usize; LANES], batch: &mut Batch) -> Rest {
     let st = inp.stencils;
-    let Batch { x, flap } = batch;
+    let Batch {
+        x,
+        flap,
+        angle,
+        special,
+    } = batch;
     let mut a_bar = [Matrix2::zeros(); LANES];
     let mut b_bar = [Matrix2::zeros(); LANES];
     for (l, &fl) in f.iter().enumerate() {
@@ -428,6 +471,25 @@ fn load(inp: &Inputs<'_>, f: &[usize; LANES], batch: &mut Batch) -> Rest {
         }
         a_bar[l] = inp.rest.a_bar[fl];
         b_bar[l] = inp.rest.b_bar[fl];
+        if let Form::EdgeDirector(variant, phi) = inp.form {
+            special[l] = st.has_boundary_director(fl);
+            let ang = if phi.is_empty() {
+                EdgeAngles::default()
+            } else {
+                st.angles(fl, phi)
+            };
+            for (e, slot) in angle.iter_mut().enumerate() {
+                let a = ang.sigma[e] * ang.phi[e];
+                match variant {
+                    DirectorVariant::Tan => slot[0].0[l] = a.tan(),
+                    DirectorVariant::Sin => {
+                        let (sn, cs) = a.sin_cos();
+                        slot[0].0[l] = sn;
+                        slot[1].0[l] = cs;
+                    }
+                }
+            }
+        }
     }
     let prev = inp.damping.map(|d| {
         let mut ap = [Matrix2::zeros(); LANES];
@@ -447,6 +509,54 @@ fn load(inp: &Inputs<'_>, f: &[usize; LANES], batch: &mut Batch) -> Rest {
     }
 }
 
+/// b of the edge-director form (`EdgeDirector::b_with_angles` away from fitted and clamped
+/// free edges): II_i = 2 d_i f(θ_i/2 + σ_i φ_i), b = −[[II_0 + II_1, II_0], [II_0, II_0 + II_2]].
+/// The half dihedral angle enters through half-angle identities instead of atan2 (which does
+/// not vectorise): with s = (n_f × n_g)·ê, c = n_f·n_g and r = √(s² + c²), r + c (written
+/// s²/(r − c) for c < 0, free of cancellation near a fold) gives tan(θ/2) = s/(r + c),
+/// cos(θ/2) = √((r + c)/2r) and sin(θ/2) = s/√(2r(r + c)); the addition formulas take the
+/// angle's tan, sin and cos from the batch. A hinge folded completely flat (r + c = 0) gives
+/// NaN here, and the face goes back to the per-face kernel.
+#[inline(always)]
+fn director_b(s: &Batch, variant: DirectorVariant) -> Sym {
+    let x = &s.x;
+    let area2 = (x[1] - x[0]).cross(&(x[2] - x[0])).norm();
+    let mut ii = [Lanes::zero(); 3];
+    for (i, ii) in ii.iter_mut().enumerate() {
+        let (a, b, c, q) = (i, (i + 1) % 3, (i + 2) % 3, 3 + i);
+        let e = x[c] - x[b];
+        let le = e.norm();
+        let d = area2 / le;
+        let nf_raw = (x[b] - x[a]).cross(&(x[c] - x[a]));
+        let ng_raw = (x[b] - x[c]).cross(&(x[q] - x[c]));
+        let nf = nf_raw.scale(nf_raw.norm().recip());
+        let ng = ng_raw.scale(ng_raw.norm().recip());
+        let eh = e.scale(le.recip());
+        let sn = nf.cross(&ng).dot(&eh);
+        let cs = nf.dot(&ng);
+        let r = (sn * sn + cs * cs).sqrt();
+        let non_negative: [bool; LANES] = std::array::from_fn(|l| cs.0[l] >= 0.0);
+        let r_plus_c = Lanes::select(&non_negative, r + cs, sn * sn / (r - cs));
+        let flap = &s.flap[i];
+        let [u, cos_u] = s.angle[i];
+        let f = match variant {
+            DirectorVariant::Tan => {
+                let t = Lanes::select(flap, sn / r_plus_c, Lanes::zero());
+                (t + u) / (Lanes::splat(1.0) - t * u)
+            }
+            DirectorVariant::Sin => {
+                let half_sin = sn / (r * r_plus_c * 2.0).sqrt();
+                let half_cos = (r_plus_c / (r * 2.0)).sqrt();
+                let half_sin = Lanes::select(flap, half_sin, Lanes::zero());
+                let half_cos = Lanes::select(flap, half_cos, Lanes::splat(1.0));
+                half_sin * cos_u + half_cos * u
+            }
+        };
+        *ii = d * 2.0 * f;
+    }
+    [-(ii[0] + ii[1]), -ii[0], -(ii[0] + ii[2])]
+}
+
 /// Energies of a batch (`eval_face_energy` for StVK and the mid-edge average).
 #[inline(always)]
 fn energy(inp: &Inputs<'_>, s: &Batch, r: &Rest) -> [Lanes; 3] {
@@ -454,10 +564,13 @@ fn energy(inp: &Inputs<'_>, s: &Batch, r: &Rest) -> [Lanes; 3] {
     let t = inp.terms;
     let (e1, e2) = (s.x[1] - s.x[0], s.x[2] - s.x[0]);
     let a = metric(&e1, &e2);
-    let b = if t.bend || r.prev.is_some() {
-        normals(s).b
-    } else {
+    let b = if !(t.bend || r.prev.is_some()) {
         r.b_bar
+    } else {
+        match inp.form {
+            Form::MidEdgeAverage => normals(s).b,
+            Form::EdgeDirector(variant, _) => director_b(s, variant),
+        }
     };
     let stretch = if t.stretch {
         sv_norm_sq(k, &r.a_bar_inv, &sub3(&a, &r.a_bar)) * r.area * k.h_8
@@ -582,10 +695,7 @@ pub(crate) fn run_chunk(
     let count = energies.len();
     let mut bad = None;
     let mut start = 0;
-    let mut batch = Batch {
-        x: [V3::zero(); 6],
-        flap: [[false; LANES]; 3],
-    };
+    let mut batch = Batch::new();
     let mut g = [V3::zero(); 6];
     while start < count {
         let f = faces(first, start, count);
@@ -620,6 +730,9 @@ pub(crate) fn run_chunk(
                     bend: e[1].0[l],
                     damping: e[2].0[l],
                 };
+                if batch.special[l] || !energies[i].total().is_finite() {
+                    energies[i] = face_energy(inp, first + i);
+                }
                 if !energies[i].total().is_finite() && bad.is_none() {
                     bad = Some(first + i);
                 }
@@ -628,6 +741,38 @@ pub(crate) fn run_chunk(
         start += LANES;
     }
     bad
+}
+
+/// The energies of face `f` by the per-face kernel ([`eval_face_energy`]): for faces the batch
+/// does not cover, and to tell a face's own non-finite result from a batched formula's.
+#[inline(never)]
+fn face_energy(inp: &Inputs<'_>, f: usize) -> EnergyTerms {
+    let st = inp.stencils;
+    let rest = FaceRest {
+        a_bar: inp.rest.a_bar[f],
+        b_bar: inp.rest.b_bar[f],
+    };
+    let damping = inp.damping.map(|d| FaceDamping {
+        a_prev: d.a_prev[f],
+        b_prev: d.b_prev[f],
+        dt: d.dt,
+    });
+    let (m, k, t) = (inp.material, &inp.energy_constants, inp.terms);
+    match inp.form {
+        Form::MidEdgeAverage => {
+            let s = st.stencil(f, inp.x);
+            eval_face_energy(&crate::MidEdgeAverage, m, k, &s, &rest, damping.as_ref(), t)
+        }
+        Form::EdgeDirector(variant, phi) => {
+            let s = if phi.is_empty() {
+                st.stencil(f, inp.x)
+            } else {
+                st.stencil_at(f, inp.x, phi)
+            };
+            let form = EdgeDirector { variant };
+            eval_face_energy(&form, m, k, &s, &rest, damping.as_ref(), t)
+        }
+    }
 }
 
 /// A chunk of faces as a `pulp` operation: [`run_chunk`] inlined into the dispatched
