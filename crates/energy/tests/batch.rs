@@ -360,3 +360,53 @@ fn batched_director_energy_independent_of_thread_count() {
     assert_eq!(one, bits(director_energies(&c, &model, &phi, &[], 2).0));
     assert_eq!(one, bits(director_energies(&c, &model, &phi, &[], 3).0));
 }
+
+/// A hinge folded completely flat (the neighbour triangle lies on the face, θ = π exactly): the
+/// batched half-angle formulas give 0/0 there, and the face goes back to the per-face kernel,
+/// so both variants give the scalar kernel's energies bit for bit (finite and nonzero).
+#[test]
+fn folded_flat_hinge_goes_back_to_the_per_face_kernel() {
+    let p = |x: f64, y: f64| Vector3::new(x, y, 0.0);
+    let mesh = Mesh::new(
+        vec![p(0.0, 0.0), p(1.0, 0.0), p(0.0, 1.0), p(1.0, 1.0)],
+        vec![[0, 1, 2], [2, 1, 3]],
+    )
+    .unwrap();
+    // Vertex 3 reflected across the shared edge lands on vertex 0.
+    let x = vec![p(0.0, 0.0), p(1.0, 0.0), p(0.0, 1.0), p(0.0, 0.0)];
+    for variant in [DirectorVariant::Sin, DirectorVariant::Tan] {
+        let model = ShellModel {
+            material: Material::paper(),
+            terms: Terms::ELASTIC,
+            sff: SffKind::EdgeDirector(variant),
+        };
+        let rest = RestState::from_mesh(&mesh, mesh.positions(), model.sff).unwrap();
+        let dofs = DofMap::all_free(4)
+            .with_edges(mesh.n_edges(), fitted_free_edges(&mesh))
+            .unwrap();
+        let phi = vec![0.0; mesh.n_edges()];
+        let mut asm = Assembler::for_model(&mesh, &dofs, &model).unwrap();
+        asm.evaluate_with_angles(&model, &x, &phi, &rest, None, EvalOutput::default())
+            .unwrap();
+        let stencils = Stencils::new(&mesh);
+        let constants = EnergyConstants::new(&model.material);
+        let form = model.sff.director().unwrap();
+        for f in 0..2 {
+            let face_rest = FaceRest {
+                a_bar: rest.a_bar[f],
+                b_bar: rest.b_bar[f],
+            };
+            let e = eval_face_energy(
+                &form,
+                &model.material,
+                &constants,
+                &stencils.stencil_at(f, &x, &phi),
+                &face_rest,
+                None,
+                model.terms,
+            );
+            assert!(e.bend.is_finite() && e.bend > 0.0, "{variant:?}: {e:?}");
+            assert_eq!(asm.face_energies()[f], e, "{variant:?}, face {f}");
+        }
+    }
+}
