@@ -51,7 +51,9 @@ const GATHER_CHUNK: usize = 2048;
 /// machine: more than the energy and gradient passes of the seed's 184-face square take
 /// (about 30 and 75 µs), less than its Hessian pass (about 450 µs), which stays parallel.
 /// Faces write their own slots and every sum has a fixed order, so both paths give
-/// bit-identical results.
+/// bit-identical results. (The units are the per-face kernels'; the batched StVK passes cost
+/// about a quarter of that per face, so they go parallel at a few times less work than this
+/// aims for: not re-tuned.)
 const PARALLEL_MIN_WORK: usize = 2048;
 
 /// Gathered entries (gradient coordinates or Hessian nonzeros) below which a gather runs on
