@@ -12,10 +12,16 @@
 //! Small passes (below `PARALLEL_MIN_WORK` face work or `PARALLEL_MIN_GATHER` entries) run on
 //! the calling thread instead: handing them to rayon's pool costs more than they take.
 //!
+//! St. Venant–Kirchhoff evaluates energy and energy + gradient with the mid-edge average (the
+//! form the paper authors' library shares), and the energy alone with the edge-director forms,
+//! four faces at a time, one face per SIMD lane (`batch`); every other combination, and every
+//! Hessian, runs the per-face kernels.
+//!
 //! No thread ever adds into shared memory, so results are bit-identical for any number of
 //! threads (and on either path), and nothing is allocated per evaluation beyond rayon's
 //! bookkeeping.
 
+mod batch;
 mod pattern;
 
 use crate::dofs::{DofMap, check_len};
@@ -25,6 +31,7 @@ use crate::kernel::{
     eval_face, eval_face_energy,
 };
 use crate::linalg::ProjectPsd;
+use crate::material::MaterialModel;
 use crate::rest::{DampingState, RestState};
 use crate::sff::{EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind};
 use crate::shell::ShellModel;
@@ -44,7 +51,9 @@ const GATHER_CHUNK: usize = 2048;
 /// machine: more than the energy and gradient passes of the seed's 184-face square take
 /// (about 30 and 75 µs), less than its Hessian pass (about 450 µs), which stays parallel.
 /// Faces write their own slots and every sum has a fixed order, so both paths give
-/// bit-identical results.
+/// bit-identical results. (The units are the per-face kernels'; the batched StVK passes cost
+/// about a quarter of that per face, so they go parallel at a few times less work than this
+/// aims for: not re-tuned.)
 const PARALLEL_MIN_WORK: usize = 2048;
 
 /// Gathered entries (gradient coordinates or Hessian nonzeros) below which a gather runs on
@@ -220,7 +229,9 @@ impl Assembler {
     /// state `rest` and, when damping is on, the damping state; writes the gradient and/or
     /// Hessian requested in `out`. With neither requested (`EvalOutput::default()`, the
     /// line-search case) the faces run the lean energy-only kernel
-    /// [`crate::eval_face_energy`] and no per-face buffer is touched.
+    /// [`crate::eval_face_energy`] and no per-face buffer is touched. St. Venant–Kirchhoff runs
+    /// batched across faces instead (the same values to round-off, 1e-13 relative): energy and
+    /// energy + gradient with the mid-edge average, the energy with the edge-director forms.
     ///
     /// Errors: `model.terms` differ from the assembler's ([`EnergyError::TermsMismatch`]);
     /// invalid material; wrong lengths; damping on without a [`DampingState`]; a Hessian not
@@ -311,8 +322,29 @@ impl Assembler {
         let parallel = n_faces.saturating_mul(face_work(want)) >= PARALLEL_MIN_WORK
             && rayon::current_num_threads() > 1;
 
-        // One monomorphised per-face loop per form (adding a form adds an arm here).
+        // One monomorphised per-face loop per form (adding a form adds an arm here); StVK runs
+        // batched across faces where `batch` covers it.
+        let batched = want.hessian.is_none() && model.material.model == MaterialModel::StVK;
         match model.sff {
+            SffKind::MidEdgeAverage if batched => self.evaluate_faces_batched(
+                batch::Form::MidEdgeAverage,
+                model,
+                x,
+                rest,
+                damping,
+                want.gradient,
+                parallel,
+            )?,
+            SffKind::EdgeDirector(variant) if batched && !want.gradient => self
+                .evaluate_faces_batched(
+                    batch::Form::EdgeDirector(variant, phi),
+                    model,
+                    x,
+                    rest,
+                    damping,
+                    false,
+                    parallel,
+                )?,
             SffKind::MidEdgeAverage => self.evaluate_faces(
                 &MidEdgeAverage,
                 model,
@@ -353,6 +385,67 @@ impl Assembler {
             self.gather_hessian_values(values, parallel);
         }
         Ok(total)
+    }
+
+    /// The energy pass of StVK with `form`, or its energy + gradient pass with the mid-edge
+    /// average, [`batch::LANES`] faces at a time ([`batch`]), in parallel over chunks of [`batch::CHUNK`] faces or on the
+    /// calling thread (the same per-face results either way), into `self.energies` and the
+    /// gradient slots.
+    #[allow(clippy::too_many_arguments)] // mirrors `evaluate_with_angles`
+    fn evaluate_faces_batched(
+        &mut self,
+        form: batch::Form<'_>,
+        model: &ShellModel,
+        x: &[Vector3<f64>],
+        rest: &RestState,
+        damping: Option<&DampingState>,
+        gradient: bool,
+        parallel: bool,
+    ) -> Result<(), EnergyError> {
+        let inputs = batch::Inputs {
+            constants: batch::Constants::new(&model.material, damping),
+            form,
+            material: &model.material,
+            energy_constants: EnergyConstants::new(&model.material),
+            terms: model.terms,
+            stencils: &self.stencils,
+            x,
+            rest,
+            damping,
+            slots: self.n_slots,
+            grad_stride: self.pattern.grad_stride,
+        };
+        let arch = pulp::Arch::new();
+        let chunk = |(c, slots): (usize, batch::FaceSlots2<'_>)| {
+            arch.dispatch(batch::ChunkOp {
+                inputs: &inputs,
+                first: c * batch::CHUNK,
+                slots,
+                gradient,
+            })
+        };
+        let stride = batch::CHUNK * self.pattern.grad_stride;
+        let bad_face = if parallel {
+            self.energies
+                .par_chunks_mut(batch::CHUNK)
+                .zip(self.grad_buffer.par_chunks_mut(stride))
+                .enumerate()
+                .filter_map(chunk)
+                .min()
+        } else {
+            self.energies
+                .chunks_mut(batch::CHUNK)
+                .zip(self.grad_buffer.chunks_mut(stride))
+                .enumerate()
+                .filter_map(chunk)
+                .min()
+        };
+        match bad_face {
+            Some(f) => Err(EnergyError::NonFinite {
+                face: FaceId::new(f),
+            }),
+            None => Ok(()),
+        }
     }
 
     /// Per-face kernels ([`eval_face`] over the form's N dofs), in parallel, into the per-face

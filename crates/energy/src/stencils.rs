@@ -174,6 +174,12 @@ impl Stencils {
         out
     }
 
+    /// Whether a free edge of face `f` takes its edge-director from the free-edge fit or a
+    /// clamp (model.md §1.2–1.3) rather than from its edge angle.
+    pub(crate) fn has_boundary_director(&self, f: usize) -> bool {
+        (0..3).any(|e| !self.flap[f][e] && (self.ghost[f][e] || self.clamp[f][e].is_some()))
+    }
+
     /// The edges of face `f` in local-edge order.
     pub fn edges(&self, f: usize) -> &[EdgeId; 3] {
         &self.edges[f]

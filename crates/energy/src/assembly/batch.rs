@@ -1,0 +1,794 @@
+//! The assembler's energy and energy + gradient passes for St. Venant–Kirchhoff with the mid-edge
+//! average, and its energy pass for the edge-director forms (model.md §1–2), [`LANES`] faces at
+//! a time in structure-of-arrays form.
+//!
+//! Every quantity of the scalar kernels ([`crate::eval_face_energy`], [`crate::eval_face`] with
+//! the gradient: the mid-edge normals or the edge directors' second moments, b, the SV
+//! quadratics, the reverse-mode pull-back through the normals) is a [`Lanes`] here, one face
+//! per lane, so that each arithmetic operation is one SIMD instruction. Lanes never mix: a
+//! face's result does not depend on its lane, on the other faces of its batch or on the
+//! chunking, and only IEEE-exact operations are used (no fused multiply-add; the edge angles'
+//! tan, sin and cos are the scalar libm calls, per lane), so results are bit-identical
+//! whatever the instruction set and the thread count. They equal the scalar kernels to
+//! round-off (the operation order differs slightly; `tests/batch.rs` checks 1e-13 relative).
+//! Edge-director faces with a fitted or clamped free edge (dual numbers, model.md §1.2–1.3),
+//! and any face whose batched energy is not finite, are evaluated by the per-face kernel.
+//!
+//! Branches of the scalar code become selects: a face without a flap across edge e (its
+//! stencil slot repeats the opposite face vertex, which makes the neighbour normal's sum
+//! vanish) computes the interior-edge quantities anyway and discards them by lane.
+//!
+//! The instruction set is chosen at run time through `pulp` (AVX2 where the CPU has it, the
+//! build's baseline otherwise): the whole chunk loop is inlined into pulp's dispatch, whose
+//! target features then apply to the plain array arithmetic below, which LLVM vectorises.
+
+use crate::kernel::{EnergyTerms, FaceDamping, FaceRest, eval_face_energy};
+use crate::material::EnergyConstants;
+use crate::material::Material;
+use crate::rest::{DampingState, RestState};
+use crate::sff::{DirectorVariant, EdgeDirector};
+use crate::stencil::EdgeAngles;
+use crate::stencils::Stencils;
+use crate::terms::Terms;
+use nalgebra::{Matrix2, Vector3};
+use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
+
+/// Faces per batch: four f64 lanes fill one AVX2 register.
+pub(crate) const LANES: usize = 4;
+
+/// Faces per work item of the parallel pass (a multiple of [`LANES`]).
+pub(crate) const CHUNK: usize = 64;
+
+/// A chunk's per-face outputs: energies and gradient slots (`grad_stride` entries a face).
+pub(crate) type FaceSlots2<'a> = (&'a mut [EnergyTerms], &'a mut [f64]);
+
+/// One f64 per face of a batch.
+#[derive(Clone, Copy, Debug)]
+struct Lanes([f64; LANES]);
+
+impl Lanes {
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        Lanes([v; LANES])
+    }
+
+    #[inline(always)]
+    fn zero() -> Self {
+        Lanes([0.0; LANES])
+    }
+
+    #[inline(always)]
+    fn map(self, f: impl Fn(f64) -> f64) -> Self {
+        Lanes(std::array::from_fn(|i| f(self.0[i])))
+    }
+
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        self.map(f64::sqrt)
+    }
+
+    #[inline(always)]
+    fn recip(self) -> Self {
+        Lanes::splat(1.0) / self
+    }
+
+    /// `a` where `mask`, else `b`, lane by lane.
+    #[inline(always)]
+    fn select(mask: &[bool; LANES], a: Self, b: Self) -> Self {
+        Lanes(std::array::from_fn(
+            |i| if mask[i] { a.0[i] } else { b.0[i] },
+        ))
+    }
+}
+
+macro_rules! lane_op {
+    ($tr:ident, $f:ident, $op:tt) => {
+        impl $tr for Lanes {
+            type Output = Lanes;
+            #[inline(always)]
+            fn $f(self, o: Lanes) -> Lanes {
+                Lanes(std::array::from_fn(|i| self.0[i] $op o.0[i]))
+            }
+        }
+    };
+}
+lane_op!(Add, add, +);
+lane_op!(Sub, sub, -);
+lane_op!(Mul, mul, *);
+lane_op!(Div, div, /);
+
+impl Mul<f64> for Lanes {
+    type Output = Lanes;
+    #[inline(always)]
+    fn mul(self, o: f64) -> Lanes {
+        self * Lanes::splat(o)
+    }
+}
+
+impl Neg for Lanes {
+    type Output = Lanes;
+    #[inline(always)]
+    fn neg(self) -> Lanes {
+        self.map(|v| -v)
+    }
+}
+
+impl AddAssign for Lanes {
+    #[inline(always)]
+    fn add_assign(&mut self, o: Lanes) {
+        *self = *self + o;
+    }
+}
+
+/// A 3-vector per face of a batch.
+#[derive(Clone, Copy, Debug)]
+struct V3 {
+    x: Lanes,
+    y: Lanes,
+    z: Lanes,
+}
+
+impl V3 {
+    #[inline(always)]
+    fn zero() -> Self {
+        V3 {
+            x: Lanes::zero(),
+            y: Lanes::zero(),
+            z: Lanes::zero(),
+        }
+    }
+
+    #[inline(always)]
+    fn dot(&self, o: &V3) -> Lanes {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+
+    #[inline(always)]
+    fn cross(&self, o: &V3) -> V3 {
+        V3 {
+            x: self.y * o.z - self.z * o.y,
+            y: self.z * o.x - self.x * o.z,
+            z: self.x * o.y - self.y * o.x,
+        }
+    }
+
+    #[inline(always)]
+    fn scale(&self, s: Lanes) -> V3 {
+        V3 {
+            x: self.x * s,
+            y: self.y * s,
+            z: self.z * s,
+        }
+    }
+
+    #[inline(always)]
+    fn norm(&self) -> Lanes {
+        self.dot(self).sqrt()
+    }
+
+    #[inline(always)]
+    fn select(mask: &[bool; LANES], a: &V3, b: &V3) -> V3 {
+        V3 {
+            x: Lanes::select(mask, a.x, b.x),
+            y: Lanes::select(mask, a.y, b.y),
+            z: Lanes::select(mask, a.z, b.z),
+        }
+    }
+}
+
+impl Add for V3 {
+    type Output = V3;
+    #[inline(always)]
+    fn add(self, o: V3) -> V3 {
+        V3 {
+            x: self.x + o.x,
+            y: self.y + o.y,
+            z: self.z + o.z,
+        }
+    }
+}
+
+impl Sub for V3 {
+    type Output = V3;
+    #[inline(always)]
+    fn sub(self, o: V3) -> V3 {
+        V3 {
+            x: self.x - o.x,
+            y: self.y - o.y,
+            z: self.z - o.z,
+        }
+    }
+}
+
+impl AddAssign for V3 {
+    #[inline(always)]
+    fn add_assign(&mut self, o: V3) {
+        *self = *self + o;
+    }
+}
+
+/// The entries (m11, m12, m22) of a symmetric 2×2 matrix per face.
+type Sym = [Lanes; 3];
+
+/// Material constants of the batched kernels (per mesh evaluation).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Constants {
+    /// h/8 (m), h³/24 (m³).
+    h_8: f64,
+    h3_24: f64,
+    /// α/2, α, β (Pa).
+    half_alpha: f64,
+    alpha: f64,
+    beta: f64,
+    /// (η/E)/Δt (1/s; 0 without damping).
+    damping: f64,
+}
+
+impl Constants {
+    pub(crate) fn new(material: &Material, damping: Option<&DampingState>) -> Self {
+        let h = material.thickness;
+        Constants {
+            h_8: h / 8.0,
+            h3_24: h * h * h / 24.0,
+            half_alpha: 0.5 * material.alpha(),
+            alpha: material.alpha(),
+            beta: material.beta(),
+            damping: damping.map_or(0.0, |d| material.viscosity / material.young / d.dt),
+        }
+    }
+}
+
+/// Everything a chunk of faces reads.
+pub(crate) struct Inputs<'a> {
+    pub(crate) constants: Constants,
+    /// The second fundamental form (the gradient pass: the mid-edge average only).
+    pub(crate) form: Form<'a>,
+    /// The material and its constants, for faces the batch hands back to the per-face kernel.
+    pub(crate) material: &'a Material,
+    pub(crate) energy_constants: EnergyConstants,
+    pub(crate) terms: Terms,
+    pub(crate) stencils: &'a Stencils,
+    pub(crate) x: &'a [Vector3<f64>],
+    pub(crate) rest: &'a RestState,
+    pub(crate) damping: Option<&'a DampingState>,
+    /// Gradient slots written per face (3, or 6 with flap vertices) and the buffer stride.
+    pub(crate) slots: usize,
+    pub(crate) grad_stride: usize,
+}
+
+/// The bending form of a batched pass.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Form<'a> {
+    /// [`crate::MidEdgeAverage`].
+    MidEdgeAverage,
+    /// [`crate::EdgeDirector`] with the edge angles `phi` (rad, one per edge; empty when the
+    /// assembler has no edge unknowns: all 0).
+    EdgeDirector(DirectorVariant, &'a [f64]),
+}
+
+/// One batch's rest (and damping) data: ā⁻¹ entries, A = √det ā, b̄, ā, and per damping
+/// a_prev⁻¹, a_prev, b_prev.
+struct Rest {
+    a_bar: Sym,
+    b_bar: Sym,
+    a_bar_inv: Sym,
+    area: Lanes,
+    prev: Option<(Sym, Sym, Sym)>,
+}
+
+/// Entries of a symmetric matrix per face, off-diagonal averaged (as `sym_entries`).
+#[inline(always)]
+fn sym(ms: &[Matrix2<f64>; LANES]) -> Sym {
+    let mut out = [Lanes::zero(); 3];
+    for (l, m) in ms.iter().enumerate() {
+        out[0].0[l] = m[(0, 0)];
+        out[1].0[l] = 0.5 * (m[(0, 1)] + m[(1, 0)]);
+        out[2].0[l] = m[(1, 1)];
+    }
+    out
+}
+
+/// Entries (p, q, r) of m⁻¹ per face, q averaged (as `inv2` then `sym_entries`).
+#[inline(always)]
+fn inv_sym(ms: &[Matrix2<f64>; LANES]) -> Sym {
+    let mut g = [Lanes::zero(); 4];
+    for (l, m) in ms.iter().enumerate() {
+        g[0].0[l] = m[(0, 0)];
+        g[1].0[l] = m[(0, 1)];
+        g[2].0[l] = m[(1, 0)];
+        g[3].0[l] = m[(1, 1)];
+    }
+    let [m00, m01, m10, m11] = g;
+    let det = m00 * m11 - m01 * m10;
+    let inv = det.recip();
+    [m11 * inv, (-m01 * inv + -m10 * inv) * 0.5, m00 * inv]
+}
+
+/// √det m per face, with nalgebra's 2×2 determinant order (m00 m11 − m10 m01), as the scalar
+/// kernels' A = √det ā.
+#[inline(always)]
+fn sqrt_det(ms: &[Matrix2<f64>; LANES]) -> Lanes {
+    let mut a = [Lanes::zero(); 4];
+    for (l, m) in ms.iter().enumerate() {
+        a[0].0[l] = m[(0, 0)];
+        a[1].0[l] = m[(1, 1)];
+        a[2].0[l] = m[(1, 0)];
+        a[3].0[l] = m[(0, 1)];
+    }
+    (a[0] * a[1] - a[2] * a[3]).sqrt()
+}
+
+/// ‖M⁻¹D‖²_SV = α/2 tr(M⁻¹D)² + β tr((M⁻¹D)²) from the entries (p, q, r) of M⁻¹ and d of D
+/// (`sv_norm_sq_entries`).
+#[inline(always)]
+fn sv_norm_sq(k: &Constants, inv: &Sym, d: &Sym) -> Lanes {
+    let [p, q, r] = *inv;
+    let m00 = p * d[0] + q * d[1];
+    let m01 = p * d[1] + q * d[2];
+    let m10 = q * d[0] + r * d[1];
+    let m11 = q * d[1] + r * d[2];
+    let t = m00 + m11;
+    t * t * k.half_alpha + (m00 * m00 + m01 * m10 * 2.0 + m11 * m11) * k.beta
+}
+
+/// K·d of the SV quadratic with scale `c` (`sv_quadratic_times`).
+#[inline(always)]
+fn sv_times(k: &Constants, inv: &Sym, c: Lanes, d: &Sym) -> Sym {
+    let [p, q, r] = *inv;
+    let (v0, v1, v2) = (p, q * 2.0, r);
+    let two_pq = p * q * 2.0;
+    let qd = [
+        p * p * d[0] + two_pq * d[1] + q * q * d[2],
+        two_pq * d[0] + (q * q + p * r) * 2.0 * d[1] + q * r * 2.0 * d[2],
+        q * q * d[0] + q * r * 2.0 * d[1] + r * r * d[2],
+    ];
+    let s = (v0 * d[0] + v1 * d[1] + v2 * d[2]) * (0.5 * k.alpha);
+    [
+        (v0 * s + qd[0] * k.beta) * c,
+        (v1 * s + qd[1] * k.beta) * c,
+        (v2 * s + qd[2] * k.beta) * c,
+    ]
+}
+
+#[inline(always)]
+fn sub3(a: &Sym, b: &Sym) -> Sym {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// Stencil blocks (p0, p1, p2) of the neighbour across local edge e (`neighbour_blocks`).
+const NEIGHBOUR: [[usize; 3]; 3] = [[2, 1, 3], [0, 2, 4], [1, 0, 5]];
+
+/// One batch of faces: positions of the six stencil slots, flap masks per local edge.
+struct Batch {
+    x: [V3; 6],
+    flap: [[bool; LANES]; 3],
+    /// Edge-director form, per local edge: tan(σφ) (tan) or sin(σφ) (sin), and cos(σφ) (sin).
+    angle: [[Lanes; 2]; 3],
+    /// Faces the batch hands back to the per-face kernel (edge-director faces with a fitted
+    /// or clamped free edge, whose director comes from dual numbers).
+    special: [bool; LANES],
+}
+
+impl Batch {
+    fn new() -> Self {
+        Batch {
+            x: [V3::zero(); 6],
+            flap: [[false; LANES]; 3],
+            angle: [[Lanes::zero(); 2]; 3],
+            special: [false; LANES],
+        }
+    }
+}
+
+/// The mid-edge normals and b of a batch, with what the reverse pass reuses.
+struct Normals {
+    /// Unit face normal and |e1 × e2|.
+    nf: V3,
+    lf: Lanes,
+    /// Per edge: mid-edge normal n_e, |n_f + n_g|, unit neighbour normal n_g, |c_g|.
+    n: [V3; 3],
+    ls: [Lanes; 3],
+    ng: [V3; 3],
+    lg: [Lanes; 3],
+    b: Sym,
+}
+
+/// b of the mid-edge average (`MidEdgeAverage::b`, written out per lane).
+#[inline(always)]
+fn normals(s: &Batch) -> Normals {
+    let x = &s.x;
+    let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
+    let cf = e1.cross(&e2);
+    let lf = cf.norm();
+    let nf = cf.scale(lf.recip());
+    let mut n = [nf; 3];
+    let mut ls = [Lanes::zero(); 3];
+    let mut ng = [nf; 3];
+    let mut lg = [Lanes::zero(); 3];
+    for e in 0..3 {
+        let [i0, i1, i2] = NEIGHBOUR[e];
+        let cg = (x[i1] - x[i0]).cross(&(x[i2] - x[i0]));
+        lg[e] = cg.norm();
+        ng[e] = cg.scale(lg[e].recip());
+        let sum = nf + ng[e];
+        ls[e] = sum.norm();
+        n[e] = V3::select(&s.flap[e], &sum.scale(ls[e].recip()), &nf);
+    }
+    let d1: [Lanes; 3] = std::array::from_fn(|e| n[e].dot(&e1));
+    let d2: [Lanes; 3] = std::array::from_fn(|e| n[e].dot(&e2));
+    let b = [
+        (d1[1] - d1[0]) * 2.0,
+        (d2[1] - d2[0]) + (d1[2] - d1[0]),
+        (d2[2] - d2[0]) * 2.0,
+    ];
+    Normals {
+        nf,
+        lf,
+        n,
+        ls,
+        ng,
+        lg,
+        b,
+    }
+}
+
+/// Metric entries (e1·e1, e1·e2, e2·e2).
+#[inline(always)]
+fn metric(e1: &V3, e2: &V3) -> Sym {
+    [e1.dot(e1), e1.dot(e2), e2.dot(e2)]
+}
+
+/// Faces `first + lane` of a chunk of `count` faces (lanes past the end repeat its last face,
+/// and are discarded).
+#[inline(always)]
+fn faces(first: usize, start: usize, count: usize) -> [usize; LANES] {
+    std::array::from_fn(|l| first + (start + l).min(count - 1))
+}
+
+/// Gathers the stencil positions, flap masks and rest (and damping) forms of faces `f`.
+#[inline(always)]
+fn load(inp: &Inputs<'_>, f: &[usize; LANES], batch: &mut Batch) -> Rest {
+    let st = inp.stencils;
+    let Batch {
+        x,
+        flap,
+        angle,
+        special,
+    } = batch;
+    let mut a_bar = [Matrix2::zeros(); LANES];
+    let mut b_bar = [Matrix2::zeros(); LANES];
+    for (l, &fl) in f.iter().enumerate() {
+        let v = st.vertices(fl);
+        for (s, xs) in x.iter_mut().enumerate() {
+            let p = &inp.x[v[s].idx()];
+            xs.x.0[l] = p.x;
+            xs.y.0[l] = p.y;
+            xs.z.0[l] = p.z;
+        }
+        let fp = st.flap(fl);
+        for e in 0..3 {
+            flap[e][l] = fp[e];
+        }
+        a_bar[l] = inp.rest.a_bar[fl];
+        b_bar[l] = inp.rest.b_bar[fl];
+        if let Form::EdgeDirector(variant, phi) = inp.form {
+            special[l] = st.has_boundary_director(fl);
+            let ang = if phi.is_empty() {
+                EdgeAngles::default()
+            } else {
+                st.angles(fl, phi)
+            };
+            for (e, slot) in angle.iter_mut().enumerate() {
+                let a = ang.sigma[e] * ang.phi[e];
+                match variant {
+                    DirectorVariant::Tan => slot[0].0[l] = a.tan(),
+                    DirectorVariant::Sin => {
+                        let (sn, cs) = a.sin_cos();
+                        slot[0].0[l] = sn;
+                        slot[1].0[l] = cs;
+                    }
+                }
+            }
+        }
+    }
+    let prev = inp.damping.map(|d| {
+        let mut ap = [Matrix2::zeros(); LANES];
+        let mut bp = [Matrix2::zeros(); LANES];
+        for (l, &fl) in f.iter().enumerate() {
+            ap[l] = d.a_prev[fl];
+            bp[l] = d.b_prev[fl];
+        }
+        (inv_sym(&ap), sym(&ap), sym(&bp))
+    });
+    Rest {
+        a_bar: sym(&a_bar),
+        b_bar: sym(&b_bar),
+        a_bar_inv: inv_sym(&a_bar),
+        area: sqrt_det(&a_bar),
+        prev,
+    }
+}
+
+/// b of the edge-director form (`EdgeDirector::b_with_angles` away from fitted and clamped
+/// free edges): II_i = 2 d_i f(θ_i/2 + σ_i φ_i), b = −[[II_0 + II_1, II_0], [II_0, II_0 + II_2]].
+/// The half dihedral angle enters through half-angle identities instead of atan2 (which does
+/// not vectorise): with s = (n_f × n_g)·ê, c = n_f·n_g and r = √(s² + c²), r + c (written
+/// s²/(r − c) for c < 0, free of cancellation near a fold) gives tan(θ/2) = s/(r + c),
+/// cos(θ/2) = √((r + c)/2r) and sin(θ/2) = s/√(2r(r + c)); the addition formulas take the
+/// angle's tan, sin and cos from the batch. A hinge folded completely flat (r + c = 0) gives
+/// NaN here, and the face goes back to the per-face kernel.
+#[inline(always)]
+fn director_b(s: &Batch, variant: DirectorVariant) -> Sym {
+    let x = &s.x;
+    let area2 = (x[1] - x[0]).cross(&(x[2] - x[0])).norm();
+    let mut ii = [Lanes::zero(); 3];
+    for (i, ii) in ii.iter_mut().enumerate() {
+        let (a, b, c, q) = (i, (i + 1) % 3, (i + 2) % 3, 3 + i);
+        let e = x[c] - x[b];
+        let le = e.norm();
+        let d = area2 / le;
+        let nf_raw = (x[b] - x[a]).cross(&(x[c] - x[a]));
+        let ng_raw = (x[b] - x[c]).cross(&(x[q] - x[c]));
+        let nf = nf_raw.scale(nf_raw.norm().recip());
+        let ng = ng_raw.scale(ng_raw.norm().recip());
+        let eh = e.scale(le.recip());
+        let sn = nf.cross(&ng).dot(&eh);
+        let cs = nf.dot(&ng);
+        let r = (sn * sn + cs * cs).sqrt();
+        let non_negative: [bool; LANES] = std::array::from_fn(|l| cs.0[l] >= 0.0);
+        let r_plus_c = Lanes::select(&non_negative, r + cs, sn * sn / (r - cs));
+        let flap = &s.flap[i];
+        let [u, cos_u] = s.angle[i];
+        let f = match variant {
+            DirectorVariant::Tan => {
+                let t = Lanes::select(flap, sn / r_plus_c, Lanes::zero());
+                (t + u) / (Lanes::splat(1.0) - t * u)
+            }
+            DirectorVariant::Sin => {
+                let half_sin = sn / (r * r_plus_c * 2.0).sqrt();
+                let half_cos = (r_plus_c / (r * 2.0)).sqrt();
+                let half_sin = Lanes::select(flap, half_sin, Lanes::zero());
+                let half_cos = Lanes::select(flap, half_cos, Lanes::splat(1.0));
+                half_sin * cos_u + half_cos * u
+            }
+        };
+        *ii = d * 2.0 * f;
+    }
+    [-(ii[0] + ii[1]), -ii[0], -(ii[0] + ii[2])]
+}
+
+/// Energies of a batch (`eval_face_energy` for StVK and the mid-edge average).
+#[inline(always)]
+fn energy(inp: &Inputs<'_>, s: &Batch, r: &Rest) -> [Lanes; 3] {
+    let k = &inp.constants;
+    let t = inp.terms;
+    let (e1, e2) = (s.x[1] - s.x[0], s.x[2] - s.x[0]);
+    let a = metric(&e1, &e2);
+    let b = if !(t.bend || r.prev.is_some()) {
+        r.b_bar
+    } else {
+        match inp.form {
+            Form::MidEdgeAverage => normals(s).b,
+            Form::EdgeDirector(variant, _) => director_b(s, variant),
+        }
+    };
+    let stretch = if t.stretch {
+        sv_norm_sq(k, &r.a_bar_inv, &sub3(&a, &r.a_bar)) * r.area * k.h_8
+    } else {
+        Lanes::zero()
+    };
+    let bend = if t.bend {
+        sv_norm_sq(k, &r.a_bar_inv, &sub3(&b, &r.b_bar)) * r.area * k.h3_24
+    } else {
+        Lanes::zero()
+    };
+    let damping = match &r.prev {
+        Some((inv, ap, bp)) => {
+            let c = r.area * k.damping;
+            (sv_norm_sq(k, inv, &sub3(&a, ap)) * k.h_8
+                + sv_norm_sq(k, inv, &sub3(&b, bp)) * k.h3_24)
+                * c
+        }
+        None => Lanes::zero(),
+    };
+    [stretch, bend, damping]
+}
+
+/// Energy d·Kd of one SV quadratic (scale `c`); adds its gradient 2Kd to `g`.
+#[inline(always)]
+fn quadratic(k: &Constants, inv: &Sym, c: Lanes, d: &Sym, g: &mut Sym) -> Lanes {
+    let kd = sv_times(k, inv, c, d);
+    for i in 0..3 {
+        g[i] += kd[i] * 2.0;
+    }
+    d[0] * kd[0] + d[1] * kd[1] + d[2] * kd[2]
+}
+
+/// Pull a vector back through m = u/|u|: (I − m mᵀ) v / |u|.
+#[inline(always)]
+fn pull(m: &V3, len: Lanes, v: &V3) -> V3 {
+    (*v - m.scale(m.dot(v))).scale(len.recip())
+}
+
+/// Energies and the gradient blocks (one per stencil slot) of a batch (`eval_face` with the
+/// gradient: the law's 2Kd, reverse mode through the mid-edge normals, J_aᵀ ∂E/∂a).
+#[inline(always)]
+fn energy_gradient(inp: &Inputs<'_>, s: &Batch, r: &Rest, g: &mut [V3; 6]) -> [Lanes; 3] {
+    let k = &inp.constants;
+    let t = inp.terms;
+    let x = &s.x;
+    let uses_b = t.bend || r.prev.is_some();
+    let uses_a = t.stretch || r.prev.is_some();
+    let nm = if uses_b { Some(normals(s)) } else { None };
+    let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
+    let a = metric(&e1, &e2);
+    let b = nm.as_ref().map_or(r.b_bar, |nm| nm.b);
+    let mut energies = [Lanes::zero(); 3];
+    let mut ga = [Lanes::zero(); 3];
+    let mut gb = [Lanes::zero(); 3];
+    if t.stretch {
+        let c = r.area * k.h_8;
+        energies[0] = quadratic(k, &r.a_bar_inv, c, &sub3(&a, &r.a_bar), &mut ga);
+    }
+    if t.bend {
+        let c = r.area * k.h3_24;
+        energies[1] = quadratic(k, &r.a_bar_inv, c, &sub3(&b, &r.b_bar), &mut gb);
+    }
+    if let Some((inv, ap, bp)) = &r.prev {
+        let c = r.area * k.damping;
+        energies[2] = quadratic(k, inv, c * k.h_8, &sub3(&a, ap), &mut ga)
+            + quadratic(k, inv, c * k.h3_24, &sub3(&b, bp), &mut gb);
+    }
+
+    *g = [V3::zero(); 6];
+    if let Some(nm) = &nm {
+        // w·b = Σ_e n_e·p_e, p_e = A_e e1 + B_e e2 (the coefficients of `edge_weights`).
+        let w = gb;
+        let coef = [
+            (-(w[0] * 2.0) - w[1], -w[1] - w[2] * 2.0),
+            (w[0] * 2.0, w[1]),
+            (w[1], w[2] * 2.0),
+        ];
+        let mut mu_f = V3::zero();
+        for e in 0..3 {
+            let (ca, cb) = coef[e];
+            let p = e1.scale(ca) + e2.scale(cb);
+            let n = &nm.n[e];
+            g[0] += n.scale(-(ca + cb));
+            g[1] += n.scale(ca);
+            g[2] += n.scale(cb);
+            let mu_s = pull(n, nm.ls[e], &p);
+            let nu = pull(&nm.ng[e], nm.lg[e], &mu_s);
+            let flap = &s.flap[e];
+            mu_f += V3::select(flap, &mu_s, &p);
+            let nu = V3::select(flap, &nu, &V3::zero());
+            let [i0, i1, i2] = NEIGHBOUR[e];
+            let (q0, q1, q2) = (x[i0], x[i1], x[i2]);
+            g[i0] += (q1 - q2).cross(&nu);
+            g[i1] += (q2 - q0).cross(&nu);
+            g[i2] += nu.cross(&(q1 - q0));
+        }
+        let nu = pull(&nm.nf, nm.lf, &mu_f);
+        g[0] += (x[1] - x[2]).cross(&nu);
+        g[1] += (x[2] - x[0]).cross(&nu);
+        g[2] += nu.cross(&(x[1] - x[0]));
+    }
+    if uses_a {
+        let g1 = e1.scale(ga[0] * 2.0) + e2.scale(ga[1]);
+        let g2 = e1.scale(ga[1]) + e2.scale(ga[2] * 2.0);
+        g[0] += V3::zero() - (g1 + g2);
+        g[1] += g1;
+        g[2] += g2;
+    }
+    energies
+}
+
+/// Energies (and, with `gradient`, the per-face gradient slots) of the faces of one chunk,
+/// `first..first + energies.len()`; returns the lowest face with a non-finite result.
+#[inline(always)]
+pub(crate) fn run_chunk(
+    inp: &Inputs<'_>,
+    first: usize,
+    (energies, grad): FaceSlots2<'_>,
+    gradient: bool,
+) -> Option<usize> {
+    let count = energies.len();
+    let mut bad = None;
+    let mut start = 0;
+    let mut batch = Batch::new();
+    let mut g = [V3::zero(); 6];
+    while start < count {
+        let f = faces(first, start, count);
+        let rest = load(inp, &f, &mut batch);
+        let live = (count - start).min(LANES);
+        if gradient {
+            let e = energy_gradient(inp, &batch, &rest, &mut g);
+            for l in 0..live {
+                let i = start + l;
+                energies[i] = EnergyTerms {
+                    stretch: e[0].0[l],
+                    bend: e[1].0[l],
+                    damping: e[2].0[l],
+                };
+                let out = &mut grad[i * inp.grad_stride..(i + 1) * inp.grad_stride];
+                let mut finite = energies[i].total().is_finite();
+                for (sl, v) in g.iter().enumerate().take(inp.slots) {
+                    let c = [v.x.0[l], v.y.0[l], v.z.0[l]];
+                    finite &= (c[0] * 0.0 + c[1] * 0.0 + c[2] * 0.0) == 0.0;
+                    out[3 * sl..3 * sl + 3].copy_from_slice(&c);
+                }
+                if !finite && bad.is_none() {
+                    bad = Some(first + i);
+                }
+            }
+        } else {
+            let e = energy(inp, &batch, &rest);
+            for l in 0..live {
+                let i = start + l;
+                energies[i] = EnergyTerms {
+                    stretch: e[0].0[l],
+                    bend: e[1].0[l],
+                    damping: e[2].0[l],
+                };
+                if batch.special[l] || !energies[i].total().is_finite() {
+                    energies[i] = face_energy(inp, first + i);
+                }
+                if !energies[i].total().is_finite() && bad.is_none() {
+                    bad = Some(first + i);
+                }
+            }
+        }
+        start += LANES;
+    }
+    bad
+}
+
+/// The energies of face `f` by the per-face kernel ([`eval_face_energy`]): for faces the batch
+/// does not cover, and to tell a face's own non-finite result from a batched formula's.
+#[inline(never)]
+fn face_energy(inp: &Inputs<'_>, f: usize) -> EnergyTerms {
+    let st = inp.stencils;
+    let rest = FaceRest {
+        a_bar: inp.rest.a_bar[f],
+        b_bar: inp.rest.b_bar[f],
+    };
+    let damping = inp.damping.map(|d| FaceDamping {
+        a_prev: d.a_prev[f],
+        b_prev: d.b_prev[f],
+        dt: d.dt,
+    });
+    let (m, k, t) = (inp.material, &inp.energy_constants, inp.terms);
+    match inp.form {
+        Form::MidEdgeAverage => {
+            let s = st.stencil(f, inp.x);
+            eval_face_energy(&crate::MidEdgeAverage, m, k, &s, &rest, damping.as_ref(), t)
+        }
+        Form::EdgeDirector(variant, phi) => {
+            let s = if phi.is_empty() {
+                st.stencil(f, inp.x)
+            } else {
+                st.stencil_at(f, inp.x, phi)
+            };
+            let form = EdgeDirector { variant };
+            eval_face_energy(&form, m, k, &s, &rest, damping.as_ref(), t)
+        }
+    }
+}
+
+/// A chunk of faces as a `pulp` operation: [`run_chunk`] inlined into the dispatched
+/// instruction set's context.
+pub(crate) struct ChunkOp<'a, 'b> {
+    pub(crate) inputs: &'a Inputs<'a>,
+    pub(crate) first: usize,
+    pub(crate) slots: FaceSlots2<'b>,
+    pub(crate) gradient: bool,
+}
+
+impl pulp::WithSimd for ChunkOp<'_, '_> {
+    type Output = Option<usize>;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> Option<usize> {
+        run_chunk(self.inputs, self.first, self.slots, self.gradient)
+    }
+}
