@@ -70,7 +70,7 @@ pub(crate) static SPECS: [Spec; 4] = [
             below 0.01 P), because their free-edge fit is not mirror-symmetric: a mirrored state \
             has a 0.1–0.35 % different bending energy, from the faces at the free edges (the \
             outer vertex of model.md §1.2 is chosen among mirror-equivalent candidates by \
-            index). The symmetric branch is stable: the smallest eigenvalue of the exact Hessian \
+            index or round-off). The symmetric branch is stable: the smallest eigenvalue of the exact Hessian \
             stays positive at every tabulated level on 512 … 3 200 faces, so the full model has \
             no bifurcation the quarter model would exclude. Follower forces (along the current \
             vertex normal) instead of dead ones move away from the reference: on 2 048 faces \
