@@ -802,6 +802,45 @@ mod tests {
         Ok(())
     }
 
+    /// `hemisphere_pins` carry no force on the symmetric branch and keep the state symmetric
+    /// (the 3-2-1 pins of `Boundary::rigid_motion_pins` carried 0.4 P at P/Pmax = 0.3 and
+    /// turned the shell, issue #27): the mid-edge average, whose energy is mirror-symmetric, on
+    /// 8×32 ramped to P/Pmax = 0.3 (pushed point ≈ 4.4, far from linear). Tolerances: pin
+    /// forces 1e-8 P, mirror mismatch of the pushed points 1e-9 R (round-off is 1e-10 P and
+    /// 1e-14 R).
+    #[test]
+    fn hemisphere_pins_carry_no_force_on_the_symmetric_branch() -> Result<()> {
+        let (r, hole, p, lambda) = (10.0, 18f64.to_radians(), 400.0, 0.3);
+        let mesh = generators::hemisphere_with_hole(r, hole, 8, 32)?;
+        let (forces, v) = hemisphere_loads(&mesh, r, p)?;
+        let pins = hemisphere_pins(&mesh, r, hole)?;
+        let x0 = mesh.positions().to_vec();
+        let material = Material {
+            thickness: 0.04,
+            young: 6.825e7,
+            poisson: 0.3,
+            ..Material::paper()
+        };
+        let mut sys = held_by_pins(mesh, SffKind::MidEdgeAverage, material, pins, forces)?;
+        let mut c = Config::of(&sys, x0.clone());
+        let stopped = ramp(&mut sys, &mut c, &[lambda], 0.1, |_, _, _| Ok(()))?;
+        assert!(stopped.is_none(), "stopped at {stopped:?}");
+        let largest = sys
+            .reactions_at(&c.x, &c.phi)?
+            .iter()
+            .fold(0.0f64, |m, f| m.max(f.abs()));
+        assert!(largest < 1e-8 * lambda * p, "pin force {largest:e} N");
+        let (a, b) = (c.x[v[2].idx()], c.x[v[3].idx()]);
+        let mismatch = (a - V3::new(b.x, -b.y, b.z)).norm();
+        assert!(
+            mismatch < 1e-9 * r,
+            "pushed points not mirror images: {mismatch:e}"
+        );
+        let (_, pushed) = hemisphere_displacements(&x0, &c.x, v);
+        assert!(pushed > 4.0, "pushed point {pushed}");
+        Ok(())
+    }
+
     #[test]
     fn roof_read_outs_are_exact_on_a_parabola() {
         let lam = |w: f64| 0.74 - 0.01 * (w - 10.8).powi(2);
