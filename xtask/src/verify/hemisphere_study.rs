@@ -168,10 +168,14 @@ fn list(var: &str, default: &str) -> Result<Vec<f64>> {
 }
 
 /// Symmetry and stability along the path (issue #27, hypothesis 1): at each load level the
-/// four load points' radial displacements (after the best rigid fit onto the initial shape;
-/// pushed inward positive), the RMS asymmetry under the mirrors y → −y and x → −x relative to
-/// the RMS displacement, and the smallest eigenvalue of the exact Hessian. `HEMI_SYM_LEVELS`:
-/// mesh levels (default 2: 16×64); `HEMI_SYM_LAMBDA`: load levels. Run:
+/// largest pin force, the four load points' radial displacements (after the best rigid fit
+/// onto the initial shape; pushed inward positive), the RMS asymmetry under the mirrors
+/// y → −y and x → −x relative to the RMS displacement, the smallest eigenvalue of the exact
+/// Hessian and the stretching share of the energy; at the last level the state symmetrised
+/// and solved again. `HEMI_SYM_LEVELS`: mesh levels (default 2: 16×64); `HEMI_SYM_LAMBDA`:
+/// load levels; `HEMI_SYM_SFF`: form; `HEMI_SYM_PINS=rigid`: the 3-2-1 pins instead of
+/// `hemisphere_pins`; `HEMI_SYM_ENERGY` (set): also the energy of each mirror image and where
+/// it differs (faces touching the boundary or not). Run:
 /// `cargo test -p xtask --release hemisphere_symmetry_study -- --ignored --nocapture`.
 #[test]
 #[ignore = "a study of minutes; prints a table"]
