@@ -18,6 +18,8 @@ use anyhow::{Context, Result};
 use thinshell_energy::SffKind;
 
 mod analytic;
+#[cfg(test)]
+mod hemisphere_study;
 mod linear;
 mod nonlinear;
 mod report;

@@ -24,16 +24,34 @@ pub(crate) fn stress_free(
 }
 
 /// [`stress_free`] held only against rigid motion (the 3-2-1 pins of
-/// `Boundary::rigid_motion_pins` at vertex 0, no reactions) under point forces (N) that must be
-/// self-equilibrated.
+/// `Boundary::rigid_motion_pins` at vertex 0, no reactions in a linear analysis) under point
+/// forces (N) that must be self-equilibrated. Under large displacements these pins turn the
+/// deformed shell against the dead loads and carry forces: see [`held_by_pins`].
 pub(crate) fn unheld(
     mesh: Mesh,
     sff: SffKind,
     material: Material,
     point_forces: Vec<(VertexId, V3)>,
 ) -> Result<ShellSystem> {
+    let pins = Boundary::rigid_motion_pins(&mesh, VertexId::new(0))?;
+    held_by_pins(mesh, sff, material, pins, point_forces)
+}
+
+/// [`stress_free`] held only by the pinned coordinates `pins` (vertex, axis 0/1/2) under point
+/// forces (N). Dead loads that sum to zero still have a moment about the deformed shape unless
+/// that shape keeps the loads' symmetry and placement: pins that a symmetric state satisfies
+/// without turning (coordinates that vanish on the symmetry planes) carry no force on the
+/// symmetric branch, whereas 3-2-1 pins at arbitrary vertices turn the deformed shape as
+/// far as the pinned vertices move relative to each other.
+pub(crate) fn held_by_pins(
+    mesh: Mesh,
+    sff: SffKind,
+    material: Material,
+    pins: Vec<(VertexId, usize)>,
+    point_forces: Vec<(VertexId, V3)>,
+) -> Result<ShellSystem> {
     let boundary = Boundary {
-        pinned_coordinates: Boundary::rigid_motion_pins(&mesh, VertexId::new(0))?,
+        pinned_coordinates: pins,
         ..Boundary::default()
     };
     let loads = Loads {
