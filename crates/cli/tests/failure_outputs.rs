@@ -280,8 +280,14 @@ fn an_implicit_step_out_of_iterations_hints_at_adaptive_dt() {
     let out = run(&scene, &d.join("fixed"), &fixed);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains("Newton did not converge in 100 iterations"), "{err}");
-    assert!(err.contains("hint:") && err.contains("integrator.adaptive_dt = true"), "{err}");
+    assert!(
+        err.contains("Newton did not converge in 100 iterations"),
+        "{err}"
+    );
+    assert!(
+        err.contains("hint:") && err.contains("integrator.adaptive_dt = true"),
+        "{err}"
+    );
     let adaptive = [&fixed[..], &["--set", "integrator.adaptive_dt=true"]].concat();
     let out = run(&scene, &d.join("adaptive"), &adaptive);
     assert!(
