@@ -1,4 +1,4 @@
-//! `cargo xtask accuracy`: what accuracy costs in time (issue #7).
+//! `cargo xtask accuracy`: what accuracy costs in time (docs/accuracy.md).
 //!
 //! Runs cases with a known answer under one knob at a time (mesh resolution, Δt, Newton
 //! tolerance, adaptive (default) vs Gauss–Newton Hessian, line search, implicit vs explicit Euler, static

@@ -1,4 +1,4 @@
-//! `cargo xtask contact-cost`: what the `contact` effect costs (issue #30), on the scroll of
+//! `cargo xtask contact-cost`: what the `contact` effect costs, on the scroll of
 //! `solver/tests/contact.rs` at three sizes.
 //!
 //! The strip (20 cm × 2 cm, h = 0.2 mm, E = 1 MPa, rest shape rolled 1.5 turns) starts wound

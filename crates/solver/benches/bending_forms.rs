@@ -1,4 +1,4 @@
-//! What the edge-director bending forms cost (issue #9): for the mid-edge average and the two
+//! What the edge-director bending forms cost (docs/performance.md, "Edge-director bending"): for the mid-edge average and the two
 //! director variants, on icospheres of 1 280 and 20 480 faces,
 //! - whole-mesh assembly of energy + gradient + exact Hessian (`assembly/<form>/<faces>`), and
 //! - one implicit Euler step (Δt = 1e-3 s, line search on, exact Hessian) of the sphere shrinking

@@ -1,4 +1,4 @@
-//! Hard cases stay numerically stable (issue #8): time steps far above the seed's, strong and
+//! Hard cases stay numerically stable (docs/robustness.md): time steps far above the seed's, strong and
 //! discontinuous growth, inverted and folded starts, slivers and graded meshes, a crumpled start
 //! with an indefinite Hessian, extreme material parameters and a long damped run.
 //!

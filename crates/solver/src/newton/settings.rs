@@ -84,10 +84,9 @@ pub struct NewtonSettings {
     pub ordering: Ordering,
     /// Factorise on the rayon thread pool (default `true`): with the METIS ordering and a
     /// factor of ≥ 2e8 flops, the factorisation is split at the top nested-dissection level
-    /// and its two halves run concurrently when the pool has ≥ 2 threads (1.13–1.30× faster
-    /// than one thread at 20 480 faces, 1.51–1.68× at 81 920, on an idle 2-core VM:
-    /// `cargo xtask perf`), one after the other on one thread. The same floating-point
-    /// operations run in the same order for every pool size
+    /// and its two halves run concurrently when the pool has ≥ 2 threads (speed-ups in
+    /// docs/performance.md, `cargo xtask perf`), one after the other on one thread. The same
+    /// floating-point operations run in the same order for every pool size
     /// ([`SparseCholesky::new`](crate::SparseCholesky::new)), so results are bit-identical
     /// whatever the thread count. `false`: faer on the whole matrix, one thread (fewer flops
     /// on one core; results differ from `true`'s in the last bits).

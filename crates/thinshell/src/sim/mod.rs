@@ -85,7 +85,7 @@ pub struct StepRecord {
     /// Scenes with the `contact` effect: the contact term at the end of the step; `None`
     /// otherwise.
     pub contact: Option<ContactRecord>,
-    /// Numeric factorisations of the step's Newton solve (issue #17: fewer with
+    /// Numeric factorisations of the step's Newton solve (fewer with
     /// `integrator.newton.reuse_factor`).
     pub factorizations: usize,
     /// CG iterations of the step (factor reuse, iterative fallback).

@@ -38,7 +38,7 @@ impl Ctx<'_> {
     }
 }
 
-/// (level, libshell time, libshell flops, their source, #17's time and flops).
+/// (level, libshell time, libshell flops, their source, the first cited time and flops).
 type FactorRef = (usize, f64, f64, Source, f64, f64);
 
 /// Growth exponents per thread count and the span of sizes they were fitted over.
