@@ -1,7 +1,9 @@
 //! What a Newton solve reports ([`NewtonReport`], [`Convergence`], timings) and the record it keeps
 //! while it runs.
 
-use super::*;
+use std::time::Duration;
+
+use super::settings::{IterationHessian, LinearSolver};
 
 /// Which criterion ended a converged solve.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

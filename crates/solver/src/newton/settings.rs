@@ -1,8 +1,12 @@
 //! Newton settings: which Hessian, tolerances, line search, linear solver (one plain struct,
 //! [`Default`] robust), and the per-iteration Hessian kind.
 
-use super::*;
+use faer::Par;
 use thinshell_energy::HessianMode;
+
+use crate::SolverError;
+use crate::linear::RegularizationParams;
+use crate::ordering::Ordering;
 
 /// Which Hessian each Newton iteration factorises.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]

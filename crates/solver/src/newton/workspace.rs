@@ -1,7 +1,22 @@
 //! The reusable state of Newton solves ([`NewtonWorkspace`]: symbolic factorisation, Hessian,
 //! vectors, the iterative fallback) and the stability analysis of an equilibrium ([`Stability`]).
 
-use super::*;
+use std::time::Instant;
+
+use faer::sparse::SparseColMat;
+
+use super::checks::assemble;
+use super::kept::{KeptFactor, KeptRecord};
+use super::report::NewtonTimings;
+use super::settings::{IterationHessian, IterativeFallback, LinearSolver, NewtonSettings};
+use crate::SolverError;
+use crate::curvature;
+use crate::iterative::{Ic0, PcgScratch};
+use crate::ldlt::SparseLdlt;
+use crate::linear::{FactorError, FactorStats, RegularizationKind, SparseCholesky};
+use crate::objective::Objective;
+use crate::ordering::Ordering;
+use crate::progress::{CancelFlag, ProgressHook};
 
 /// Reusable state of Newton solves on objectives with one Hessian pattern: the symbolic
 /// factorisation, the Hessian matrix, vectors, and the remembered regularisation shift.
@@ -20,7 +35,7 @@ pub struct NewtonWorkspace {
     /// ([`NewtonSettings::reuse_factor`]); `None`: refactorise.
     pub(super) reusable: Option<IterationHessian>,
     /// The input of the kept factor's factorisation (checkpoints, cancelled solves).
-    pub(super) kept: kept::KeptRecord,
+    pub(super) kept: KeptRecord,
     /// Statistics of the symbolic analysis (of the refused factor with the fallback).
     pub(super) stats: FactorStats,
     /// Built with [`NewtonSettings::force_iterative`].
@@ -185,7 +200,7 @@ impl NewtonWorkspace {
             diag_offsets,
             pcg: PcgScratch::new(n),
             reusable: None,
-            kept: kept::KeptRecord::default(),
+            kept: KeptRecord::default(),
             hessian,
             g: vec![0.0; n],
             g_trial: vec![0.0; n],
@@ -456,5 +471,40 @@ impl Precond {
             Precond::Ic0(ic) => ic.apply(r),
             Precond::Jacobi(inv) => r.iter_mut().zip(inv).for_each(|(r, d)| *r *= d),
         }
+    }
+}
+
+impl NewtonWorkspace {
+    /// The input of the factorisation whose factor this workspace keeps for the next solve
+    /// ([`NewtonSettings::reuse_factor`](super::NewtonSettings::reuse_factor)); `None` when the
+    /// next solve factorises afresh. With [`restore_kept_factor`](Self::restore_kept_factor)
+    /// on a workspace built for the same objective and settings, the next solve takes the same
+    /// steps bit for bit (checkpoints save it).
+    pub fn kept_factor(&self) -> Option<KeptFactor> {
+        self.kept.current_of(self.reusable?)
+    }
+
+    /// Keeps `kept` (from [`kept_factor`](Self::kept_factor)) as the factor for the next solve
+    /// to reuse, refactorised before its first use; `None` forgets any kept factor.
+    ///
+    /// # Errors
+    /// [`SolverError::DimensionMismatch`] when `kept` has not one value per entry of this
+    /// workspace's Hessian pattern (the workspace is unchanged).
+    pub fn restore_kept_factor(&mut self, kept: Option<KeptFactor>) -> Result<(), SolverError> {
+        let Some(kept) = kept else {
+            self.reusable = None;
+            self.kept = KeptRecord::default();
+            return Ok(());
+        };
+        if kept.values.len() != self.nnz() {
+            return Err(SolverError::DimensionMismatch {
+                what: "kept factor values",
+                expected: self.nnz(),
+                found: kept.values.len(),
+            });
+        }
+        self.reusable = Some(kept.kind);
+        self.kept = KeptRecord::restored(kept);
+        Ok(())
     }
 }
