@@ -143,7 +143,7 @@ fn verbose(st: &mut Static) {
 
 /// Part 1: the seed scenes at large time steps.
 fn scenes(rows: &mut Vec<Value>) -> Result<()> {
-    let dir = crate::workspace_root().join("data").join("scenes");
+    let dir = crate::common::workspace_root().join("data").join("scenes");
     for file in SCENES {
         for dt in [1e-3, 1e-2] {
             let steps = (0.1f64 / dt).round() as usize;
@@ -679,7 +679,7 @@ fn past_critical(rows: &mut Vec<Value>) -> Result<()> {
 /// Part 7: `moisture_curl.toml` refined to 4× and 16× the shipped faces (100×8 and 200×16
 /// cells) with the scene's defaults otherwise: every step converges.
 fn refined_scene(rows: &mut Vec<Value>) -> Result<()> {
-    let path = crate::workspace_root()
+    let path = crate::common::workspace_root()
         .join("data")
         .join("scenes")
         .join("moisture_curl.toml");
@@ -724,7 +724,7 @@ fn refined_scene(rows: &mut Vec<Value>) -> Result<()> {
 /// Runs the task; `quick` skips the 10⁴-step run, the cones, the refined scene and the
 /// critical loads.
 pub fn run(opts: &Options) -> Result<()> {
-    let out = crate::out_dir();
+    let out = crate::common::out_dir();
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let mut rows = Vec::new();
     let t0 = Instant::now();
@@ -753,8 +753,7 @@ pub fn run(opts: &Options) -> Result<()> {
     }
     println!("hard cases: {:.1} s", t0.elapsed().as_secs_f64());
     let path = out.join("hard-cases.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&rows)?)
-        .with_context(|| format!("writing {}", path.display()))?;
+    crate::common::write_json(&path, &rows)?;
     println!("wrote {}", path.display());
     Ok(())
 }

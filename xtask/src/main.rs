@@ -13,7 +13,7 @@
 mod accuracy;
 mod bench_sphere;
 mod bench_square;
-mod clock;
+mod common;
 mod contact_cost;
 mod hard_cases;
 #[cfg(test)]
@@ -28,6 +28,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+
+use common::{out_dir, workspace_root};
 
 #[derive(Parser)]
 #[command(name = "cargo xtask", about = "thinshell project tasks")]
@@ -163,23 +165,6 @@ enum Task {
         #[arg(long)]
         rust_only: bool,
     },
-}
-
-/// Where tasks write their results: `<workspace>/target/xtask`.
-pub fn out_dir() -> PathBuf {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("."));
-    root.join("target").join("xtask")
-}
-
-/// The workspace root (scene files are found relative to it).
-pub fn workspace_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("."))
 }
 
 fn main() -> ExitCode {

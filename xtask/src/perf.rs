@@ -18,11 +18,11 @@
 //!   settings) per size and thread count, the growth exponent, one implicit step per form, and
 //!   the `--big` run in a child process (time and peak memory);
 //! - [`report`]: `target/xtask/perf.json` (every raw sample) and the generated section of
-//!   `docs/performance.md` between [`BEGIN`] and [`END`].
+//!   `docs/performance.md` between its markers; [`measure`]: sizes, measures, interleaved rounds
+//!   and their statistics.
 //!
 //! Other sections (e.g. factor reuse, iterative fallback) plug in through [`extra_sections`].
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -32,16 +32,15 @@ mod facts;
 mod fallback;
 mod kernels;
 mod linear;
+mod measure;
 mod newton;
 mod report;
 mod reuse;
 
 pub(crate) use newton::child_main;
 
-/// Marker lines of the generated part of the docs file.
-pub(crate) const BEGIN: &str = "<!-- perf:begin -->";
-/// See [`BEGIN`].
-pub(crate) const END: &str = "<!-- perf:end -->";
+use crate::common::load_average;
+use measure::{Sizes, interleave};
 
 /// What to run and where to write.
 pub struct Options {
@@ -75,149 +74,6 @@ pub(crate) fn extra_sections() -> Vec<Section> {
     ]
 }
 
-/// The mesh sizes of a run (icosphere levels; level ℓ has 20·4^ℓ faces).
-#[derive(Clone, Debug)]
-pub(crate) struct Sizes {
-    /// Per-face evaluation, gather and implicit steps (the issue: level 5, 20 480 faces).
-    pub(crate) per_face: usize,
-    /// Factorisation (the issue: 20 480 and 81 920 faces).
-    pub(crate) factor: Vec<usize>,
-    /// Newton iteration and growth exponent (the issue: 1 280 … 81 920 faces).
-    pub(crate) newton: Vec<usize>,
-    /// The `--big` Newton iteration (the issue: 327 680 faces).
-    pub(crate) big: usize,
-    /// Thread counts of the two-thread rows (1 and 2; only 1 on a one-core machine).
-    pub(crate) threads: Vec<usize>,
-}
-
-impl Sizes {
-    pub(crate) fn new(quick: bool) -> Sizes {
-        let threads = if std::thread::available_parallelism().map_or(1, usize::from) > 1 {
-            vec![1, 2]
-        } else {
-            vec![1]
-        };
-        if quick {
-            Sizes {
-                per_face: 3,
-                factor: vec![3, 4],
-                newton: vec![3, 4],
-                big: 4,
-                threads,
-            }
-        } else {
-            Sizes {
-                per_face: 5,
-                factor: vec![5, 6],
-                newton: vec![3, 4, 5, 6],
-                big: 7,
-                threads,
-            }
-        }
-    }
-}
-
-/// Faces of the icosphere at `level`.
-pub(crate) fn faces_at(level: usize) -> usize {
-    20 * 4usize.pow(level as u32)
-}
-
-/// One timed action: returns its named parts in seconds (the first part is the total).
-pub(crate) type Action = Box<dyn FnMut() -> Result<Vec<f64>>>;
-
-/// A measure of the interleaved rounds.
-pub(crate) struct Measure {
-    /// Key in the JSON and in [`Samples`], e.g. `newton/l5/t1`.
-    pub(crate) id: String,
-    /// Names of the parts the action returns (`["total"]` for a single time).
-    pub(crate) parts: Vec<&'static str>,
-    /// Divide every time by this (e.g. faces, for per-face figures); 1 otherwise.
-    pub(crate) per: f64,
-    pub(crate) action: Action,
-}
-
-/// Raw samples: measure id → part name → one value per round (s, or s per `per`).
-pub(crate) type Samples = BTreeMap<String, BTreeMap<String, Vec<f64>>>;
-
-/// Runs every measure once per round, in order; one warm-up call each first (not recorded:
-/// it pages in buffers and lets faer size its scratch).
-fn interleave(measures: &mut [Measure], rounds: usize) -> Result<Samples> {
-    let mut samples = Samples::new();
-    for m in measures.iter_mut() {
-        (m.action)().with_context(|| format!("warm-up of {}", m.id))?;
-    }
-    for round in 0..rounds {
-        let t = Instant::now();
-        for m in measures.iter_mut() {
-            let parts = (m.action)().with_context(|| format!("{} (round {round})", m.id))?;
-            let entry = samples.entry(m.id.clone()).or_default();
-            for (name, v) in m.parts.iter().zip(parts) {
-                entry
-                    .entry((*name).to_string())
-                    .or_default()
-                    .push(v / m.per);
-            }
-        }
-        println!(
-            "perf: round {}/{rounds} done in {:.1} s",
-            round + 1,
-            t.elapsed().as_secs_f64()
-        );
-    }
-    Ok(samples)
-}
-
-/// Median of a non-empty sample (NaN when empty).
-pub(crate) fn median(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    }
-}
-
-/// Median of part `part` of measure `id` (NaN if it was not measured).
-pub(crate) fn med(samples: &Samples, id: &str, part: &str) -> f64 {
-    samples
-        .get(id)
-        .and_then(|m| m.get(part))
-        .map_or(f64::NAN, |v| median(v))
-}
-
-/// Least-squares slope of ln y against ln x (NaN with fewer than two distinct x).
-pub(crate) fn loglog_slope(points: &[(f64, f64)]) -> f64 {
-    let pts: Vec<(f64, f64)> = points
-        .iter()
-        .filter(|(x, y)| *x > 0.0 && *y > 0.0 && y.is_finite())
-        .map(|(x, y)| (x.ln(), y.ln()))
-        .collect();
-    let n = pts.len() as f64;
-    if pts.len() < 2 {
-        return f64::NAN;
-    }
-    let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
-    let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
-    let sxy: f64 = pts.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
-    let sxx: f64 = pts.iter().map(|(x, _)| (x - mx).powi(2)).sum();
-    if sxx > 0.0 { sxy / sxx } else { f64::NAN }
-}
-
-/// A rayon pool of `threads` threads.
-pub(crate) fn pool(threads: usize) -> Result<std::sync::Arc<rayon::ThreadPool>> {
-    Ok(std::sync::Arc::new(
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .with_context(|| format!("building a rayon pool of {threads} threads"))?,
-    ))
-}
-
 /// Runs the measures and writes the JSON and the docs section.
 pub fn run(opts: &Options) -> Result<()> {
     if opts.rounds == 0 {
@@ -229,7 +85,7 @@ pub fn run(opts: &Options) -> Result<()> {
     let rounds = if opts.quick { 1 } else { opts.rounds };
     let sizes = Sizes::new(opts.quick);
     let t0 = Instant::now();
-    let load_start = report::load_average();
+    let load_start = load_average();
     // Fail before the long part if the docs file cannot take the section.
     let docs = std::fs::read_to_string(&opts.docs_path)
         .with_context(|| format!("reading {}", opts.docs_path.display()))?;
@@ -284,12 +140,12 @@ pub fn run(opts: &Options) -> Result<()> {
         total_s: t0.elapsed().as_secs_f64(),
         load_start,
     };
-    report::write(opts, &run, &docs)
+    report::write(&opts.docs_path, &opts.json_path, &run, &docs)
 }
 
 /// `--only`: the extra sections whose title contains `only`, with the machine line.
 fn run_only(only: &str, quick: bool) -> Result<()> {
-    let load_start = report::load_average();
+    let load_start = load_average();
     let t0 = Instant::now();
     let mut md = String::new();
     for (title, section) in extra_sections() {
@@ -310,10 +166,10 @@ fn run_only(only: &str, quick: bool) -> Result<()> {
         if quick { " --quick" } else { "" },
         t0.elapsed().as_secs_f64(),
         load_start.map_or("?".to_string(), |l| format!("{l:.2}")),
-        report::load_average().map_or("?".to_string(), |l| format!("{l:.2}")),
+        load_average().map_or("?".to_string(), |l| format!("{l:.2}")),
     );
-    let path = crate::out_dir().join("perf-only.md");
-    std::fs::create_dir_all(crate::out_dir())?;
+    let path = crate::common::out_dir().join("perf-only.md");
+    std::fs::create_dir_all(crate::common::out_dir())?;
     std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?;
     println!("{md}");
     println!("perf: written to {}", path.display());

@@ -27,9 +27,10 @@ use thinshell_mesh::generators::{self, Diagonals};
 use thinshell_mesh::{Mesh, VertexId};
 use thinshell_solver::{Boundary, Loads};
 
-use super::{
-    FORMULATIONS, Knobs, Refinement, STATIC_MAX_ITERATIONS, STATIC_TOLERANCE, THICK_CYLINDER, V3,
-    paper, rms_rigid, sff_name, shell, static_solve,
+use super::cases::THICK_CYLINDER;
+use super::runner::{Knobs, paper, rms_rigid, shell, static_solve};
+use super::study::{
+    FORMULATIONS, Refinement, STATIC_MAX_ITERATIONS, STATIC_TOLERANCE, V3, sff_name,
 };
 use crate::plot::{Chart, Mark, Series, save};
 

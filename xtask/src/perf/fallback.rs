@@ -27,7 +27,7 @@ struct Solve {
 }
 
 fn solve(level: usize, dt: f64, iterative: Option<IterativeFallback>) -> Result<Solve> {
-    let path = crate::workspace_root()
+    let path = crate::common::workspace_root()
         .join("data")
         .join("scenes")
         .join("sphere_uniform_heat.toml");

@@ -44,7 +44,7 @@ impl Observer for Totals {
 
 /// Runs `case` with `extra` overrides; returns the totals, wall time (s) and the simulation.
 pub(crate) fn run_case(case: &Case, extra: &[&str]) -> Result<(Totals, f64, Simulation)> {
-    let path = crate::workspace_root()
+    let path = crate::common::workspace_root()
         .join("data")
         .join("scenes")
         .join(case.scene);

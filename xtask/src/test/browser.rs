@@ -11,8 +11,7 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 
-use super::run_stage;
-use crate::workspace_root;
+use crate::common::{run_stage, workspace_root};
 
 /// Installs chromium if needed, then runs the browser tests.
 pub fn stage() -> Result<()> {
