@@ -9,10 +9,10 @@
 //! 4. The swelling strip whose static Newton crawled, at 4 to 32 cells across, with the default
 //!    (adaptive) Newton, and for comparison the exact Hessian (`HessianPolicy::Fixed`), a
 //!    smaller first regularisation shift, and the Gauss–Newton fallback.
-//! 5. The conformal cones (c = −0.3, −0.5; h = 10⁻², 10⁻³; 16 × 64 annulus from
-//!    flat, `thinshell_testkit::fixtures::conformal_cone`): the default static step, the same
-//!    without its rest-state continuation, and `HessianPolicy::AdaptivePsd` without it; each against the
-//!    round cone's equilibrium energy and the half-angle 1 + c.
+//! 5. The conformal cones (c = −0.3, −0.5; h = 10⁻², 10⁻³; 16 × 64 annulus from flat,
+//!    `thinshell_testkit::fixtures::conformal_cone`): the default static step, the same without its
+//!    rest-state continuation, and `HessianPolicy::AdaptivePsd` without it; each against the round
+//!    cone's equilibrium energy and the half-angle 1 + c.
 //! 6. Just past a critical load at 20 000 faces: the pinned–pinned strut
 //!    (1 m × 5 cm × 2 mm, 1000 × 10), the simply supported square plate (0.2 m, 2 mm,
 //!    100 × 100) and the plane-strain tube under external pressure (R = 0.1 m, h = 1 mm,

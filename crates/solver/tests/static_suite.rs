@@ -1,12 +1,12 @@
-//! Static solves with the DEFAULT settings reach their known equilibrium (docs/robustness.md, "The default Newton"): compatible
-//! sphere growth, the seed's cylinder from flat, and flat sheets whose rest forms are those of a
-//! strongly curved shape (a strip rolling into three quarters of a circle, a disc becoming a
-//! spherical cap, a strip winding into a helix), for every bending form, in ≤ 30 Newton
-//! iterations. Also: convergence is never claimed away from equilibrium (comparison with a much
-//! tighter reference solve, including an angle-only edge-director solve), the final convergence is
-//! quadratic, and the stability of an equilibrium is reported (a compressed strip held straight
-//! is a saddle). Shapes are compared with rigid-motion-invariant measures: all pairwise vertex
-//! distances, radii about the centroid. Heavier variants: `cargo xtask hard-cases`.
+//! Static solves with the DEFAULT settings reach their known equilibrium (docs/robustness.md, "The
+//! default Newton"): compatible sphere growth, the seed's cylinder from flat, and flat sheets whose
+//! rest forms are those of a strongly curved shape (a strip rolling into three quarters of a
+//! circle, a disc becoming a spherical cap, a strip winding into a helix), for every bending form,
+//! in ≤ 30 Newton iterations. Also: convergence is never claimed away from equilibrium (comparison
+//! with a much tighter reference solve, including an angle-only edge-director solve), the final
+//! convergence is quadratic, and the stability of an equilibrium is reported (a compressed strip
+//! held straight is a saddle). Shapes are compared with rigid-motion-invariant measures: all
+//! pairwise vertex distances, radii about the centroid. Heavier variants: `cargo xtask hard-cases`.
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::{Matrix2, Vector3};

@@ -1,7 +1,7 @@
-//! Factorisation reuse (`integrator.newton.reuse_factor`, on by default for implicit steps):
-//! every case is run without and with reuse, back to back in one process (A then B), and
-//! compared on numeric factorisations, CG iterations, Newton iterations, wall time per step and
-//! the largest distance between the two runs' final positions relative to the model size (bounding-box
+//! Factorisation reuse (`integrator.newton.reuse_factor`, on by default for implicit steps): every
+//! case is run without and with reuse, back to back in one process (A then B), and compared on
+//! numeric factorisations, CG iterations, Newton iterations, wall time per step and the largest
+//! distance between the two runs' final positions relative to the model size (bounding-box
 //! diagonal).
 
 use std::sync::atomic::AtomicBool;

@@ -99,11 +99,12 @@ pub(super) fn try_reuse(
     }
 }
 
-/// Computes `ws.dx = −(H + shift)⁻¹ ∇f` for the Hessian in `ws` (of `kind`), with the shift
-/// search of `params` (see [`SparseCholesky::factorize_regularized`]): by a Cholesky
-/// factorisation, or by the iterative fallback, where non-positive curvature met by CG plays
-/// the part of a failed factorisation. Returns the shift and whether dx is exact (Cholesky, or
-/// CG converged to the forcing term `eta`).
+/// Computes `ws.dx = −(H + shift)⁻¹ ∇f` for the Hessian in `ws` (of `kind`), with the shift search
+/// of `params` (see
+/// [`SparseCholesky::factorize_regularized`](crate::SparseCholesky::factorize_regularized)): by a
+/// Cholesky factorisation, or by the iterative fallback, where non-positive curvature met by CG
+/// plays the part of a failed factorisation. Returns the shift and whether dx is exact (Cholesky,
+/// or CG converged to the forcing term `eta`).
 pub(super) fn solve_direction(
     ws: &mut NewtonWorkspace,
     kind: IterationHessian,

@@ -29,7 +29,8 @@ pub struct KeptFactor {
     /// use this kind.
     pub kind: IterationHessian,
     /// The Hessian's stored values (lower triangle, in the order of the workspace's pattern,
-    /// [`NewtonWorkspace::hessian`](super::NewtonWorkspace::hessian)) as they were factorised, without the regularisation shift.
+    /// [`NewtonWorkspace::hessian`](super::NewtonWorkspace::hessian)) as they were factorised,
+    /// without the regularisation shift.
     pub values: Vec<f64>,
     /// The relative regularisation shift μ the factorisation succeeded with (0: unshifted; a
     /// reused factor has μ ≤ 1e-8), see [`SparseCholesky::factorize_regularized`].

@@ -17,8 +17,9 @@ use crate::objective::Objective;
 /// still counts for the convergence test.
 pub(super) const SMALL_SHIFT: f64 = 1e-8;
 
-/// A watchdog step (and a step to a saddle, `escape.rs`) needs a predicted decrease this many times the round-off of f: near
-/// round-off, values cannot tell a good step from a bad one and the usual rules apply.
+/// A watchdog step (and a step to a saddle, `escape.rs`) needs a predicted decrease this many times
+/// the round-off of f: near round-off, values cannot tell a good step from a bad one and the usual
+/// rules apply.
 pub(super) const WATCHDOG_MIN_DECREASE: f64 = 1e4;
 
 /// Largest trust-region shift σ (relative to each unknown's own stiffness, see
