@@ -11,9 +11,10 @@ use crate::ordering::Ordering;
 /// Which Hessian each Newton iteration factorises.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum HessianPolicy {
-    /// The objective's own Hessian ([`Objective::hessian`]) where it is positive definite and
-    /// its steps are taken in full, the PSD one ([`Objective::psd_hessian`]) elsewhere (see the
-    /// [module docs](super)). Objectives without a PSD Hessian behave as with `Fixed`.
+    /// The objective's own Hessian ([`Objective::hessian`](crate::Objective::hessian)) where it is
+    /// positive definite and its steps are taken in full, the PSD one
+    /// ([`Objective::psd_hessian`](crate::Objective::psd_hessian)) elsewhere (see the [module
+    /// docs](super)). Objectives without a PSD Hessian behave as with `Fixed`.
     #[default]
     Adaptive,
     /// The adaptive policy without trust-region steps (the solver's earlier default): an own
@@ -28,10 +29,11 @@ pub enum HessianPolicy {
 /// The Hessian a Newton iteration used.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum IterationHessian {
-    /// The objective's own Hessian ([`Objective::hessian`]; exact for shells unless the system
-    /// is set to another mode).
+    /// The objective's own Hessian ([`Objective::hessian`](crate::Objective::hessian); exact for
+    /// shells unless the system is set to another mode).
     Own,
-    /// The positive semi-definite Hessian ([`Objective::psd_hessian`]; Gauss–Newton for shells).
+    /// The positive semi-definite Hessian
+    /// ([`Objective::psd_hessian`](crate::Objective::psd_hessian); Gauss–Newton for shells).
     Psd,
     /// The own Hessian where it is indefinite, plus the scaled diagonal shift `σ·S` of a
     /// trust-region (Levenberg–Marquardt) step: σ at least what makes it positive definite,
@@ -61,7 +63,7 @@ pub struct NewtonSettings {
     /// docs/robustness.md).
     pub fallback_hessian: Option<HessianMode>,
     /// Converged when `‖∇f‖∞ ≤ gradient_tolerance · force_scale` (dimensionless, > 0), for
-    /// objectives with [`Objective::gradient_test`] only.
+    /// objectives with [`Objective::gradient_test`](crate::Objective::gradient_test) only.
     pub gradient_tolerance: f64,
     /// Converged when the unshifted Newton correction has `‖dx‖∞ ≤ step_tolerance ·
     /// length_scale` (dimensionless, ≥ 0; 0 disables the criterion).

@@ -20,7 +20,7 @@ use crate::progress::{CancelFlag, ProgressHook};
 
 /// Reusable state of Newton solves on objectives with one Hessian pattern: the symbolic
 /// factorisation, the Hessian matrix, vectors, and the remembered regularisation shift.
-/// Build it once (e.g. per simulation) and pass it to every [`newton_solve`].
+/// Build it once (e.g. per simulation) and pass it to every [`newton_solve`](crate::newton_solve).
 pub struct NewtonWorkspace {
     /// The direct solver; `None` when its factor does not fit in memory (`fallback` is set).
     pub(super) cholesky: Option<SparseCholesky>,
@@ -32,13 +32,14 @@ pub struct NewtonWorkspace {
     /// CG work vectors (reuse and fallback).
     pub(super) pcg: PcgScratch,
     /// Kind of Hessian of the last Cholesky factor when it is unshifted and may precondition CG
-    /// ([`NewtonSettings::reuse_factor`]); `None`: refactorise.
+    /// ([`NewtonSettings::reuse_factor`](super::NewtonSettings::reuse_factor)); `None`:
+    /// refactorise.
     pub(super) reusable: Option<IterationHessian>,
     /// The input of the kept factor's factorisation (checkpoints, cancelled solves).
     pub(super) kept: KeptRecord,
     /// Statistics of the symbolic analysis (of the refused factor with the fallback).
     pub(super) stats: FactorStats,
-    /// Built with [`NewtonSettings::force_iterative`].
+    /// Built with [`NewtonSettings::force_iterative`](super::NewtonSettings::force_iterative).
     pub(super) forced: bool,
     pub(super) hessian: SparseColMat<usize, f64>,
     pub(super) g: Vec<f64>,
@@ -53,9 +54,9 @@ pub struct NewtonWorkspace {
     /// The settings the symbolic analysis was made with.
     pub(super) ordering: Ordering,
     pub(super) parallel: bool,
-    /// Called after every accepted iteration of [`newton_solve`].
+    /// Called after every accepted iteration of [`newton_solve`](crate::newton_solve).
     pub(super) progress: Option<ProgressHook>,
-    /// Checked before every iteration of [`newton_solve`].
+    /// Checked before every iteration of [`newton_solve`](crate::newton_solve).
     pub(super) cancel: Option<CancelFlag>,
     /// Indefinite factorisation for Newton steps to a critical point whose Hessian is
     /// indefinite (`saddle_newton`); analysed on first use.
@@ -219,8 +220,8 @@ impl NewtonWorkspace {
 
     /// Whether the workspace was built with `settings`' ordering and parallelism. A cached
     /// workspace must be rebuilt when they change (or when the objective's number of unknowns
-    /// or Hessian pattern does): [`newton_solve`] rejects a wrong size but otherwise factorises
-    /// with the ordering and parallelism the workspace was built with.
+    /// or Hessian pattern does): [`newton_solve`](crate::newton_solve) rejects a wrong size but
+    /// otherwise factorises with the ordering and parallelism the workspace was built with.
     pub fn matches(&self, settings: &NewtonSettings) -> bool {
         self.ordering == settings.ordering
             && self.parallel == settings.parallel
@@ -246,8 +247,9 @@ impl NewtonWorkspace {
         self.fallback.as_ref().map(|f| f.iterative_estimate)
     }
 
-    /// Forgets the factor kept for reuse ([`NewtonSettings::reuse_factor`]): the next
-    /// iteration factorises afresh (e.g. after the objective changed discontinuously).
+    /// Forgets the factor kept for reuse
+    /// ([`NewtonSettings::reuse_factor`](super::NewtonSettings::reuse_factor)): the next iteration
+    /// factorises afresh (e.g. after the objective changed discontinuously).
     pub fn invalidate_factor(&mut self) {
         self.reusable = None;
     }
@@ -373,11 +375,13 @@ impl NewtonWorkspace {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Stability {
     /// Smallest eigenvalue λ of `H v = λ S v`: the objective's own Hessian H without its
-    /// diagonal shift ([`Objective::hessian_diagonal_shift`]), measured against each unknown's
-    /// own stiffness `S = diag(max(|H_dd|, 1e-6·mean|H_dd|))` (dimensionless), over the
-    /// unknowns' space less the objective's [`Objective::rigid_modes`]. Negative: the
-    /// equilibrium is unstable (a saddle or maximum); near 0: near a critical load. NaN when H
-    /// is so indefinite that `H + 10³·S` is not positive definite (`stable` is then false).
+    /// diagonal shift
+    /// ([`Objective::hessian_diagonal_shift`](crate::Objective::hessian_diagonal_shift)), measured
+    /// against each unknown's own stiffness `S = diag(max(|H_dd|, 1e-6·mean|H_dd|))`
+    /// (dimensionless), over the unknowns' space less the objective's
+    /// [`Objective::rigid_modes`](crate::Objective::rigid_modes). Negative: the equilibrium is
+    /// unstable (a saddle or maximum); near 0: near a critical load. NaN when H is so indefinite
+    /// that `H + 10³·S` is not positive definite (`stable` is then false).
     pub min_eigenvalue: f64,
     /// Its mode in the free unknowns, scaled to `‖v‖∞ = 1` (the buckling mode at a critical
     /// load).

@@ -28,7 +28,7 @@ impl Monitor {
     }
 }
 
-/// What a path step did, besides the common [`StepRecord`] fields.
+/// What a path step did, besides the common [`StepRecord`](super::StepRecord) fields.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct PathRecord {
     /// Load-factor increment of the step (negative after a limit point).
@@ -42,7 +42,7 @@ pub struct PathRecord {
     /// Total potential Π = E − λ(F·x + p·V), J.
     pub potential: f64,
     /// Displacements of the monitored coordinates from the start state, m (order of
-    /// [`Simulation::path_monitors`]).
+    /// [`Simulation::path_monitors`](super::Simulation::path_monitors)).
     pub monitors: Vec<f64>,
 }
 
