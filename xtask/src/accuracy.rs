@@ -1,4 +1,4 @@
-//! `cargo xtask accuracy`: what accuracy costs in time (issue #7).
+//! `cargo xtask accuracy`: what accuracy costs in time (docs/accuracy.md).
 //!
 //! Runs cases with a known answer under one knob at a time (mesh resolution, Δt, Newton
 //! tolerance, adaptive (default) vs Gauss–Newton Hessian, line search, implicit vs explicit Euler, static
@@ -22,41 +22,23 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use nalgebra::Vector3;
 use serde_json::json;
 use thinshell::reference::SquareCase;
-use thinshell_energy::SffKind;
 
 mod cases;
 mod layout;
 mod plots;
 mod report;
 mod runner;
+mod study;
 
-use cases::{THICK_CYLINDER, cantilever, cap_refinement, cylinder_refinement, square, strip};
+pub(crate) use crate::common::{machine, slug};
+use cases::{cantilever, cap_refinement, cylinder_refinement, square, strip};
 use plots::{plot_case, plot_refinement};
-use report::{case_json, markdown, sff_name, summarise_knobs};
-pub(crate) use report::{machine, slug};
+use report::{case_json, markdown, summarise_knobs};
 pub(crate) use runner::shell;
-use runner::{Knobs, paper, rms_rigid, static_solve};
-
-type V3 = Vector3<f64>;
-
-/// Second-fundamental-form discretisations compared by the study. Extend this list (e.g. with
-/// the edge-director variants) and every case runs once more per entry.
-pub const FORMULATIONS: &[SffKind] = &SffKind::ALL;
-
-/// Names of the cases every study run must contain (checked by the test).
-pub const CASE_NAMES: &[&str] = &[
-    "enlarged square",
-    "rhombus",
-    "cylindrical patch",
-    "cylinder under refinement",
-    "spherical cap under refinement",
-    "strip, linear swelling",
-    "strip, bilayer swelling",
-    "falling cantilever (dynamic)",
-];
+pub(crate) use study::Refinement;
+use study::{CASE_NAMES, Case, FORMULATIONS, sff_name};
 
 /// Name of the mesh layout × orientation × bending form section (for `--only`).
 pub const LAYOUT_STUDY: &str = "mesh layout";
@@ -71,144 +53,6 @@ pub struct Options {
     pub json_path: PathBuf,
     /// Only the cases whose name contains this text (for working on one case).
     pub only: Option<String>,
-}
-
-/// The study's gradient tolerance knob for static solves (relative to the solver's force scale
-/// `ShellSystem::force_scale`, E·h·L), on top of the solver's scale-free test.
-const STATIC_TOLERANCE: f64 = 1e-11;
-/// Static solves may take many iterations from a far start: the study's own cap, 5× the
-/// solver's default `NewtonSettings::max_iterations` (100) that scenes use.
-const STATIC_MAX_ITERATIONS: usize = 500;
-
-/// One run: a point of the error–time plane.
-#[derive(Clone, Debug)]
-struct Run {
-    /// The knob being varied (one plotted series).
-    family: String,
-    /// The knob values of this run.
-    label: String,
-    faces: usize,
-    dt: Option<f64>,
-    tolerance: Option<f64>,
-    /// Error against the known answer (unit: the case's `error_unit`).
-    error: f64,
-    /// Wall time of the solve / time stepping, s (set-up of the system excluded, Newton
-    /// workspace with its symbolic analysis included).
-    wall_s: f64,
-    newton_iterations: usize,
-    steps: usize,
-    /// False when Newton or the time stepping failed; the error is then that of the last
-    /// accepted state.
-    converged: bool,
-    /// Elastic energy of the final state, J (static solves only: tells apart equilibria).
-    energy: Option<f64>,
-    /// Distance to the discrete equilibrium (the tightest static solve on the same mesh), same
-    /// unit as `error`: the solver's share of the error (seed-mesh squares only).
-    to_discrete: Option<f64>,
-}
-
-/// A convergence series under mesh refinement (also used by `cargo xtask verify`).
-#[derive(Clone, Debug)]
-pub(crate) struct Refinement {
-    pub(crate) name: String,
-    /// (faces, error).
-    pub(crate) points: Vec<(usize, f64)>,
-}
-
-impl Refinement {
-    /// Observed order p of error ∝ h^p with h ∝ faces^(−1/2): least-squares slope over all
-    /// levels, and per consecutive pair.
-    pub(crate) fn orders(&self) -> (Option<f64>, Vec<f64>) {
-        let pts: Vec<(f64, f64)> = self
-            .points
-            .iter()
-            .filter(|(f, e)| *f > 0 && e.is_finite() && *e > 0.0)
-            .map(|&(f, e)| (-0.5 * (f as f64).ln(), e.ln()))
-            .collect();
-        let pairs = pts
-            .windows(2)
-            .map(|w| (w[1].1 - w[0].1) / (w[1].0 - w[0].0))
-            .collect();
-        if pts.len() < 2 {
-            return (None, pairs);
-        }
-        let n = pts.len() as f64;
-        let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
-        let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
-        let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-        let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
-        (Some(sxy / sxx), pairs)
-    }
-}
-
-/// All runs of one case and one formulation.
-struct Case {
-    name: &'static str,
-    sff: SffKind,
-    /// The known answer and how the error is measured.
-    answer: String,
-    error_unit: &'static str,
-    runs: Vec<Run>,
-    refinement: Vec<Refinement>,
-    /// Measured facts worth a sentence (reference quality, stability limit, …).
-    notes: Vec<String>,
-    /// Recommendation lines derived from this case's runs.
-    verdict: Vec<String>,
-}
-
-impl Case {
-    fn new(name: &'static str, sff: SffKind, answer: String, error_unit: &'static str) -> Case {
-        Case {
-            name,
-            sff,
-            answer,
-            error_unit,
-            runs: Vec::new(),
-            refinement: Vec::new(),
-            notes: Vec::new(),
-            verdict: Vec::new(),
-        }
-    }
-
-    /// Indices of the runs on the Pareto front of (wall time, error): no other run is both
-    /// faster and more accurate. Failed runs are left out: they produced no answer.
-    fn pareto(&self) -> Vec<usize> {
-        let mut idx: Vec<usize> = (0..self.runs.len())
-            .filter(|&i| {
-                let r = &self.runs[i];
-                r.converged && r.error.is_finite() && r.wall_s.is_finite()
-            })
-            .collect();
-        idx.sort_by(|&a, &b| {
-            let (ra, rb) = (&self.runs[a], &self.runs[b]);
-            ra.wall_s
-                .total_cmp(&rb.wall_s)
-                .then(ra.error.total_cmp(&rb.error))
-        });
-        let mut front = Vec::new();
-        let mut best = f64::INFINITY;
-        for i in idx {
-            if self.runs[i].error < best {
-                best = self.runs[i].error;
-                front.push(i);
-            }
-        }
-        front
-    }
-
-    /// The cheapest run whose error is within `factor` of the best error of the case.
-    fn cheapest_within(&self, factor: f64) -> Option<&Run> {
-        let best = self
-            .runs
-            .iter()
-            .map(|r| r.error)
-            .filter(|e| e.is_finite())
-            .fold(f64::INFINITY, f64::min);
-        self.runs
-            .iter()
-            .filter(|r| r.converged && r.error <= factor * best.max(1e-300))
-            .min_by(|a, b| a.wall_s.total_cmp(&b.wall_s))
-    }
 }
 
 /// Runs the study and writes `accuracy.md`, the plots and the JSON.
@@ -302,11 +146,7 @@ pub fn run(opts: &Options) -> Result<()> {
         "cases": cases.iter().map(case_json).collect::<Vec<_>>(),
         "layout_study": layouts.as_ref().map(layout::json),
     });
-    if let Some(dir) = opts.json_path.parent() {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    std::fs::write(&opts.json_path, serde_json::to_string_pretty(&doc)?)
-        .with_context(|| format!("writing {}", opts.json_path.display()))?;
+    crate::common::write_json(&opts.json_path, &doc)?;
     println!("wrote {} ({total_s:.1} s)", opts.json_path.display());
     Ok(())
 }

@@ -62,9 +62,9 @@ impl Observer for Recorder {
 
 /// Runs the task; `quick` runs 200 steps instead of the seed's 2000.
 pub fn run(quick: bool) -> Result<()> {
-    let out = crate::out_dir();
+    let out = crate::common::out_dir();
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-    let scenes = crate::workspace_root().join("data").join("scenes");
+    let scenes = crate::common::workspace_root().join("data").join("scenes");
     let stop = AtomicBool::new(false);
     let overrides: Vec<String> = if quick {
         vec!["integrator.steps=200".into()]
@@ -128,8 +128,7 @@ pub fn run(quick: bool) -> Result<()> {
         });
     }
     let json_path = out.join("bench-sphere.json");
-    std::fs::write(&json_path, serde_json::to_string_pretty(&rows)?)
-        .with_context(|| format!("writing {}", json_path.display()))?;
+    crate::common::write_json(&json_path, &rows)?;
     println!("wrote {}", json_path.display());
     let chart = Chart {
         title: "Elastic energy of the unit sphere under heat (seed's Figure 6)".into(),

@@ -81,9 +81,9 @@ impl Observer for EnergyTrace {
 
 /// Runs the task.
 pub fn run(quick: bool) -> Result<()> {
-    let out = crate::out_dir();
+    let out = crate::common::out_dir();
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-    let scenes = crate::workspace_root().join("data").join("scenes");
+    let scenes = crate::common::workspace_root().join("data").join("scenes");
     let stop = AtomicBool::new(false);
     let mut rows = Vec::new();
     let mut traces = Vec::new();
@@ -140,8 +140,7 @@ pub fn run(quick: bool) -> Result<()> {
         }
     }
     let json_path = out.join("bench-square.json");
-    std::fs::write(&json_path, serde_json::to_string_pretty(&rows)?)
-        .with_context(|| format!("writing {}", json_path.display()))?;
+    crate::common::write_json(&json_path, &rows)?;
     println!("\nwrote {}", json_path.display());
     if !traces.is_empty() {
         let chart = Chart {

@@ -1,4 +1,4 @@
-//! `cargo xtask contact-cost`: what the `contact` effect costs (issue #30), on the scroll of
+//! `cargo xtask contact-cost`: what the `contact` effect costs, on the scroll of
 //! `solver/tests/contact.rs` at three sizes.
 //!
 //! The strip (20 cm × 2 cm, h = 0.2 mm, E = 1 MPa, rest shape rolled 1.5 turns) starts wound
@@ -19,6 +19,8 @@ use thinshell_mesh::{Mesh, generators};
 use thinshell_solver::{
     Boundary, Contact, ContactSettings, ImplicitEuler, Integrator, Loads, ShellSystem, State,
 };
+
+use crate::common::{median, write_json};
 
 type V = Vector3<f64>;
 
@@ -50,11 +52,6 @@ struct Row {
     step_with: f64,
     iterations_without: usize,
     iterations_with: usize,
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn time<T>(f: impl FnOnce() -> T) -> (f64, T) {
@@ -197,13 +194,13 @@ fn measure(ny: usize, rounds: usize) -> Result<Row> {
         vertices: spiral.len(),
         candidates,
         active_after,
-        broad_phase: median(bp),
-        ccd: median(ccd),
-        energy: median(en),
-        gradient: median(gr),
-        hessian: median(he),
-        step_without: median(s0),
-        step_with: median(s1),
+        broad_phase: median(&bp),
+        ccd: median(&ccd),
+        energy: median(&en),
+        gradient: median(&gr),
+        hessian: median(&he),
+        step_without: median(&s0),
+        step_with: median(&s1),
         iterations_without: it0,
         iterations_with: it1,
     })
@@ -254,11 +251,8 @@ pub fn run(o: &Options) -> Result<()> {
             })
         })
         .collect();
-    let dir = crate::out_dir();
-    std::fs::create_dir_all(&dir)?;
-    let path = dir.join("contact-cost.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&json)?)
-        .with_context(|| path.display().to_string())?;
+    let path = crate::common::out_dir().join("contact-cost.json");
+    write_json(&path, &json)?;
     eprintln!("contact-cost: wrote {}", path.display());
     Ok(())
 }

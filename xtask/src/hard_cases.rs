@@ -1,4 +1,4 @@
-//! `cargo xtask hard-cases`: the heavy variants of the hard-case tests of issue #8
+//! `cargo xtask hard-cases`: the heavy variants of the hard-case tests
 //! (crates/solver/tests/hard_cases.rs; outcomes in docs/robustness.md).
 //!
 //! 1. The seed's square and sphere scenes (data/scenes) through the scene pipeline at Δt = 1e-3
@@ -9,24 +9,25 @@
 //! 4. The swelling strip whose static Newton crawled, at 4 to 32 cells across, with the default
 //!    (adaptive) Newton, and for comparison the exact Hessian (`HessianPolicy::Fixed`), a
 //!    smaller first regularisation shift, and the Gauss–Newton fallback.
-//! 5. The conformal cones of issue #26 (c = −0.3, −0.5; h = 10⁻², 10⁻³; 16 × 64 annulus from
-//!    flat, `thinshell_testkit::fixtures::conformal_cone`): the default static step, the same
-//!    without its rest-state continuation, and the pre-#26 policy without it; each against the
-//!    round cone's equilibrium energy and the half-angle 1 + c.
-//! 6. Just past a critical load at 20 000 faces (issue #26): the pinned–pinned strut
+//! 5. The conformal cones (c = −0.3, −0.5; h = 10⁻², 10⁻³; 16 × 64 annulus from flat,
+//!    `thinshell_testkit::fixtures::conformal_cone`): the default static step, the same without its
+//!    rest-state continuation, and `HessianPolicy::AdaptivePsd` without it; each against the round
+//!    cone's equilibrium energy and the half-angle 1 + c.
+//! 6. Just past a critical load at 20 000 faces: the pinned–pinned strut
 //!    (1 m × 5 cm × 2 mm, 1000 × 10), the simply supported square plate (0.2 m, 2 mm,
 //!    100 × 100) and the plane-strain tube under external pressure (R = 0.1 m, h = 1 mm,
 //!    1000 × 10) of `crates/solver/tests/critical_loads.rs` at 1.05 of the analytic critical
 //!    load, an imperfection of 10⁻⁶ of the load, one default static step from the unbuckled
 //!    start: iterations, wall time, stability, largest displacement (`CRITICAL_SCALE=k` divides
-//!    the cells per side by k; about 35 s on the quiet 2-core VM).
+//!    the cells per side by k).
 //! 7. `moisture_curl.toml` refined to 4× and 16× the shipped faces: every step converges.
 //!
 //! `--quick` skips the 10⁴-step run, the cones, the critical loads and the refined scene.
 //!
 //! The solver-level parts (2–4) use the library's default bending form unless `--form` names
 //! another; every case of parts 1, 3 and 4 also runs with `HessianPolicy::AdaptivePsd` (scene
-//! key `hessian = "adaptive_psd"`), the policy before issue #26, for a before/after in one run.
+//! key `hessian = "adaptive_psd"`), the policy without the indefinite-Hessian handling, for a
+//! before/after in one run (docs/robustness.md, "Indefinite Hessians near critical points").
 //! `--only PART` runs the parts whose name contains PART (scenes, flag, growth, strip, cone,
 //! critical, refined);
 //! `VERBOSE=1` prints every Newton iteration of the strip.
@@ -61,8 +62,8 @@ pub struct Options {
     pub form: SffKind,
 }
 
-/// The Newton policies each solver-level case runs with: the default, and the adaptive policy
-/// as it was before issue #26 (the "before" column of docs/robustness.md).
+/// The Newton policies each solver-level case runs with: the default, and
+/// `HessianPolicy::AdaptivePsd` (the "before" column of docs/robustness.md).
 const POLICIES: [(HessianPolicy, &str); 2] = [
     (HessianPolicy::Adaptive, "default"),
     (HessianPolicy::AdaptivePsd, "adaptive_psd (before #26)"),
@@ -142,7 +143,7 @@ fn verbose(st: &mut Static) {
 
 /// Part 1: the seed scenes at large time steps.
 fn scenes(rows: &mut Vec<Value>) -> Result<()> {
-    let dir = crate::workspace_root().join("data").join("scenes");
+    let dir = crate::common::workspace_root().join("data").join("scenes");
     for file in SCENES {
         for dt in [1e-3, 1e-2] {
             let steps = (0.1f64 / dt).round() as usize;
@@ -676,9 +677,9 @@ fn past_critical(rows: &mut Vec<Value>) -> Result<()> {
 }
 
 /// Part 7: `moisture_curl.toml` refined to 4× and 16× the shipped faces (100×8 and 200×16
-/// cells) with the scene's defaults otherwise: every step converges (issue #26).
+/// cells) with the scene's defaults otherwise: every step converges.
 fn refined_scene(rows: &mut Vec<Value>) -> Result<()> {
-    let path = crate::workspace_root()
+    let path = crate::common::workspace_root()
         .join("data")
         .join("scenes")
         .join("moisture_curl.toml");
@@ -723,7 +724,7 @@ fn refined_scene(rows: &mut Vec<Value>) -> Result<()> {
 /// Runs the task; `quick` skips the 10⁴-step run, the cones, the refined scene and the
 /// critical loads.
 pub fn run(opts: &Options) -> Result<()> {
-    let out = crate::out_dir();
+    let out = crate::common::out_dir();
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let mut rows = Vec::new();
     let t0 = Instant::now();
@@ -752,8 +753,7 @@ pub fn run(opts: &Options) -> Result<()> {
     }
     println!("hard cases: {:.1} s", t0.elapsed().as_secs_f64());
     let path = out.join("hard-cases.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&rows)?)
-        .with_context(|| format!("writing {}", path.display()))?;
+    crate::common::write_json(&path, &rows)?;
     println!("wrote {}", path.display());
     Ok(())
 }

@@ -3,17 +3,17 @@
 //!
 //! - `bench-square`: the seed's three square experiments, the seed's way and the fast way.
 //! - `bench-sphere`: the seed's two sphere experiments with energy plots and rendered shapes.
-//! - `hard-cases`: heavy variants of the numerical hard cases (issue #8, docs/robustness.md).
+//! - `hard-cases`: heavy variants of the numerical hard cases (docs/robustness.md).
 //! - `accuracy`: error against known answers vs wall time for every accuracy knob.
-//! - `verify`: the verification suite against analytic and published answers (issue #16).
+//! - `verify`: the verification suite against analytic and published answers (docs/verification.md).
 //! - `test`: every test of the project (the README's test command).
-//! - `perf`: issue #17's performance table (docs/performance.md's generated section).
-//! - `contact-cost`: what the `contact` effect costs (issue #30) on the scroll at three sizes.
+//! - `perf`: the performance table against libshell (docs/performance.md's generated section).
+//! - `contact-cost`: what the `contact` effect costs on the scroll at three sizes.
 
 mod accuracy;
 mod bench_sphere;
 mod bench_square;
-mod clock;
+mod common;
 mod contact_cost;
 mod hard_cases;
 #[cfg(test)]
@@ -28,6 +28,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+
+use common::{out_dir, workspace_root};
 
 #[derive(Parser)]
 #[command(name = "cargo xtask", about = "thinshell project tasks")]
@@ -53,7 +55,7 @@ enum Task {
         #[arg(long)]
         quick: bool,
     },
-    /// Heavy hard cases (issue #8): the seed scenes at dt = 1e-3 and 1e-2 s, a 10^4-step damped
+    /// Heavy hard cases: the seed scenes at dt = 1e-3 and 1e-2 s, a 10^4-step damped
     /// run, strong growth on a finer sphere, the crawling swelling strip. Writes
     /// target/xtask/hard-cases.json; fails if a run breaks the stability contract.
     HardCases {
@@ -84,7 +86,7 @@ enum Task {
         #[arg(long)]
         only: Option<String>,
     },
-    /// The verification suite (issue #16): analytic cases, Kirchhoff plates, linear shell
+    /// The verification suite: analytic cases, Kirchhoff plates, linear shell
     /// benchmarks and nonlinear load paths with every bending form under refinement. Writes
     /// docs/verification.md, plots under docs/verification/ and target/xtask/verify.json.
     Verify {
@@ -108,7 +110,7 @@ enum Task {
         #[arg(long)]
         levels: Option<String>,
     },
-    /// Issue #17's performance figures (per-face evaluation, gather, factorisation, orderings,
+    /// The performance figures against libshell (per-face evaluation, gather, factorisation, orderings,
     /// Newton iterations and their growth, implicit steps per form) in interleaved rounds.
     /// Rewrites the generated section of docs/performance.md and writes target/xtask/perf.json.
     Perf {
@@ -135,7 +137,7 @@ enum Task {
         #[arg(long)]
         only: Option<String>,
     },
-    /// What the `contact` effect costs (issue #30): broad phase, CCD, barrier assembly and
+    /// What the `contact` effect costs: broad phase, CCD, barrier assembly and
     /// implicit steps with and without contact on the rolling scroll at three sizes. Prints a
     /// markdown table and writes target/xtask/contact-cost.json.
     ContactCost {
@@ -163,23 +165,6 @@ enum Task {
         #[arg(long)]
         rust_only: bool,
     },
-}
-
-/// Where tasks write their results: `<workspace>/target/xtask`.
-pub fn out_dir() -> PathBuf {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("."));
-    root.join("target").join("xtask")
-}
-
-/// The workspace root (scene files are found relative to it).
-pub fn workspace_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("."))
 }
 
 fn main() -> ExitCode {

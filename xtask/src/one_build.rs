@@ -1,4 +1,4 @@
-//! Checks that `cargo xtask` reuses the build of the README's test command (issue #15 item 8).
+//! Checks that `cargo xtask` reuses the build of the README's test command.
 //!
 //! Cargo compiles a dependency once per feature set. `cargo test --workspace` resolves features
 //! over every member with its dev-dependencies; `cargo xtask` (`cargo run -p xtask`) over xtask's

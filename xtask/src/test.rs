@@ -12,9 +12,9 @@
 
 use std::process::Command;
 
-use anyhow::{Context, Result, bail};
+use anyhow::Result;
 
-use crate::workspace_root;
+use crate::common::{run_stage, workspace_root};
 
 mod browser;
 mod python;
@@ -47,16 +47,4 @@ fn rust_stage() -> Result<()> {
             .args(["test", "--workspace", "--release"])
             .current_dir(workspace_root()),
     )
-}
-
-/// Runs one stage's command, echoing it first, and turns a failure into an error naming it.
-pub fn run_stage(label: &str, cmd: &mut Command) -> Result<()> {
-    println!("== {label}");
-    let status = cmd
-        .status()
-        .with_context(|| format!("could not start `{label}`"))?;
-    if !status.success() {
-        bail!("`{label}` failed ({status})");
-    }
-    Ok(())
 }

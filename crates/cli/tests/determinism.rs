@@ -11,7 +11,7 @@ use thinshell::sim::{Observer, Simulation, StepRecord};
 
 /// Bending, damping (η/E = 1 ms, visibly damped) and growth (the seed's directed heat) on a
 /// level-2 icosphere: every parallel code path of a step (stretch, bend and damping kernels,
-/// assembly, growth update, stimulus step) is exercised in about 20 ms per run.
+/// assembly, growth update, stimulus step) is exercised in a small run.
 const SCENE: &str = r#"
 name = "determinism"
 effects = ["stretching", "bending", "inertia", "damping", "growth"]

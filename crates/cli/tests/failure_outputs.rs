@@ -12,7 +12,7 @@ use thinshell_testkit::fixtures::temp_dir;
 
 /// A flat strip, clamped at x = 0, whose top swells: step 1 must curl it. With 10 Newton
 /// iterations the full step fails, continuation's first half-steps succeed and a later one
-/// fails — the case that used to leave a half-curled shape as "frame 0" (max |z| = 0.03 m).
+/// fails — a half-curled shape (max |z| = 0.03 m) must not be written as "frame 0".
 const FAILING: &str = r#"
 name = "failing strip"
 effects = ["stretching", "bending", "growth"]

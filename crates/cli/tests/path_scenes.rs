@@ -301,7 +301,7 @@ fn path_runs_refuse_checkpoints_clearly() {
     assert!(!file.exists());
 }
 
-/// Issue #26: a static load ramp past the arch's limit point with either edge-director form
+/// A static load ramp past the arch's limit point with either edge-director form
 /// (the default `edge_director_tan`, and `edge_director_sin`) lands on the far (inverted) branch
 /// — where arc length, with the same form and mesh, is at λ = 1. (The scene's own form, the
 /// mid-edge average, is the scene test above.)

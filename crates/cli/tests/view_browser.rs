@@ -58,7 +58,7 @@ struct Runs {
     droop: PathBuf,
     /// The same with the sin edge-director form (same clamp and free-edge treatment as the
     /// default tan form: the two droop alike; the mid-edge average keeps the two-row clamp, a
-    /// cell shorter, and droops visibly less since issue #27).
+    /// cell shorter, and droops visibly less: docs/model.md §1.3).
     droop_sin: PathBuf,
     /// A copy of `droop` whose frame 2 (step 4) is garbage.
     broken: PathBuf,

@@ -45,11 +45,11 @@ use thinshell_mesh::{FaceId, Mesh, VertexId};
 /// Nonzeros per parallel work item of the Hessian gather.
 const GATHER_CHUNK: usize = 2048;
 
-/// Work (in units of one face's energy, about 0.15 µs on one core) below which a face pass
-/// runs on the calling thread instead of rayon's pool. Handing work to the pool from outside it
-/// wakes a worker and puts the caller to sleep until the worker is done, tens of µs on an idle
-/// machine: more than the energy and gradient passes of the seed's 184-face square take
-/// (about 30 and 75 µs), less than its Hessian pass (about 450 µs), which stays parallel.
+/// Work (in units of one face's energy) below which a face pass runs on the calling thread
+/// instead of rayon's pool. Handing work to the pool from outside it wakes a worker and puts the
+/// caller to sleep until the worker is done: that costs more than the energy and gradient
+/// passes of the seed's 184-face square, less than its Hessian pass, which stays parallel
+/// (measured in docs/performance.md, "the seed protocols").
 /// Faces write their own slots and every sum has a fixed order, so both paths give
 /// bit-identical results. (The units are the per-face kernels'; the batched StVK passes cost
 /// about a quarter of that per face, so they go parallel at a few times less work than this

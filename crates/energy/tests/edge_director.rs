@@ -1,7 +1,7 @@
 #![allow(clippy::unwrap_used, clippy::needless_range_loop)]
 //! Edge-director second fundamental form (model.md §1.1): derivatives against central finite
 //! differences, exact agreement with the mid-edge average, the meaning of σ and φ, and the
-//! consistency study on a cylinder (issue #9).
+//! consistency study on a cylinder (docs/robustness.md, "Edge-director bending").
 //! FD: step h = 1e-6 on O(1) stencils, tolerance 1e-6 relative to the largest entry (truncation
 //! O(h²) ≈ 1e-12, round-off O(ε/h) ≈ 1e-10).
 

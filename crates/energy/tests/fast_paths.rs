@@ -1,9 +1,9 @@
 #![allow(clippy::unwrap_used)]
-//! The fast paths of issue #17 against the full kernel: the energy-only kernel
+//! The fast paths against the full kernel: the energy-only kernel
 //! [`eval_face_energy`] and the reverse-mode gradient path of [`eval_face`] against the energy
 //! and gradient that the exact-Hessian path computes, on random faces, for every second
 //! fundamental form × material law × damping on/off. Tolerance 1e-12 relative (round-off of
-//! differently ordered sums; measured ≤ 1e-14). The assembler's energy-only and gradient
+//! differently ordered sums). The assembler's energy-only and gradient
 //! evaluations are checked against its Hessian evaluation on an icosphere the same way.
 
 use nalgebra::{Matrix2, Vector3};

@@ -41,6 +41,7 @@
 //! # Ok::<(), thinshell_mesh::MeshError>(())
 //! ```
 
+mod bounding_box;
 mod delaunay;
 pub mod error;
 pub mod generators;

@@ -4,8 +4,8 @@ use std::sync::Arc;
 
 use nalgebra::Vector3;
 
+use crate::bounding_box::BoundingBox;
 use crate::error::MeshError;
-use crate::geometry::BoundingBox;
 use crate::ids::{FaceId, VertexId};
 use crate::orient;
 use crate::topology::{self, Topology};

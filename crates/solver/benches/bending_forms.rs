@@ -1,5 +1,5 @@
-//! What the edge-director bending forms cost (issue #9): for the mid-edge average and the two
-//! director variants, on icospheres of 1 280 and 20 480 faces,
+//! What the edge-director bending forms cost (docs/performance.md, "Edge-director bending"): for
+//! the mid-edge average and the two director variants, on icospheres of 1 280 and 20 480 faces,
 //! - whole-mesh assembly of energy + gradient + exact Hessian (`assembly/<form>/<faces>`), and
 //! - one implicit Euler step (Δt = 1e-3 s, line search on, exact Hessian) of the sphere shrinking
 //!   under ā = 0.9 a⁰ (`implicit_step/<form>/<faces>`), the workspace reused as in a running

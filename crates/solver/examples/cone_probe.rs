@@ -1,10 +1,11 @@
-//! Probe of issue #26: a flat annulus (radii 0.1, 1 m) grown conformally (ā = r^{2c} a⁰, b̄ = 0)
+//! Probe of the conformal cone (docs/robustness.md, "Indefinite Hessians near critical
+//! points"): a flat annulus (radii 0.1, 1 m) grown conformally (ā = r^{2c} a⁰, b̄ = 0)
 //! into a cone with sin(half-angle) = 1 + c, solved statically with default settings
 //! (`thinshell_testkit::fixtures::conformal_cone`).
 //!
 //! `cargo run --release -p thinshell-solver --example cone_probe -- C H RINGS AROUND [sin|avg]`
 //! (defaults −0.3, 1e-2, 16, 64, the default form). Environment: `VERBOSE=1` prints every Newton
-//! iteration; `POLICY=adaptive_psd` solves with the adaptive policy as it was before issue #26;
+//! iteration; `POLICY=adaptive_psd` solves with `HessianPolicy::AdaptivePsd`;
 //! `MAXIT=N` sets `max_iterations`; `START=cone` starts from the round cone instead of the
 //! lifted flat annulus; `CONTINUATION=0` turns off the static step's rest-state continuation.
 #![allow(clippy::unwrap_used, missing_docs)]

@@ -80,137 +80,42 @@
 //! test, `direction.rs` how a direction is solved for (factorisation, reuse, CG refinement, the
 //! trust-region shift), `escape.rs` the steps along negative curvature, `settings.rs` the
 //! settings, `report.rs` the report and the record kept while solving, `workspace.rs` the
-//! reusable workspace and the stability analysis, `kept.rs` the factor kept for reuse.
+//! reusable workspace and the stability analysis, `kept.rs` the factor kept for reuse,
+//! `solve.rs` the state of one solve in progress that these phases share (objective, iterate,
+//! record, fixed settings), `checks.rs` the checks they apply to what the objective returns.
 
-use std::time::{Duration, Instant};
-
-use faer::Par;
-use faer::sparse::SparseColMat;
+use std::time::Instant;
 
 use crate::SolverError;
-use crate::curvature::{self, SHIFT_GROWTH};
-use crate::iterative::{Ic0, PcgScratch, pcg, sym_lower_matvec};
-use crate::ldlt::SparseLdlt;
-use crate::linear::{
-    FactorError, FactorOutcome, FactorStats, RegularizationKind, RegularizationParams,
-    SparseCholesky,
-};
+use crate::linear::{FactorError, FactorOutcome, RegularizationParams};
 use crate::objective::Objective;
-use crate::ordering::Ordering;
-use crate::progress::{CancelFlag, NewtonProgress, ProgressHook};
+use crate::progress::NewtonProgress;
 
+mod checks;
 mod direction;
 mod escape;
 mod kept;
 mod policy;
 mod report;
 mod settings;
+mod solve;
 mod step;
 mod workspace;
 
-use direction::*;
-use escape::*;
 pub use kept::KeptFactor;
-use policy::*;
 pub use report::*;
 pub use settings::*;
-use step::*;
 pub use workspace::*;
 
-fn norm_inf(v: &[f64]) -> f64 {
-    v.iter().fold(0.0, |m, x| m.max(x.abs()))
-}
-
-/// A non-finite value `f` or gradient `g` at an iterate, as the error of iteration
-/// `iteration`.
-fn check_finite(f: f64, g: &[f64], iteration: usize) -> Result<(), SolverError> {
-    if !f.is_finite() {
-        return Err(SolverError::NonFinite {
-            what: "value",
-            iteration,
-            dof: None,
-        });
-    }
-    if let Some(dof) = first_non_finite(g) {
-        return Err(SolverError::NonFinite {
-            what: "gradient",
-            iteration,
-            dof: Some(dof),
-        });
-    }
-    Ok(())
-}
-
-fn first_non_finite(v: &[f64]) -> Option<usize> {
-    v.iter().position(|x| !x.is_finite())
-}
-
-/// Largest relative shift (of the mean |H_dd|) the adaptive policy applies to the own Hessian
-/// before it switches to the PSD one; also the largest shift with which a Newton correction
-/// still counts for the convergence test.
-const SMALL_SHIFT: f64 = 1e-8;
-
-/// Assembles the PSD Hessian when `psd`, else the own Hessian.
-fn assemble<O: Objective + ?Sized>(
-    objective: &mut O,
-    x: &[f64],
-    h: &mut SparseColMat<usize, f64>,
-    psd: bool,
-    iteration: usize,
-    timings: &mut NewtonTimings,
-) -> Result<IterationHessian, SolverError> {
-    let t = Instant::now();
-    let kind = if psd {
-        objective.psd_hessian(x, h)?;
-        IterationHessian::Psd
-    } else {
-        objective.hessian(x, h)?;
-        IterationHessian::Own
-    };
-    timings.assembly += t.elapsed();
-    if h.val().iter().any(|v| !v.is_finite()) {
-        return Err(SolverError::NonFinite {
-            what: "Hessian",
-            iteration,
-            dof: None,
-        });
-    }
-    Ok(kind)
-}
-
-/// What stays fixed during one solve.
-struct Frame<'a> {
-    settings: &'a NewtonSettings,
-    /// [`Objective::length_scale`] (m) and [`Objective::force_scale`] (N).
-    length_scale: f64,
-    force_scale: f64,
-    /// [`Objective::gradient_test`].
-    gradient_test: bool,
-    reg_params: RegularizationParams,
-    started: Instant,
-    /// The start of the solve, kept for [`NewtonSettings::relative_step_tolerance`].
-    x_start: Option<Vec<f64>>,
-    /// The initial gradient's norm, the reference of the CG forcing term.
-    g0: f64,
-}
-
-impl Frame<'_> {
-    /// The step-convergence limit at `x` (m): the absolute one, or the relative one of
-    /// [`NewtonSettings::relative_step_tolerance`] when that is larger.
-    fn step_limit(&self, x: &[f64]) -> f64 {
-        let absolute = self.settings.step_tolerance * self.length_scale;
-        match &self.x_start {
-            Some(x0) => {
-                let moved = x
-                    .iter()
-                    .zip(x0)
-                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-                absolute.max(self.settings.relative_step_tolerance * moved)
-            }
-            None => absolute,
-        }
-    }
-}
+use checks::{assemble, check_finite, first_non_finite, norm_inf};
+use direction::{
+    ESTIMATE_TOLERANCE, REFINE_TOLERANCE, apply_damping, estimate_correction, forcing,
+    refine_direction, shifted_direction, small_shift_attempts, solve_direction, try_reuse,
+};
+use policy::Policy;
+use report::Record;
+use solve::{Frame, SMALL_SHIFT, Solve};
+use step::{Direction, Step, Watchdog, line_search, trust_region_step};
 
 /// Minimises `objective` from `x` (overwritten with the result).
 ///
@@ -256,12 +161,11 @@ pub fn newton_solve<O: Objective + ?Sized>(
     let mut rec = Record::new(ws.linear_solver());
 
     let t = Instant::now();
-    let mut f = objective.gradient(x, &mut ws.g)?;
+    let f = objective.gradient(x, &mut ws.g)?;
     rec.timings.assembly += t.elapsed();
     check_finite(f, &ws.g, 0)?;
     rec.residuals.push(norm_inf(&ws.g) / force_scale);
     rec.values.push(f);
-    let mut iteration = 0;
     let frame = Frame {
         settings,
         length_scale,
@@ -273,90 +177,75 @@ pub fn newton_solve<O: Objective + ?Sized>(
         g0: norm_inf(&ws.g),
     };
     let mut policy = Policy::new(settings, objective.has_psd_hessian(), ws.cholesky.is_some());
+    let mut s = Solve {
+        objective,
+        x,
+        f,
+        ws,
+        rec,
+        frame,
+        iteration: 0,
+    };
     let mut watchdog = Watchdog::new();
     // A converged point: where an indefinite own Hessian was met on the way, first make sure
     // it is not a saddle (leave it along negative curvature and go on if it is).
     macro_rules! converged {
         ($c:expr) => {{
-            if policy.met_indefinite {
-                if let Some(fe) = policy.leave_saddle(
-                    objective,
-                    x,
-                    f,
-                    ws,
-                    &mut rec,
-                    &frame,
-                    &mut iteration,
-                    false,
-                )? {
-                    f = fe;
-                    continue;
-                }
+            if policy.met_indefinite && policy.leave_saddle(&mut s, false)? {
+                continue;
             }
-            return Ok(rec.report(iteration, $c));
+            return Ok(s.rec.report(s.iteration, $c));
         }};
     }
 
     loop {
         // The objective's own update at this iterate (`Objective::begin_iteration`).
-        if begin_iteration(objective, x, iteration, settings, ws, &mut f, &mut rec)? {
+        if begin_iteration(&mut s)? {
             watchdog.forget();
         }
         if !watchdog.watching()
-            && frame.gradient_test
-            && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
+            && s.frame.gradient_test
+            && s.rec.residuals[s.rec.residuals.len() - 1] <= settings.gradient_tolerance
         {
             converged!(Convergence::Gradient);
         }
-        if ws
+        if s.ws
             .cancel
             .as_ref()
             .is_some_and(|c| c.load(std::sync::atomic::Ordering::SeqCst))
         {
-            watchdog.restore_best(x, &mut rec);
+            watchdog.restore_best(&mut s);
             // A cancelled solve leaves the workspace's carried state as it found it, so that a
             // run resumed from the last completed step repeats this one exactly.
-            ws.mu = mu_at_start;
-            ws.reusable = ws.kept.cancel_solve();
+            s.ws.mu = mu_at_start;
+            s.ws.reusable = s.ws.kept.cancel_solve();
             return Err(SolverError::Cancelled {
-                iterations: iteration + rec.watchdog_undone,
-                residuals: rec.residuals,
-                last_good: x.to_vec(),
+                iterations: s.iteration + s.rec.watchdog_undone,
+                residuals: s.rec.residuals,
+                last_good: s.x.to_vec(),
             });
         }
-        if iteration + rec.watchdog_undone + rec.rejected_steps >= settings.max_iterations {
+        if s.iteration + s.rec.watchdog_undone + s.rec.rejected_steps >= settings.max_iterations {
             // The failure carries the best point: the one before a watched step.
-            watchdog.restore_best(x, &mut rec);
+            watchdog.restore_best(&mut s);
             return Err(SolverError::NewtonDidNotConverge {
-                residuals: rec.residuals,
-                iterations: iteration + rec.watchdog_undone + rec.rejected_steps,
+                residuals: s.rec.residuals,
+                iterations: s.iteration + s.rec.watchdog_undone + s.rec.rejected_steps,
                 tolerance: settings.gradient_tolerance,
-                last_correction: rec.corrections.last().copied(),
+                last_correction: s.rec.corrections.last().copied(),
                 step_tolerance: settings.step_tolerance,
-                last_good: x.to_vec(),
+                last_good: s.x.to_vec(),
             });
         }
 
-        let chosen = match choose_direction(
-            objective,
-            x,
-            f,
-            ws,
-            &mut rec,
-            &mut policy,
-            &frame,
-            &mut iteration,
-        )? {
+        let chosen = match choose_direction(&mut s, &mut policy)? {
             Choice::Direction(c) => c,
-            Choice::Escaped(fe) => {
-                f = fe;
-                continue;
-            }
+            Choice::Escaped => continue,
         };
         let (kind, outcome) = (chosen.kind, chosen.outcome);
         if outcome.mu > 0.0 && kind != IterationHessian::Shifted {
-            rec.regularizations.push(RegularizationEvent {
-                iteration,
+            s.rec.regularizations.push(RegularizationEvent {
+                iteration: s.iteration,
                 mu: outcome.mu,
                 max_shift: outcome.max_shift,
                 attempts: outcome.attempts,
@@ -365,7 +254,7 @@ pub fn newton_solve<O: Objective + ?Sized>(
         // A direction that may stand for the unshifted Newton correction in the tests below:
         // one solved with a slightly shifted factor is refined into it first.
         let unshifted = outcome.mu <= SMALL_SHIFT && chosen.exact;
-        let obj_shift = objective.hessian_diagonal_shift();
+        let obj_shift = s.objective.hessian_diagonal_shift();
         // Own-Hessian directions only: on the PSD (Gauss–Newton) Hessian the small shift
         // damps the directions its model leaves flat (e.g. folding a crease), which it sees no
         // cost for; solved without it, those steps run far beyond where the model holds.
@@ -377,39 +266,39 @@ pub fn newton_solve<O: Objective + ?Sized>(
             && kind == IterationHessian::Own
             && (outcome.mu > 0.0 || obj_shift > 0.0)
         {
-            negative_curvature = refine_direction(ws, obj_shift, REFINE_TOLERANCE, &mut rec)?;
+            negative_curvature = refine_direction(s.ws, obj_shift, REFINE_TOLERANCE, &mut s.rec)?;
         }
 
-        let step_limit = frame.step_limit(x);
-        if let Some(dof) = first_non_finite(&ws.dx) {
+        let step_limit = s.frame.step_limit(s.x);
+        if let Some(dof) = first_non_finite(&s.ws.dx) {
             return Err(SolverError::NonFinite {
                 what: "Newton direction",
-                iteration,
+                iteration: s.iteration,
                 dof: Some(dof),
             });
         }
-        let slope: f64 = ws.dx.iter().zip(&ws.g).map(|(d, g)| d * g).sum();
+        let slope: f64 = s.ws.dx.iter().zip(&s.ws.g).map(|(d, g)| d * g).sum();
 
         // An unshifted Newton correction below the step tolerance, or one whose predicted
         // decrease f cannot resolve: x is converged. The step is not taken.
         if unshifted && !watchdog.watching() {
-            let dx_max = norm_inf(&ws.dx);
-            rec.corrections.push(dx_max / length_scale);
+            let dx_max = norm_inf(&s.ws.dx);
+            s.rec.corrections.push(dx_max / length_scale);
             if dx_max <= step_limit {
                 converged!(Convergence::Step);
             }
             // Round-off: f cannot resolve the predicted decrease and the last step no longer
             // halved the gradient (while it does, Newton still makes progress on it).
-            let n = rec.residuals.len();
-            if -0.5 * slope <= rec.noise(f)
+            let n = s.rec.residuals.len();
+            if -0.5 * slope <= s.rec.noise(s.f)
                 && n >= 2
-                && rec.residuals[n - 1] > 0.5 * rec.residuals[n - 2]
+                && s.rec.residuals[n - 1] > 0.5 * s.rec.residuals[n - 2]
             {
                 converged!(Convergence::RoundOff);
             }
         }
 
-        let alpha = step_limit_of(objective, x, &ws.dx)?;
+        let alpha = s.max_step()?;
         let direction = Direction {
             kind,
             slope,
@@ -418,32 +307,9 @@ pub fn newton_solve<O: Objective + ?Sized>(
             step_limit,
         };
         let step = if kind == IterationHessian::Shifted {
-            trust_region_step(
-                objective,
-                x,
-                f,
-                ws,
-                &mut rec,
-                &mut policy,
-                &frame,
-                &mut iteration,
-                &direction,
-                alpha,
-            )?
+            trust_region_step(&mut s, &mut policy, &direction, alpha)?
         } else {
-            line_search(
-                objective,
-                x,
-                f,
-                ws,
-                &mut rec,
-                &mut policy,
-                &mut watchdog,
-                &frame,
-                iteration,
-                &direction,
-                alpha,
-            )?
+            line_search(&mut s, &mut policy, &mut watchdog, &direction, alpha)?
         };
         let (f_trial, alpha, backtracks, has_gradient, rho, kind) = match step {
             Step::Taken {
@@ -454,39 +320,35 @@ pub fn newton_solve<O: Objective + ?Sized>(
                 rho,
                 kind,
             } => (f, alpha, backtracks, has_gradient, rho, kind),
-            Step::Retry => continue,
-            Step::Escaped(fe) => {
-                f = fe;
-                continue;
-            }
+            Step::Retry | Step::Escaped => continue,
             Step::Converged(c) => converged!(c),
         };
 
         // Accept the trial point.
-        let f_old = f;
-        x.copy_from_slice(&ws.x_trial);
+        let f_old = s.f;
+        s.x.copy_from_slice(&s.ws.x_trial);
         if has_gradient {
-            std::mem::swap(&mut ws.g, &mut ws.g_trial);
-            f = f_trial;
+            std::mem::swap(&mut s.ws.g, &mut s.ws.g_trial);
+            s.f = f_trial;
         } else {
             let t = Instant::now();
-            f = objective.gradient(x, &mut ws.g)?;
-            rec.timings.assembly += t.elapsed();
-            if f.is_finite() && f_trial.is_finite() {
+            s.f = s.objective.gradient(s.x, &mut s.ws.g)?;
+            s.rec.timings.assembly += t.elapsed();
+            if s.f.is_finite() && f_trial.is_finite() {
                 // Two evaluations of f at one point by different operations: their
                 // difference shows its round-off.
-                rec.value_noise = rec.value_noise.max((f - f_trial).abs());
+                s.rec.value_noise = s.rec.value_noise.max((s.f - f_trial).abs());
             }
         }
-        iteration += 1;
-        rec.hessians.push(kind);
-        check_finite(f, &ws.g, iteration)?;
-        rec.residuals.push(norm_inf(&ws.g) / force_scale);
-        rec.values.push(f);
-        if let Some(hook) = &ws.progress {
+        s.iteration += 1;
+        s.rec.hessians.push(kind);
+        check_finite(s.f, &s.ws.g, s.iteration)?;
+        s.rec.residuals.push(norm_inf(&s.ws.g) / force_scale);
+        s.rec.values.push(s.f);
+        if let Some(hook) = &s.ws.progress {
             hook(&NewtonProgress {
-                iteration,
-                residual: norm_inf(&ws.g) / force_scale,
+                iteration: s.iteration,
+                residual: norm_inf(&s.ws.g) / force_scale,
                 step_length: alpha,
                 hessian: kind,
                 regularized: outcome.mu > 0.0,
@@ -494,24 +356,22 @@ pub fn newton_solve<O: Objective + ?Sized>(
             });
         }
         let watched_step = watchdog.just_watched(settings);
-        if watchdog.after_step(x, ws, &mut f, &mut iteration, &mut rec) {
+        if watchdog.after_step(&mut s) {
             continue;
         }
-        policy.after_step(kind, backtracks, rho, slope, (f_old, f), &rec.residuals);
+        policy.after_step(kind, backtracks, rho, slope, (f_old, s.f), &s.rec.residuals);
 
         // After a full unshifted step, estimate the next correction with the same
         // factorisation (one triangular solve): a short one ends the solve here.
         if unshifted && backtracks == 0 && !watchdog.watching() && !watched_step {
-            if frame.gradient_test
-                && rec.residuals[rec.residuals.len() - 1] <= settings.gradient_tolerance
+            if s.frame.gradient_test
+                && s.rec.residuals[s.rec.residuals.len() - 1] <= settings.gradient_tolerance
             {
                 converged!(Convergence::Gradient);
             }
             let reused_or_shifted = chosen.reused || outcome.mu > 0.0 || obj_shift > 0.0;
-            if let Some(est) =
-                estimated_correction(ws, &mut rec, &frame, x, reused_or_shifted, obj_shift)?
-            {
-                rec.corrections.push(est / length_scale);
+            if let Some(est) = estimated_correction(&mut s, reused_or_shifted, obj_shift)? {
+                s.rec.corrections.push(est / length_scale);
                 converged!(Convergence::Step);
             }
         }
@@ -521,29 +381,26 @@ pub fn newton_solve<O: Objective + ?Sized>(
 /// After a full unshifted step, the next Newton correction estimated with the same
 /// factorisation (one triangular solve), when it is within the step limit at the new iterate
 /// `x` (m): the solve is then converged.
-fn estimated_correction(
-    ws: &mut NewtonWorkspace,
-    rec: &mut Record,
-    frame: &Frame,
-    x: &[f64],
+fn estimated_correction<O: Objective + ?Sized>(
+    s: &mut Solve<'_, O>,
     reused_or_shifted: bool,
     obj_shift: f64,
 ) -> Result<Option<f64>, SolverError> {
     // The limit at the new iterate: a relative one grows with the move just made (the one of
     // the iteration's start, before any move, left the estimate unable to end an implicit
     // step, which then assembled one more Hessian only to stop there).
-    let step_limit = frame.step_limit(x);
+    let step_limit = s.frame.step_limit(s.x);
     let t = Instant::now();
-    let solved = estimate_correction(ws, frame.settings, rec)?;
-    rec.timings.solve += t.elapsed();
-    if solved && ws.cholesky.is_some() && norm_inf(&ws.dx) <= step_limit && reused_or_shifted {
+    let solved = estimate_correction(s.ws, s.frame.settings, &mut s.rec)?;
+    s.rec.timings.solve += t.elapsed();
+    if solved && s.ws.cholesky.is_some() && norm_inf(&s.ws.dx) <= step_limit && reused_or_shifted {
         // A shifted (or old) factor underestimates the correction along soft modes (the
         // refined one is larger there): an estimate that would end the solve solves the
         // unshifted system where CG can.
-        refine_direction(ws, obj_shift, ESTIMATE_TOLERANCE, rec)?;
+        refine_direction(s.ws, obj_shift, ESTIMATE_TOLERANCE, &mut s.rec)?;
     }
     let est = if solved {
-        norm_inf(&ws.dx)
+        norm_inf(&s.ws.dx)
     } else {
         f64::INFINITY
     };
@@ -565,40 +422,33 @@ struct Chosen {
 /// What [`choose_direction`] did.
 enum Choice {
     Direction(Chosen),
-    /// x moved along negative curvature to a point of this value instead.
-    Escaped(f64),
+    /// x moved along negative curvature instead (to a point whose value is now `f`).
+    Escaped,
 }
 
 /// The Hessian, then the Newton direction `ws.dx = −H⁻¹∇f`: by CG preconditioned with the kept
 /// factor (reuse), or by a (possibly shifted) factorisation, or by the iterative fallback —
 /// with the Hessian the policy chooses (see the module documentation).
-#[allow(clippy::too_many_arguments)]
 fn choose_direction<O: Objective + ?Sized>(
-    objective: &mut O,
-    x: &mut [f64],
-    f: f64,
-    ws: &mut NewtonWorkspace,
-    rec: &mut Record,
+    s: &mut Solve<'_, O>,
     policy: &mut Policy,
-    frame: &Frame,
-    iteration: &mut usize,
 ) -> Result<Choice, SolverError> {
-    let settings = frame.settings;
-    let eta = forcing(settings.cg_forcing, norm_inf(&ws.g), frame.g0);
-    let eta_reuse = forcing(settings.reuse_tolerance, norm_inf(&ws.g), frame.g0);
+    let settings = s.frame.settings;
+    let eta = forcing(settings.cg_forcing, norm_inf(&s.ws.g), s.frame.g0);
+    let eta_reuse = forcing(settings.reuse_tolerance, norm_inf(&s.ws.g), s.frame.g0);
     let mut kind = assemble(
-        objective,
-        x,
-        &mut ws.hessian,
+        s.objective,
+        s.x,
+        &mut s.ws.hessian,
         policy.adaptive && !policy.try_own,
-        *iteration,
-        &mut rec.timings,
+        s.iteration,
+        &mut s.rec.timings,
     )?;
     if kind == IterationHessian::Psd {
-        apply_damping(ws, policy.damping);
+        apply_damping(s.ws, policy.damping);
     }
-    let reuse_shift = objective.hessian_diagonal_shift();
-    let mut reused = try_reuse(ws, kind, eta_reuse, reuse_shift, settings, rec)?;
+    let reuse_shift = s.objective.hessian_diagonal_shift();
+    let mut reused = try_reuse(s.ws, kind, eta_reuse, reuse_shift, settings, &mut s.rec)?;
     let mut direction = reused.then(|| (FactorOutcome::default(), true));
     // Trust region: while the own Hessian is known to be indefinite, go straight to the
     // shifted search.
@@ -611,13 +461,11 @@ fn choose_direction<O: Objective + ?Sized>(
             // the shift that keeps H + σS positive definite, not by the model: move along the
             // negative curvature as far as f keeps decreasing.
             policy.want_escape = false;
-            if let Some(fe) =
-                policy.leave_saddle(objective, x, f, ws, rec, frame, iteration, true)?
-            {
-                return Ok(Choice::Escaped(fe));
+            if policy.leave_saddle(s, true)? {
+                return Ok(Choice::Escaped);
             }
         }
-        direction = shifted_direction(ws, Some(shift_start), rec)?;
+        direction = shifted_direction(s.ws, Some(shift_start), &mut s.rec)?;
         if let Some((o, _)) = direction {
             kind = IterationHessian::Shifted;
             policy.shifted(o.mu);
@@ -629,36 +477,34 @@ fn choose_direction<O: Objective + ?Sized>(
         // only lifts the tiny negative eigenvalues of a nearly converged, slightly compressed
         // shell); anything more indefinite switches to the PSD Hessian.
         let small = RegularizationParams {
-            max_attempts: small_shift_attempts(&frame.reg_params),
-            ..frame.reg_params
+            max_attempts: small_shift_attempts(&s.frame.reg_params),
+            ..s.frame.reg_params
         };
-        match solve_direction(ws, kind, &small, eta, settings, rec) {
+        match solve_direction(s.ws, kind, &small, eta, settings, &mut s.rec) {
             Ok(d) => direction = Some(d),
             Err(FactorError::NotPositiveDefinite { .. }) if policy.trust && policy.psd_stalled => {
                 // Indefinite: a trust-region step on the shifted own Hessian.
-                rec.failed_factorizations += 1;
-                ws.mu = 0.0;
+                s.rec.failed_factorizations += 1;
+                s.ws.mu = 0.0;
                 policy.met_indefinite = true;
                 // First leave along negative curvature (a saddle or an indefinite region is
                 // near: shifted steps would only creep along that direction).
-                if let Some(fe) =
-                    policy.leave_saddle(objective, x, f, ws, rec, frame, iteration, true)?
-                {
-                    return Ok(Choice::Escaped(fe));
+                if policy.leave_saddle(s, true)? {
+                    return Ok(Choice::Escaped);
                 }
-                direction = shifted_direction(ws, None, rec)?;
+                direction = shifted_direction(s.ws, None, &mut s.rec)?;
                 if let Some((o, _)) = direction {
                     kind = IterationHessian::Shifted;
                     policy.shifted(o.mu);
                 }
             }
             Err(FactorError::NotPositiveDefinite { .. }) => {
-                rec.failed_factorizations += 1;
+                s.rec.failed_factorizations += 1;
                 policy.met_indefinite = true;
-                ws.mu = 0.0;
+                s.ws.mu = 0.0;
                 policy.own_failed();
-                kind = assemble_psd(objective, x, ws, rec, policy, *iteration)?;
-                reused = try_reuse(ws, kind, eta_reuse, reuse_shift, settings, rec)?;
+                kind = assemble_psd(s, policy)?;
+                reused = try_reuse(s.ws, kind, eta_reuse, reuse_shift, settings, &mut s.rec)?;
                 direction = reused.then(|| (FactorOutcome::default(), true));
             }
             Err(FactorError::Other(e)) => return Err(e),
@@ -667,24 +513,24 @@ fn choose_direction<O: Objective + ?Sized>(
     if direction.is_none() && policy.trust && own(kind, policy) {
         // No shift the search tried made the own Hessian positive definite: the PSD one.
         policy.psd_instead();
-        kind = assemble_psd(objective, x, ws, rec, policy, *iteration)?;
-        reused = try_reuse(ws, kind, eta_reuse, reuse_shift, settings, rec)?;
+        kind = assemble_psd(s, policy)?;
+        reused = try_reuse(s.ws, kind, eta_reuse, reuse_shift, settings, &mut s.rec)?;
         direction = reused.then(|| (FactorOutcome::default(), true));
     }
     let (outcome, exact) = match direction {
         Some(d) => d,
-        None => match solve_direction(ws, kind, &frame.reg_params, eta, settings, rec) {
+        None => match solve_direction(s.ws, kind, &s.frame.reg_params, eta, settings, &mut s.rec) {
             Ok(d) => d,
             Err(FactorError::NotPositiveDefinite { pivot }) => {
                 return Err(if settings.regularization.is_some() {
                     SolverError::RegularizationFailed {
-                        iteration: *iteration,
-                        mu: ws.mu,
-                        attempts: frame.reg_params.max_attempts + 1,
+                        iteration: s.iteration,
+                        mu: s.ws.mu,
+                        attempts: s.frame.reg_params.max_attempts + 1,
                     }
                 } else {
                     SolverError::NotPositiveDefinite {
-                        iteration: *iteration,
+                        iteration: s.iteration,
                         pivot,
                     }
                 });
@@ -702,22 +548,18 @@ fn choose_direction<O: Objective + ?Sized>(
 
 /// The PSD Hessian at x into `ws.hessian`, with the policy's damping.
 fn assemble_psd<O: Objective + ?Sized>(
-    objective: &mut O,
-    x: &[f64],
-    ws: &mut NewtonWorkspace,
-    rec: &mut Record,
+    s: &mut Solve<'_, O>,
     policy: &Policy,
-    iteration: usize,
 ) -> Result<IterationHessian, SolverError> {
     let kind = assemble(
-        objective,
-        x,
-        &mut ws.hessian,
+        s.objective,
+        s.x,
+        &mut s.ws.hessian,
         true,
-        iteration,
-        &mut rec.timings,
+        s.iteration,
+        &mut s.rec.timings,
     )?;
-    apply_damping(ws, policy.damping);
+    apply_damping(s.ws, policy.damping);
     Ok(kind)
 }
 
@@ -725,52 +567,27 @@ fn assemble_psd<O: Objective + ?Sized>(
 /// Hessian pattern, re-evaluates f and ∇f at `x` and replaces the iterate's recorded residual
 /// and value when anything changed, and drops the factor kept for reuse. Returns whether
 /// anything changed (the caller then drops its watchdog point).
-fn begin_iteration<O: Objective + ?Sized>(
-    objective: &mut O,
-    x: &[f64],
-    iteration: usize,
-    settings: &NewtonSettings,
-    ws: &mut NewtonWorkspace,
-    f: &mut f64,
-    rec: &mut Record,
-) -> Result<bool, SolverError> {
-    let update = objective.begin_iteration(x, iteration)?;
+fn begin_iteration<O: Objective + ?Sized>(s: &mut Solve<'_, O>) -> Result<bool, SolverError> {
+    let update = s.objective.begin_iteration(s.x, s.iteration)?;
     if update.pattern_changed {
-        let mut fresh = NewtonWorkspace::new(objective, settings)?;
-        fresh.mu = ws.mu;
-        fresh.progress = ws.progress.take();
-        fresh.cancel = ws.cancel.take();
-        *ws = fresh;
+        let mut fresh = NewtonWorkspace::new(s.objective, s.frame.settings)?;
+        fresh.mu = s.ws.mu;
+        fresh.progress = s.ws.progress.take();
+        fresh.cancel = s.ws.cancel.take();
+        *s.ws = fresh;
     }
     if !(update.value_changed || update.pattern_changed) {
         return Ok(false);
     }
-    ws.reusable = None;
+    s.ws.reusable = None;
     let t = Instant::now();
-    *f = objective.gradient(x, &mut ws.g)?;
-    rec.timings.assembly += t.elapsed();
-    check_finite(*f, &ws.g, iteration)?;
-    let residual = norm_inf(&ws.g) / objective.force_scale();
-    if let (Some(r), Some(v)) = (rec.residuals.last_mut(), rec.values.last_mut()) {
+    s.f = s.objective.gradient(s.x, &mut s.ws.g)?;
+    s.rec.timings.assembly += t.elapsed();
+    check_finite(s.f, &s.ws.g, s.iteration)?;
+    let residual = norm_inf(&s.ws.g) / s.objective.force_scale();
+    if let (Some(r), Some(v)) = (s.rec.residuals.last_mut(), s.rec.values.last_mut()) {
         *r = residual;
-        *v = *f;
+        *v = s.f;
     }
     Ok(true)
-}
-
-/// The objective's step limit for `dx` from `x` (see [`Objective::max_step`]), checked.
-fn step_limit_of<O: Objective + ?Sized>(
-    objective: &mut O,
-    x: &[f64],
-    dx: &[f64],
-) -> Result<f64, SolverError> {
-    let alpha = objective.max_step(x, dx)?;
-    if !(alpha.is_finite() && alpha > 0.0 && alpha <= 1.0) {
-        return Err(SolverError::InvalidSetting {
-            name: "Objective::max_step",
-            value: alpha,
-            requirement: "the objective's step limit must lie in (0, 1]",
-        });
-    }
-    Ok(alpha)
 }

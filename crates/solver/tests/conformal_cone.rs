@@ -1,4 +1,4 @@
-//! Issue #26: a flat annulus grown conformally into a cone (sin(half-angle) = 1 + c), solved
+//! A flat annulus grown conformally into a cone (sin(half-angle) = 1 + c), solved
 //! statically from the flat start with `Static::default()` and the default bending form. The
 //! strongly grown cone (c = −0.5) is where the one-shot Newton solve fails (100 iterations
 //! among strongly indefinite Hessians) or, given 1000 iterations, ends in a stable but

@@ -1,4 +1,4 @@
-//! Issue #26: critical loads from the stability report — the smallest eigenvalue of the exact,
+//! Critical loads from the stability report — the smallest eigenvalue of the exact,
 //! unshifted Hessian at the pre-buckling equilibrium ([`Static::stability`]) crosses zero at the
 //! critical load — with the default form and default settings, against analytic values.
 #![allow(clippy::unwrap_used)]

@@ -1,6 +1,6 @@
-//! Hard cases stay numerically stable (issue #8): time steps far above the seed's, strong and
-//! discontinuous growth, inverted and folded starts, slivers and graded meshes, a crumpled start
-//! with an indefinite Hessian, extreme material parameters and a long damped run.
+//! Hard cases stay numerically stable (docs/robustness.md): time steps far above the seed's, strong
+//! and discontinuous growth, inverted and folded starts, slivers and graded meshes, a crumpled
+//! start with an indefinite Hessian, extreme material parameters and a long damped run.
 //!
 //! Every case checks the same contract: positions stay finite; within every Newton solve the
 //! potential never increases (`NewtonReport::values`, up to round-off); a run either converges

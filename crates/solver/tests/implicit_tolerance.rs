@@ -1,4 +1,4 @@
-//! Issue #26: an implicit step's Newton solve stops once its correction is 10⁻³ of how far the
+//! An implicit step's Newton solve stops once its correction is 10⁻³ of how far the
 //! step moved from the inertial prediction (`ImplicitEuler::new`'s
 //! `relative_step_tolerance`) — far below the step's time discretisation error, so the answer
 //! is that of a solve converged to round-off, to a small fraction of that error.

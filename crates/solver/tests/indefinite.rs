@@ -1,4 +1,4 @@
-//! Issue #26: static solves through indefinite Hessians with the DEFAULT settings — the
+//! Static solves through indefinite Hessians with the DEFAULT settings — the
 //! trust-region steps on the shifted exact Hessian, the escape from saddles, the cancel flag
 //! and the reports that say which Hessian each iteration used. Heavier cases:
 //! `cargo run --release -p thinshell-solver --example cone_probe -- C H RINGS AROUND`.

@@ -1,4 +1,4 @@
-//! Issue #31, item 3: implicit steps reuse the Cholesky factor by default, and the factor they
+//! Implicit steps reuse the Cholesky factor by default, and the factor they
 //! keep from step to step can be carried over (a checkpoint) or survive a cancelled step, so
 //! that the steps after it are bit-identical to an uninterrupted run's; reuse stays
 //! independent of the thread count.

@@ -1,4 +1,4 @@
-//! Modal analysis with the default bending form (issue #28, item 7; docs/modal.md): natural
+//! Modal analysis with the default bending form (docs/modal.md): natural
 //! frequencies of a simply supported rectangular plate against the Kirchhoff solution, the six
 //! rigid-motion modes of a free plate, and a shallow spherical cap under refinement.
 //!

@@ -1,4 +1,4 @@
-//! Issue #17: factorisation reuse (CG preconditioned with the last Cholesky factor) and the
+//! Factorisation reuse (CG preconditioned with the last Cholesky factor) and the
 //! iterative fallback (CG with IC(0) or Jacobi) give the direct solver's answers, with fewer
 //! factorisations for reuse; bad settings are typed errors.
 #![allow(clippy::unwrap_used)]

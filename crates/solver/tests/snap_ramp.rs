@@ -1,4 +1,4 @@
-//! Issue #26 item 4: a static load ramp through a limit point with the default form and
+//! A static load ramp through a limit point with the default form and
 //! `Static::default()` lands on the far stable branch — the pull-out of an open-ended cylinder
 //! (Sze, Liu & Lo 2004; `cargo xtask verify` traces it by arc length): at the full load the ramp's
 //! equilibrium matches the arc-length path's point at the same load on the same mesh.

@@ -1,4 +1,4 @@
-//! The edge angles belong to the state (issue #28, item 1): with the default bending form
+//! The edge angles belong to the state: with the default bending form
 //! (edge directors, one massless angle per edge), every public path that reports an energy
 //! after a static solve — the step report, `ShellSystem::energy(x)`, `face_energies` — gives
 //! the energy at the minimising angles, checked against an independent evaluation: the angles
@@ -76,7 +76,7 @@ fn independent_energy(
 }
 
 /// Solves the static problem, then compares every reported energy with the independent one;
-/// returns the relative gap of the zero-angle energy (what `energy(x)` used to report).
+/// returns the relative gap of the zero-angle energy (what ignoring the angles would report).
 fn check(
     mesh: Mesh,
     rest_x: &[Vector3<f64>],

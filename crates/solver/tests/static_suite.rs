@@ -1,12 +1,12 @@
-//! Static solves with the DEFAULT settings reach their known equilibrium (issue #14): compatible
-//! sphere growth, the seed's cylinder from flat, and flat sheets whose rest forms are those of a
-//! strongly curved shape (a strip rolling into three quarters of a circle, a disc becoming a
-//! spherical cap, a strip winding into a helix), for every bending form, in ≤ 30 Newton
-//! iterations. Also: convergence is never claimed away from equilibrium (comparison with a much
-//! tighter reference solve, including an angle-only edge-director solve), the final convergence is
-//! quadratic, and the stability of an equilibrium is reported (a compressed strip held straight
-//! is a saddle). Shapes are compared with rigid-motion-invariant measures: all pairwise vertex
-//! distances, radii about the centroid. Heavier variants: `cargo xtask hard-cases`.
+//! Static solves with the DEFAULT settings reach their known equilibrium (docs/robustness.md, "The
+//! default Newton"): compatible sphere growth, the seed's cylinder from flat, and flat sheets whose
+//! rest forms are those of a strongly curved shape (a strip rolling into three quarters of a
+//! circle, a disc becoming a spherical cap, a strip winding into a helix), for every bending form,
+//! in ≤ 30 Newton iterations. Also: convergence is never claimed away from equilibrium (comparison
+//! with a much tighter reference solve, including an angle-only edge-director solve), the final
+//! convergence is quadratic, and the stability of an equilibrium is reported (a compressed strip
+//! held straight is a saddle). Shapes are compared with rigid-motion-invariant measures: all
+//! pairwise vertex distances, radii about the centroid. Heavier variants: `cargo xtask hard-cases`.
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::{Matrix2, Vector3};
@@ -516,14 +516,12 @@ fn stability_of_the_equilibrium_is_reported() {
     }
 }
 
-/// Issue #26: a paper-thin far start. A strip 0.1 m × 1 cm with h = 1e-4 m (h/L = 1e-3) and
-/// natural curvature π/L along its length rolls from flat into half a circle (radius L/π),
-/// default form and settings. Issue #26 measured no convergence in 400 iterations with any
-/// form: the static solve's Hessian shift (1e-10 of the mean diagonal, which the membrane sets)
-/// is of the order of such a strip's bending stiffness, and each step closed only a fraction of
-/// the remaining distance. With the directions refined into those of the unshifted Hessian
-/// (`newton.rs`, `refine_direction`) it takes 34 iterations (2026-12-02), all with the exact
-/// Hessian.
+/// A paper-thin far start. A strip 0.1 m × 1 cm with h = 1e-4 m (h/L = 1e-3) and natural
+/// curvature π/L along its length rolls from flat into half a circle (radius L/π), default form
+/// and settings. The static solve's Hessian shift (1e-10 of the mean diagonal, which the
+/// membrane sets) is of the order of such a strip's bending stiffness, so only directions of the
+/// unshifted Hessian (`newton/direction.rs`, `refine_direction`) converge here; measured counts
+/// in docs/robustness.md ("Indefinite Hessians near critical points").
 #[test]
 fn paper_thin_strip_rolls_into_half_a_circle_from_flat() {
     let length = 0.1;

@@ -1,6 +1,7 @@
 //! The split factorisation gives bit-identical factors and solutions whatever the thread count
-//! (issue #31, item 2): rayon pools of 1, 2 and 3 threads (`NewtonSettings::parallel`, the
-//! default, factorises with `Par::rayon(0)`: the pool's size).
+//! (docs/performance.md, "results independent of the thread count"): rayon pools of 1, 2 and 3
+//! threads (`NewtonSettings::parallel`, the default, factorises with `Par::rayon(0)`: the pool's
+//! size).
 #![allow(clippy::unwrap_used)]
 
 use faer::Par;

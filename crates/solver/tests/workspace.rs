@@ -1,6 +1,6 @@
 //! The integrators' cached Newton workspace follows the settings: changing the ordering or the
-//! parallelism after a first step takes effect at the next step (it used to be cached by the
-//! number of unknowns only, so such changes were silently ignored).
+//! parallelism after a first step takes effect at the next step (a workspace cached by the
+//! number of unknowns only would silently ignore such changes).
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::Vector3;

@@ -213,11 +213,12 @@ pub fn fresh_temp_dir(name: &str) -> PathBuf {
     d
 }
 
-/// The conformal cone of issue #26: a flat annulus (radii 0.1 and 1 m, `rings × around` cells
-/// of [`generators::annulus`]) whose rest metric is grown isotropically by e^{2s}, s = c·ln r
-/// per face (r at the face centroid, m), b̄ = 0: its stretch-free shape is a round cone with
-/// sin(half-angle) = 1 + c (slant distance r^{1+c}/(1+c), radius r^{1+c}). E = 1 MPa, ν = 0.3,
-/// ρ = 1000 kg/m³, StVK, stretching and bending with form `sff`, free boundary, no loads.
+/// The conformal cone (docs/robustness.md, "Indefinite Hessians near critical points"): a flat
+/// annulus (radii 0.1 and 1 m, `rings × around` cells of [`generators::annulus`]) whose rest metric
+/// is grown isotropically by e^{2s}, s = c·ln r per face (r at the face centroid, m), b̄ = 0: its
+/// stretch-free shape is a round cone with sin(half-angle) = 1 + c (slant distance r^{1+c}/(1+c),
+/// radius r^{1+c}). E = 1 MPa, ν = 0.3, ρ = 1000 kg/m³, StVK, stretching and bending with form
+/// `sff`, free boundary, no loads.
 pub struct ConformalCone {
     /// The system, rest forms grown.
     pub system: ShellSystem,

@@ -137,7 +137,7 @@ fn save_writes_a_file_that_restore_reads() {
     assert!(fingerprint(&a) == fingerprint(&b));
 }
 
-/// A checkpoint of format version 1 (before the kept factor, issue #31) still restores: the
+/// A checkpoint of format version 1 (no kept factor) still restores: the
 /// same state, and a resumed run that factorises afresh at its first step (so within the
 /// solver's tolerance of the uninterrupted run, not bit for bit).
 #[test]

@@ -1,6 +1,6 @@
-//! Edge-director bending in whole simulations (issue #9): the seed's cylindrical-patch
-//! experiment (model.md §5) on irregular meshes under refinement, for the mid-edge average and
-//! both director variants, and the scene key that selects the form.
+//! Edge-director bending in whole simulations (docs/robustness.md, "Edge-director bending"): the
+//! seed's cylindrical-patch experiment (model.md §5) on irregular meshes under refinement, for the
+//! mid-edge average and both director variants, and the scene key that selects the form.
 #![allow(clippy::unwrap_used)]
 
 use thinshell::reference::{SquareCase, rms_distance_modulo_rigid};

@@ -18,7 +18,7 @@ use super::runner::{
     Cost, Knobs, best_equilibrium, elastic, integrate, iterations_of, paper, rms, rms_rigid, shell,
     static_solve,
 };
-use super::{CASE_NAMES, Case, Refinement, Run, STATIC_MAX_ITERATIONS, V3};
+use super::study::{CASE_NAMES, Case, Refinement, Run, STATIC_MAX_ITERATIONS, V3};
 
 /// The seed's three squares on the seed mesh: static knobs (tolerance × Hessian × line search),
 /// dynamic relaxation with implicit Euler at several Δt, and (full study) the seed's own way.

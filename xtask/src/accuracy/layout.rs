@@ -1,4 +1,4 @@
-//! Mesh layout × orientation × bending form (issue #14 item 7).
+//! Mesh layout × orientation × bending form (docs/accuracy.md).
 //!
 //! Does a bending form converge on the meshes people actually use, whatever the direction of
 //! the curvature relative to the mesh? Four layouts of the unit square (alternating
@@ -27,9 +27,10 @@ use thinshell_mesh::generators::{self, Diagonals};
 use thinshell_mesh::{Mesh, VertexId};
 use thinshell_solver::{Boundary, Loads};
 
-use super::{
-    FORMULATIONS, Knobs, Refinement, STATIC_MAX_ITERATIONS, STATIC_TOLERANCE, THICK_CYLINDER, V3,
-    paper, rms_rigid, sff_name, shell, static_solve,
+use super::cases::THICK_CYLINDER;
+use super::runner::{Knobs, paper, rms_rigid, shell, static_solve};
+use super::study::{
+    FORMULATIONS, Refinement, STATIC_MAX_ITERATIONS, STATIC_TOLERANCE, V3, sff_name,
 };
 use crate::plot::{Chart, Mark, Series, save};
 
@@ -876,7 +877,7 @@ mod tests {
 
     /// The angle-only solve stops at the membrane force scale of the static solves, which is
     /// far above the bending forces: its energy must still agree with a 10⁴× tighter solve
-    /// (issue #14: a loose scale once stopped an angle solve after 0 iterations).
+    /// (a loose scale can stop an angle solve after 0 iterations).
     #[test]
     fn angle_solve_is_converged_at_the_study_tolerance() -> Result<()> {
         let mesh = generators::scattered_rectangle(1.0, 1.0, 12, SEED)?;
@@ -891,7 +892,7 @@ mod tests {
     /// On the one-diagonal grid at 0° every form's inner bending energy is within 1 % of the
     /// analytic value at n = 16, and the edge-director forms are within 1 % on the
     /// alternating grid at 45° too, where the mid-edge average overestimates it by more than
-    /// 30 % (issue #14: about 65 %).
+    /// 30 %.
     #[test]
     fn energy_errors_separate_consistent_from_inconsistent_forms() -> Result<()> {
         let parallel = generators::grid_rectangle(1.0, 1.0, 16, 16, Diagonals::Parallel)?;

@@ -6,8 +6,8 @@ use anyhow::Result;
 
 use crate::plot::{Chart, Mark, Series, save};
 
-use super::report::{sff_name, slug};
-use super::{CASE_NAMES, Case};
+use super::study::{CASE_NAMES, Case, sff_name};
+use crate::common::slug;
 
 pub(super) fn plot_case(c: &Case, dir: &Path) -> Result<String> {
     let mut families: Vec<&str> = Vec::new();

@@ -1,44 +1,14 @@
 //! The written results: `accuracy.md` (tables, plots, generated prose) and the JSON with
 //! every run.
 
-use crate::clock::today;
 use std::fmt::Write as _;
 
 use serde_json::{Value, json};
 use thinshell_energy::SffKind;
 
 use super::layout;
-use super::{CASE_NAMES, Case, FORMULATIONS, Refinement, Run};
-
-pub(crate) fn machine() -> (usize, String) {
-    let nproc = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split(':').nth(1))
-                .map(|m| m.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown".into());
-    (nproc, cpu)
-}
-
-pub(crate) fn slug(s: &str) -> String {
-    let mut out = String::new();
-    for c in s.chars() {
-        if c.is_ascii_alphanumeric() {
-            out.push(c.to_ascii_lowercase());
-        } else if !out.ends_with('-') {
-            out.push('-');
-        }
-    }
-    out.trim_matches('-').to_string()
-}
-
-pub(super) fn sff_name(sff: SffKind) -> String {
-    sff.name().to_string()
-}
+use super::study::{CASE_NAMES, Case, FORMULATIONS, Refinement, Run, sff_name};
+use crate::common::{load_average, machine, today};
 
 pub(super) fn fmt_opt(v: Option<f64>) -> String {
     v.map_or("—".into(), |v| format!("{v:.1e}"))
@@ -90,10 +60,7 @@ pub(super) fn markdown(
     layouts: Option<(&layout::LayoutStudy, &str)>,
 ) -> String {
     let (nproc, cpu) = machine();
-    let load = std::fs::read_to_string("/proc/loadavg")
-        .ok()
-        .and_then(|l| l.split_whitespace().next().map(str::to_string))
-        .unwrap_or_else(|| "unknown".into());
+    let load = load_average().map_or_else(|| "unknown".into(), |l| l.to_string());
     let mut md = String::new();
     let cmd = if quick {
         "cargo xtask accuracy --quick"

@@ -11,7 +11,7 @@ use thinshell_solver::{
     Boundary, Integrator, Loads, NewtonSettings, ShellSystem, SolverError, State, Static,
 };
 
-use super::{Run, STATIC_TOLERANCE, V3};
+use super::study::{Run, STATIC_TOLERANCE, V3};
 
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Knobs {

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::{Samples, Sizes};
+use super::measure::{Samples, Sizes};
 
 /// Sizes and symbolic-analysis figures of one level of the Newton problem (default ordering).
 #[derive(Clone, Debug)]

@@ -1,4 +1,4 @@
-//! Issue #17, the iterative fallback: one implicit step of the seed's sphere (uniform heat) on
+//! The iterative fallback: one implicit step of the seed's sphere (uniform heat) on
 //! icospheres of growing size, solved by sparse Cholesky and by preconditioned CG (IC(0), and
 //! Jacobi on the small meshes), forced with `NewtonSettings::force_iterative` so that both run
 //! on the same machine. Reports the time per Newton iteration, the memory of each (the
@@ -27,7 +27,7 @@ struct Solve {
 }
 
 fn solve(level: usize, dt: f64, iterative: Option<IterativeFallback>) -> Result<Solve> {
-    let path = crate::workspace_root()
+    let path = crate::common::workspace_root()
         .join("data")
         .join("scenes")
         .join("sphere_uniform_heat.toml");

@@ -18,7 +18,7 @@ use thinshell_solver::nalgebra::Vector3;
 use thinshell_solver::{Boundary, Loads, ShellSystem};
 
 use super::facts::Facts;
-use super::{Measure, Sizes, pool};
+use super::measure::{Measure, Sizes, pool};
 
 /// What each per-face measure evaluates: (id suffix, gradient, Hessian).
 pub(crate) const EVALS: [(&str, bool, bool); 3] = [

@@ -7,8 +7,8 @@ use anyhow::{Context, Result};
 use thinshell_solver::{Ordering, SparseCholesky};
 
 use super::facts::{Facts, OrderingFacts};
+use super::measure::{Measure, Sizes, pool};
 use super::newton::{FactorKey, Problems, par, problem, record};
-use super::{Measure, Sizes, pool};
 
 /// Id of the factorisation at `level` with `threads` faer threads (`Par::Seq` for 1).
 pub(crate) fn id(level: usize, threads: usize) -> String {

@@ -30,7 +30,7 @@ use thinshell_solver::{
 };
 
 use super::facts::{BigRun, Facts, LevelFacts};
-use super::{Measure, Sizes, pool};
+use super::measure::{Measure, Sizes, pool};
 
 /// Implicit Euler step length of the protocol (s).
 const DT: f64 = 1e-3;
@@ -435,7 +435,7 @@ pub(crate) fn run_big(level: usize, threads: usize, rounds: usize) -> Result<Big
     };
     println!(
         "perf: level {level}, {threads} thread(s): iteration {:.2} s, peak memory {}",
-        super::median(&run.samples["total"]),
+        crate::common::median(&run.samples["total"]),
         run.peak_rss
             .map_or("unknown".to_string(), thinshell_solver::memory::human_bytes)
     );

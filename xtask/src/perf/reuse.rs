@@ -1,7 +1,6 @@
-//! Issues #17 and #31, factorisation reuse (`integrator.newton.reuse_factor`, on by default for
-//! implicit steps since #31): every case is run without
-//! and with reuse, back to back in one process (A then B), and compared on numeric
-//! factorisations, CG iterations, Newton iterations, wall time per step and the largest
+//! Factorisation reuse (`integrator.newton.reuse_factor`, on by default for implicit steps): every
+//! case is run without and with reuse, back to back in one process (A then B), and compared on
+//! numeric factorisations, CG iterations, Newton iterations, wall time per step and the largest
 //! distance between the two runs' final positions relative to the model size (bounding-box
 //! diagonal).
 
@@ -45,7 +44,7 @@ impl Observer for Totals {
 
 /// Runs `case` with `extra` overrides; returns the totals, wall time (s) and the simulation.
 pub(crate) fn run_case(case: &Case, extra: &[&str]) -> Result<(Totals, f64, Simulation)> {
-    let path = crate::workspace_root()
+    let path = crate::common::workspace_root()
         .join("data")
         .join("scenes")
         .join(case.scene);

@@ -2,7 +2,7 @@
 //! Chromium (`crates/cli/tests/view_browser.rs`, `#[ignore]`d in plain `cargo test`).
 //!
 //! Debian's `chromium` is installed with apt-get when it is missing (as root; `apt-get update`
-//! first; about 30 s on the project's machine); without root and without a browser the stage
+//! first); without root and without a browser the stage
 //! fails with what to do. `CHROMIUM=/path` selects another binary. The tests run with
 //! `--ignored`, so they fail, never pass, when the browser cannot start. The playback benchmark
 //! (`bench_…`) is skipped.
@@ -11,8 +11,7 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 
-use super::run_stage;
-use crate::workspace_root;
+use crate::common::{run_stage, workspace_root};
 
 /// Installs chromium if needed, then runs the browser tests.
 pub fn stage() -> Result<()> {

@@ -12,8 +12,7 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 
-use super::run_stage;
-use crate::workspace_root;
+use crate::common::{run_stage, workspace_root};
 
 /// Python older than this cannot run the package (it uses `tomllib` and 3.11 typing).
 const MIN_PYTHON: (u32, u32) = (3, 11);

@@ -4,7 +4,7 @@
 
 use base64::Engine as _;
 
-use super::Viewer;
+use super::viewer::{PAGE, SCRIPT, Viewer};
 
 /// The self-contained page. Frames that cannot be read are embedded as their error message,
 /// which the page shows in place of the frame.
@@ -31,7 +31,6 @@ pub fn page(viewer: &Viewer) -> String {
     let data = serde_json::json!({ "meta": viewer.runs_json(), "runs": runs });
     // "</" inside a <script> would end it; JSON allows the escaped form.
     let data = data.to_string().replace("</", "<\\/");
-    super::PAGE
-        .replacen("/*__VIEWER_JS__*/", super::SCRIPT, 1)
+    PAGE.replacen("/*__VIEWER_JS__*/", SCRIPT, 1)
         .replacen("__DATA__", &data, 1)
 }

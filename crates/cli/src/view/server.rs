@@ -7,7 +7,7 @@ use std::net::{TcpListener, TcpStream};
 use std::sync::Arc;
 use std::time::Duration;
 
-use super::{Response, Viewer};
+use super::viewer::{Response, Viewer};
 
 /// Serves `viewer` on `listener` until the process ends.
 pub fn serve(listener: TcpListener, viewer: Arc<Viewer>) {

@@ -63,21 +63,13 @@ pub trait SecondFundamentalForm<const N: usize>: Sync {
 /// cost comparisons; its bending energy does **not** converge under refinement on irregular
 /// meshes, at free edges, and on the alternating-diagonal grids of
 /// `thinshell_mesh::generators::rectangle` / `cylinder_patch` as soon as the curvature is not
-/// aligned with the grid (a cylinder at 45° to the grid: +65 % energy at every resolution, at
-/// 30°: +49 %; a simply supported square plate's lowest frequency 28 % high — measured in
-/// `crates/solver/tests/default_form.rs`).
+/// aligned with the grid (`crates/solver/tests/default_form.rs`).
 ///
-/// Why `tan` rather than `sin` (measured): the accuracy is the same class — on the
-/// alternating-grid cylinder both converge at order 2 with tan's error 2–4× smaller, on the
-/// plate both give 2.373 Hz, in `docs/accuracy.md` tan's error is 1.0–1.3× sin's on cylinders
-/// and strips and 3.5× smaller on a spherical cap — and so is the cost (same unknowns and
-/// pattern; equal wall times within noise in the accuracy study and in
-/// `cargo bench -p thinshell-solver --bench explicit_step`). On a sheet folded to 0.05 rad
-/// from flat (the solver's `start_folded_nearly_flat` hard case run with each form), a static
-/// solve with `sin` "converges" with the sheet folded completely flat onto itself (opening
-/// angle 0); `tan`'s energy barrier as a hinge approaches 180° (II ∝ tan α → ∞) makes that fold
-/// cost 1 600× more, and implicit steps start opening it (0.050 → 0.059 rad in 30 steps) — the
-/// variant the paper authors' library recommends.
+/// Why `tan` rather than `sin`: the accuracy and the cost are of the same class (same unknowns
+/// and pattern), but `tan`'s energy barrier as a hinge approaches 180° (II ∝ tan α → ∞) resists
+/// folding a sheet flat onto itself, which `sin` allows — the variant the paper authors'
+/// library recommends. The measurements behind both choices are in docs/scenes.md ("Why the
+/// default is `edge_director_tan`").
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SffKind {
     /// Normalised average of the two unit face normals per edge (model.md §1, the paper's

@@ -7,10 +7,12 @@
 //! retries a matrix that is not positive definite with a growing diagonal shift
 //! `H + μ·s·I` (or `H + μ·diag(|H|)`), written through precomputed diagonal offsets.
 //!
-//! Module layout: `symbolic` (diagonal offsets, ordering, faer's symbolic analysis, predicted
-//! flops), `regularise` (the shift's parameters and the retry loop), `split` (the two-thread
-//! factorisation at the top-level dissection); the type and its sequential engine are here.
+//! Module layout: `error` (a failed factorisation), `symbolic` (diagonal offsets, ordering,
+//! faer's symbolic analysis, predicted flops), `regularise` (the shift's parameters and the retry
+//! loop), `split` (the two-thread factorisation at the top-level dissection); the type and its
+//! sequential engine are here.
 
+mod error;
 mod regularise;
 mod split;
 mod symbolic;
@@ -26,6 +28,8 @@ use faer::{Conj, MatMut, Par, Side};
 use crate::SolverError;
 use crate::ordering::Ordering;
 use split::SplitFactor;
+
+pub use error::FactorError;
 
 pub use regularise::{FactorOutcome, RegularizationKind, RegularizationParams};
 pub use split::SPLIT_MIN_FLOPS;
@@ -57,18 +61,6 @@ pub struct FactorStats {
 /// Bytes of a factor with `len_val` values and the given scratch sizes.
 fn factor_memory_estimate(len_val: usize, factor_scratch: usize, solve_scratch: usize) -> u64 {
     (len_val * std::mem::size_of::<f64>() + factor_scratch + solve_scratch) as u64
-}
-
-/// Failure of one numeric factorisation attempt.
-#[derive(Debug)]
-pub enum FactorError {
-    /// faer met a non-positive pivot (index in the permuted order; a diagnostic only).
-    NotPositiveDefinite {
-        /// Failing pivot.
-        pivot: usize,
-    },
-    /// Anything else (pattern mismatch, faer failure).
-    Other(SolverError),
 }
 
 /// A sparse LLᵀ factorisation whose symbolic part, factor storage and scratch memory are reused

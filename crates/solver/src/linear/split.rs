@@ -18,7 +18,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMat, SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Accum, Conj, Mat, MatMut, Par, Side};
 
-use super::FactorError;
+use super::error::FactorError;
 use crate::SolverError;
 use crate::ordering::inverse_permutation;
 

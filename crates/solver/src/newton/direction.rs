@@ -1,7 +1,18 @@
 //! Newton directions: by a (possibly shifted) factorisation, by CG with a reused or slightly
 //! shifted factor, the iterative fallback, and the trust-region shift search.
 
-use super::*;
+use std::time::Instant;
+
+use faer::sparse::SparseColMat;
+
+use super::report::Record;
+use super::settings::{IterationHessian, NewtonSettings};
+use super::solve::{SMALL_SHIFT, TR_MAX_SHIFT};
+use super::workspace::NewtonWorkspace;
+use crate::SolverError;
+use crate::curvature::{self, SHIFT_GROWTH};
+use crate::iterative::pcg;
+use crate::linear::{FactorError, FactorOutcome, RegularizationKind, RegularizationParams};
 
 /// Shifted attempts of `params` that stay at or below [`SMALL_SHIFT`].
 pub(super) fn small_shift_attempts(params: &RegularizationParams) -> usize {
@@ -88,11 +99,12 @@ pub(super) fn try_reuse(
     }
 }
 
-/// Computes `ws.dx = −(H + shift)⁻¹ ∇f` for the Hessian in `ws` (of `kind`), with the shift
-/// search of `params` (see [`SparseCholesky::factorize_regularized`]): by a Cholesky
-/// factorisation, or by the iterative fallback, where non-positive curvature met by CG plays
-/// the part of a failed factorisation. Returns the shift and whether dx is exact (Cholesky, or
-/// CG converged to the forcing term `eta`).
+/// Computes `ws.dx = −(H + shift)⁻¹ ∇f` for the Hessian in `ws` (of `kind`), with the shift search
+/// of `params` (see
+/// [`SparseCholesky::factorize_regularized`](crate::SparseCholesky::factorize_regularized)): by a
+/// Cholesky factorisation, or by the iterative fallback, where non-positive curvature met by CG
+/// plays the part of a failed factorisation. Returns the shift and whether dx is exact (Cholesky,
+/// or CG converged to the forcing term `eta`).
 pub(super) fn solve_direction(
     ws: &mut NewtonWorkspace,
     kind: IterationHessian,

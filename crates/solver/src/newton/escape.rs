@@ -1,8 +1,25 @@
 //! Leaving saddles and indefinite regions: steps along negative curvature, extrapolated steps, and
 //! Newton steps to a critical point the trust region cannot resolve.
 
-use super::*;
+use std::time::Instant;
+
+use faer::Par;
+
+use super::checks::{assemble, check_finite, first_non_finite, norm_inf, step_limit_of};
+use super::report::{Record, value_noise};
+use super::settings::IterationHessian;
+use super::solve::{SMALL_SHIFT, Solve, TR_MAX_SHIFT, WATCHDOG_MIN_DECREASE};
+use super::workspace::NewtonWorkspace;
+use crate::SolverError;
+use crate::curvature::{self, SHIFT_GROWTH};
 use crate::descent::double_while_falling;
+use crate::ldlt::SparseLdlt;
+use crate::objective::Objective;
+use crate::progress::NewtonProgress;
+
+/// Largest shift σ the saddle escape at a converged point tries (relative to each unknown's
+/// own stiffness): beyond it the Hessian is not that of a nearly stable point.
+pub(super) const ESCAPE_MAX_SHIFT: f64 = 1e3;
 
 /// Doubles an accepted step `alpha·dx` of the own Hessian along which CG met negative
 /// curvature while f keeps decreasing by more than its round-off, within the objective's step
@@ -14,14 +31,12 @@ use crate::descent::double_while_falling;
 /// Returns the longer step and its value, with `ws.x_trial` set to it (`None`: the full step
 /// stays, and so does `ws.x_trial`).
 pub(super) fn extrapolate<O: Objective + ?Sized>(
-    objective: &mut O,
-    x: &[f64],
-    ws: &mut NewtonWorkspace,
+    s: &mut Solve<'_, O>,
     alpha: f64,
     f_alpha: f64,
-    length_scale: f64,
-    rec: &mut Record,
 ) -> Result<Option<(f64, f64)>, SolverError> {
+    let (objective, x, ws, rec) = (&mut *s.objective, &*s.x, &mut *s.ws, &mut s.rec);
+    let length_scale = s.frame.length_scale;
     // Far enough for any saddle this solver meets (2⁴⁰ ≈ 1e12: from round-off-sized amplitudes
     // to the body's size), each doubling costing one value evaluation.
     const MAX_DOUBLINGS: usize = 40;
@@ -82,13 +97,10 @@ pub(super) enum SaddleStep {
 /// quadratically, where trust-region steps only creep. The step is taken when it reduces the
 /// gradient and raises f by no more than its round-off resolves.
 pub(super) fn saddle_newton<O: Objective + ?Sized>(
-    objective: &mut O,
-    x: &[f64],
-    f: f64,
-    ws: &mut NewtonWorkspace,
-    rec: &mut Record,
+    s: &mut Solve<'_, O>,
     step_limit: f64,
 ) -> Result<SaddleStep, SolverError> {
+    let (objective, x, f, ws, rec) = (&mut *s.objective, &*s.x, s.f, &mut *s.ws, &mut s.rec);
     if ws.cholesky.is_none() {
         return Ok(SaddleStep::Unavailable);
     }
@@ -149,26 +161,20 @@ pub(super) fn saddle_newton<O: Objective + ?Sized>(
 /// Leaves a point where the own Hessian is indefinite along its most negative curvature
 /// direction (inverse iteration on the factor of `H + σS` with σ just above the shift that
 /// makes it positive definite), with the step length that most decreases f along it
-/// (doubling from 10⁻³ of the body's size, or quartering until f decreases). Returns the new
-/// value when it moved (x, `ws.g` updated, the step recorded as an iteration); `None` when
+/// (doubling from 10⁻³ of the body's size, or quartering until f decreases). Returns whether
+/// it moved (x, f and `ws.g` updated, the step recorded as an iteration); `false` when
 /// the own Hessian is positive definite to [`SMALL_SHIFT`] of each unknown's stiffness, or no
 /// decrease was found.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn escape_saddle<O: Objective + ?Sized>(
-    objective: &mut O,
-    x: &mut [f64],
-    f: f64,
-    ws: &mut NewtonWorkspace,
-    rec: &mut Record,
-    length_scale: f64,
-    force_scale: f64,
+    s: &mut Solve<'_, O>,
     sigma: &mut f64,
-    iteration: &mut usize,
-    started: Instant,
     known_indefinite: bool,
-) -> Result<Option<f64>, SolverError> {
+) -> Result<bool, SolverError> {
+    let (objective, x, f, ws, rec) = (&mut *s.objective, &mut *s.x, s.f, &mut *s.ws, &mut s.rec);
+    let (length_scale, force_scale) = (s.frame.length_scale, s.frame.force_scale);
+    let (iteration, started) = (&mut s.iteration, s.frame.started);
     if ws.cholesky.is_none() {
-        return Ok(None);
+        return Ok(false);
     }
     if !known_indefinite {
         assemble(
@@ -183,7 +189,7 @@ pub(super) fn escape_saddle<O: Objective + ?Sized>(
     ws.reusable = None;
     curvature::scaling(&ws.hessian, &ws.diag_offsets, &mut ws.scale);
     let Some(cholesky) = ws.cholesky.as_mut() else {
-        return Ok(None);
+        return Ok(false);
     };
     let t = Instant::now();
     if !known_indefinite {
@@ -196,7 +202,7 @@ pub(super) fn escape_saddle<O: Objective + ?Sized>(
             SMALL_SHIFT,
         )? {
             rec.timings.factorization += t.elapsed();
-            return Ok(None);
+            return Ok(false);
         }
     }
     // A mildly indefinite Hessian met during the solve (capped at the trust-region limit:
@@ -217,13 +223,13 @@ pub(super) fn escape_saddle<O: Objective + ?Sized>(
     rec.timings.factorization += t.elapsed();
     rec.factorizations += probe.attempts;
     let Some(shift) = probe.shift else {
-        return Ok(None);
+        return Ok(false);
     };
     let t = Instant::now();
     let pair = curvature::inverse_iteration(cholesky, &ws.hessian, &ws.scale, &[], 30)?;
     rec.timings.solve += t.elapsed();
     if pair.value.is_nan() || pair.value >= 0.0 {
-        return Ok(None);
+        return Ok(false);
     }
     let mut v = pair.vector;
     if v.iter().zip(&ws.g).map(|(a, b)| a * b).sum::<f64>() > 0.0 {
@@ -270,14 +276,14 @@ pub(super) fn escape_saddle<O: Objective + ?Sized>(
         }
     }
     if best.0 == 0.0 {
-        return Ok(None);
+        return Ok(false);
     }
     for (xi, d) in x.iter_mut().zip(&v) {
         *xi += best.0 * d;
     }
-    let s = Instant::now();
+    let t0 = Instant::now();
     let f_new = objective.gradient(x, &mut ws.g)?;
-    rec.timings.assembly += s.elapsed();
+    rec.timings.assembly += t0.elapsed();
     check_finite(f_new, &ws.g, *iteration + 1)?;
     *iteration += 1;
     *sigma = shift;
@@ -294,5 +300,6 @@ pub(super) fn escape_saddle<O: Objective + ?Sized>(
             elapsed: started.elapsed(),
         });
     }
-    Ok(Some(f_new))
+    s.f = f_new;
+    Ok(true)
 }

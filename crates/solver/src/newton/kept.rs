@@ -14,20 +14,23 @@
 
 use faer::sparse::SparseColMat;
 
-use super::{IterationHessian, NewtonWorkspace};
+use super::settings::IterationHessian;
 use crate::SolverError;
 use crate::linear::{RegularizationKind, RegularizationParams, SparseCholesky};
 
 /// The input of the factorisation whose factor a Newton workspace keeps for reuse
-/// ([`NewtonWorkspace::kept_factor`]): enough to rebuild that factor bit for bit
-/// ([`NewtonWorkspace::restore_kept_factor`]), e.g. from a checkpoint.
+/// ([`NewtonWorkspace::kept_factor`](super::NewtonWorkspace::kept_factor)): enough to rebuild
+/// that factor bit for bit
+/// ([`NewtonWorkspace::restore_kept_factor`](super::NewtonWorkspace::restore_kept_factor)),
+/// e.g. from a checkpoint.
 #[derive(Clone, Debug, PartialEq)]
 pub struct KeptFactor {
     /// The kind of Hessian factorised; the next solve reuses the factor for iterations that
     /// use this kind.
     pub kind: IterationHessian,
     /// The Hessian's stored values (lower triangle, in the order of the workspace's pattern,
-    /// [`NewtonWorkspace::hessian`]) as they were factorised, without the regularisation shift.
+    /// [`NewtonWorkspace::hessian`](super::NewtonWorkspace::hessian)) as they were factorised,
+    /// without the regularisation shift.
     pub values: Vec<f64>,
     /// The relative regularisation shift μ the factorisation succeeded with (0: unshifted; a
     /// reused factor has μ ≤ 1e-8), see [`SparseCholesky::factorize_regularized`].
@@ -142,47 +145,19 @@ impl KeptRecord {
     }
 }
 
-impl NewtonWorkspace {
-    /// The input of the factorisation whose factor this workspace keeps for the next solve
-    /// ([`NewtonSettings::reuse_factor`](super::NewtonSettings::reuse_factor)); `None` when the
-    /// next solve factorises afresh. With [`restore_kept_factor`](Self::restore_kept_factor)
-    /// on a workspace built for the same objective and settings, the next solve takes the same
-    /// steps bit for bit (checkpoints save it).
-    pub fn kept_factor(&self) -> Option<KeptFactor> {
-        let kind = self.reusable?;
-        self.kept
-            .current
-            .as_ref()
-            .filter(|k| k.kind == kind)
-            .cloned()
+impl KeptRecord {
+    /// The kept factor's input when it is of kind `kind`.
+    pub(super) fn current_of(&self, kind: IterationHessian) -> Option<KeptFactor> {
+        self.current.as_ref().filter(|k| k.kind == kind).cloned()
     }
 
-    /// Keeps `kept` (from [`kept_factor`](Self::kept_factor)) as the factor for the next solve
-    /// to reuse, refactorised before its first use; `None` forgets any kept factor.
-    ///
-    /// # Errors
-    /// [`SolverError::DimensionMismatch`] when `kept` has not one value per entry of this
-    /// workspace's Hessian pattern (the workspace is unchanged).
-    pub fn restore_kept_factor(&mut self, kept: Option<KeptFactor>) -> Result<(), SolverError> {
-        let Some(kept) = kept else {
-            self.reusable = None;
-            self.kept = KeptRecord::default();
-            return Ok(());
-        };
-        if kept.values.len() != self.nnz() {
-            return Err(SolverError::DimensionMismatch {
-                what: "kept factor values",
-                expected: self.nnz(),
-                found: kept.values.len(),
-            });
-        }
-        self.reusable = Some(kept.kind);
-        self.kept = KeptRecord {
+    /// A record that holds `kept`, to be refactorised before its first use.
+    pub(super) fn restored(kept: KeptFactor) -> Self {
+        KeptRecord {
             current: Some(kept),
             stale: true,
             ..KeptRecord::default()
-        };
-        Ok(())
+        }
     }
 }
 

@@ -2,7 +2,12 @@
 //! next iteration tries, the trust-region shift of indefinite own Hessians, the damping of PSD
 //! steps, and when a saddle is left along negative curvature.
 
-use super::*;
+use super::escape::escape_saddle;
+use super::settings::{HessianPolicy, IterationHessian, NewtonSettings};
+use super::solve::{SMALL_SHIFT, Solve};
+use crate::SolverError;
+use crate::curvature::SHIFT_GROWTH;
+use crate::objective::Objective;
 
 /// First Levenberg–Marquardt damping of PSD steps (relative to the mean |H_dd|) after a
 /// backtracked PSD step; below it the damping is switched off.
@@ -30,14 +35,6 @@ const TR_SHRINK: f64 = 16.0;
 const MAX_TR_REJECTIONS: usize = 6;
 /// Negative-curvature escapes per solve.
 const MAX_ESCAPES: usize = 50;
-/// Largest shift σ the saddle escape at a converged point tries (relative to each unknown's
-/// own stiffness): beyond it the Hessian is not that of a nearly stable point.
-pub(super) const ESCAPE_MAX_SHIFT: f64 = 1e3;
-/// Largest trust-region shift σ (relative to each unknown's own stiffness, see
-/// `curvature.rs`): an own Hessian that needs more is strongly indefinite — a compressed
-/// membrane far from equilibrium — where the shifted steps crawl (the cone-growing annulus of
-/// docs/robustness.md) and PSD steps do better.
-pub(super) const TR_MAX_SHIFT: f64 = 1e-2;
 
 /// The state of the adaptive policy during one solve.
 pub(super) struct Policy {
@@ -161,40 +158,22 @@ impl Policy {
 
     /// Leaves a point where the own Hessian is indefinite along negative curvature
     /// ([`escape_saddle`]), while escapes are allowed. `known`: the Hessian in `ws` is the own
-    /// one at x, known indefinite. Returns the new value when x moved; the Newton loop then
-    /// goes on from the new point with the shift found there (from inside the line search, a
-    /// retry of the stale direction and slope of the point before the escape passed its
-    /// round-off test at once: a false convergence far from equilibrium, robustness.md).
-    #[allow(clippy::too_many_arguments)]
+    /// one at x, known indefinite. Returns whether x moved (the solve's value and gradient are
+    /// then the new point's); the Newton loop then goes on from the new point with the shift
+    /// found there (from inside the line search, a retry of the stale direction and slope of
+    /// the point before the escape passed its round-off test at once: a false convergence far
+    /// from equilibrium, robustness.md).
     pub(super) fn leave_saddle<O: Objective + ?Sized>(
         &mut self,
-        objective: &mut O,
-        x: &mut [f64],
-        f: f64,
-        ws: &mut NewtonWorkspace,
-        rec: &mut Record,
-        frame: &Frame,
-        iteration: &mut usize,
+        s: &mut Solve<'_, O>,
         known: bool,
-    ) -> Result<Option<f64>, SolverError> {
+    ) -> Result<bool, SolverError> {
         if !(self.escape && self.escapes < MAX_ESCAPES) {
-            return Ok(None);
+            return Ok(false);
         }
         self.escapes += 1;
-        let moved = escape_saddle(
-            objective,
-            x,
-            f,
-            ws,
-            rec,
-            frame.length_scale,
-            frame.force_scale,
-            &mut self.sigma,
-            iteration,
-            frame.started,
-            known,
-        )?;
-        if moved.is_some() {
+        let moved = escape_saddle(s, &mut self.sigma, known)?;
+        if moved {
             self.pd_floor = self.sigma;
             self.try_own = true;
         }

@@ -1,7 +1,9 @@
 //! What a Newton solve reports ([`NewtonReport`], [`Convergence`], timings) and the record it keeps
 //! while it runs.
 
-use super::*;
+use std::time::Duration;
+
+use super::settings::{IterationHessian, LinearSolver};
 
 /// Which criterion ended a converged solve.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -89,21 +91,23 @@ pub struct NewtonReport {
     /// fallback, IC(0) preconditioners built).
     pub factorizations: usize,
     /// Iterations whose direction came from CG preconditioned with a reused factor
-    /// ([`NewtonSettings::reuse_factor`]).
+    /// ([`NewtonSettings::reuse_factor`](super::NewtonSettings::reuse_factor)).
     pub reused_steps: usize,
     /// Directions solved with the factor of a slightly shifted Hessian (the objective's
-    /// [`Objective::hessian_diagonal_shift`] or a regularisation of at most 1e-8 of the mean
-    /// diagonal) and refined by CG into those of the unshifted Hessian.
+    /// [`Objective::hessian_diagonal_shift`](crate::Objective::hessian_diagonal_shift) or a
+    /// regularisation of at most 1e-8 of the mean diagonal) and refined by CG into those of the
+    /// unshifted Hessian.
     pub refined_steps: usize,
     /// Accepted steps of the own Hessian along which CG had met negative curvature, taken
     /// beyond the full Newton step (doubled while f kept decreasing by more than its
     /// round-off): leaving a saddle or an indefinite region geometrically fast instead of by
     /// the factor σ/(σ − |λ|) per iteration that the slightly shifted factor allows.
     pub extrapolated_steps: usize,
-    /// Largest difference seen between [`Objective::value`] and [`Objective::gradient`]'s
-    /// value at the same point (units of f; 0 when never compared): the evaluation round-off
-    /// of f, far above `16 ε |f|` for shells whose strains are small against 1. The round-off
-    /// tests use the larger of the two, and so does [`NewtonReport::descent_violation`].
+    /// Largest difference seen between [`Objective::value`](crate::Objective::value) and
+    /// [`Objective::gradient`](crate::Objective::gradient)'s value at the same point (units of f; 0
+    /// when never compared): the evaluation round-off of f, far above `16 ε |f|` for shells whose
+    /// strains are small against 1. The round-off tests use the larger of the two, and so does
+    /// [`NewtonReport::descent_violation`].
     pub value_noise: f64,
     /// CG iterations over the whole solve (reuse, refinement and fallback).
     pub cg_iterations: usize,
@@ -160,18 +164,19 @@ impl NewtonReport {
         self.hessians.iter().filter(|h| **h == kind).count()
     }
 
-    /// Every iteration the solve paid for, the one count [`NewtonSettings::max_iterations`]
-    /// limits: accepted ones, rejected steps and iterations undone by the watchdog.
+    /// Every iteration the solve paid for, the one count
+    /// [`NewtonSettings::max_iterations`](super::NewtonSettings::max_iterations) limits: accepted
+    /// ones, rejected steps and iterations undone by the watchdog.
     pub fn total_iterations(&self) -> usize {
         self.iterations + self.rejected_steps + self.watchdog_undone
     }
 
     /// Checks the line search's contract on [`values`](Self::values): f never rises, except
-    /// after a watchdog step ([`NewtonSettings::watchdog`] = `window`), and then an iterate at
-    /// most `window + 1` iterations later is back at or below the value before the rise (the
-    /// iterate after a return to the point before the step is); the last value is not above
-    /// the first. Comparisons allow 64 ε of round-off. Returns the index of the first value
-    /// that breaks the contract.
+    /// after a watchdog step ([`NewtonSettings::watchdog`](super::NewtonSettings::watchdog) =
+    /// `window`), and then an iterate at most `window + 1` iterations later is back at or below the
+    /// value before the rise (the iterate after a return to the point before the step is); the last
+    /// value is not above the first. Comparisons allow 64 ε of round-off. Returns the index of the
+    /// first value that breaks the contract.
     pub fn descent_violation(&self, window: usize) -> Option<usize> {
         let v = &self.values;
         let close = |a: f64, b: f64| {

@@ -1,15 +1,20 @@
 //! Newton settings: which Hessian, tolerances, line search, linear solver (one plain struct,
 //! [`Default`] robust), and the per-iteration Hessian kind.
 
-use super::*;
+use faer::Par;
 use thinshell_energy::HessianMode;
+
+use crate::SolverError;
+use crate::linear::RegularizationParams;
+use crate::ordering::Ordering;
 
 /// Which Hessian each Newton iteration factorises.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum HessianPolicy {
-    /// The objective's own Hessian ([`Objective::hessian`]) where it is positive definite and
-    /// its steps are taken in full, the PSD one ([`Objective::psd_hessian`]) elsewhere (see the
-    /// [module docs](super)). Objectives without a PSD Hessian behave as with `Fixed`.
+    /// The objective's own Hessian ([`Objective::hessian`](crate::Objective::hessian)) where it is
+    /// positive definite and its steps are taken in full, the PSD one
+    /// ([`Objective::psd_hessian`](crate::Objective::psd_hessian)) elsewhere (see the [module
+    /// docs](super)). Objectives without a PSD Hessian behave as with `Fixed`.
     #[default]
     Adaptive,
     /// The adaptive policy without trust-region steps (the solver's earlier default): an own
@@ -24,10 +29,11 @@ pub enum HessianPolicy {
 /// The Hessian a Newton iteration used.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum IterationHessian {
-    /// The objective's own Hessian ([`Objective::hessian`]; exact for shells unless the system
-    /// is set to another mode).
+    /// The objective's own Hessian ([`Objective::hessian`](crate::Objective::hessian); exact for
+    /// shells unless the system is set to another mode).
     Own,
-    /// The positive semi-definite Hessian ([`Objective::psd_hessian`]; Gauss–Newton for shells).
+    /// The positive semi-definite Hessian
+    /// ([`Objective::psd_hessian`](crate::Objective::psd_hessian); Gauss–Newton for shells).
     Psd,
     /// The own Hessian where it is indefinite, plus the scaled diagonal shift `σ·S` of a
     /// trust-region (Levenberg–Marquardt) step: σ at least what makes it positive definite,
@@ -57,7 +63,7 @@ pub struct NewtonSettings {
     /// docs/robustness.md).
     pub fallback_hessian: Option<HessianMode>,
     /// Converged when `‖∇f‖∞ ≤ gradient_tolerance · force_scale` (dimensionless, > 0), for
-    /// objectives with [`Objective::gradient_test`] only.
+    /// objectives with [`Objective::gradient_test`](crate::Objective::gradient_test) only.
     pub gradient_tolerance: f64,
     /// Converged when the unshifted Newton correction has `‖dx‖∞ ≤ step_tolerance ·
     /// length_scale` (dimensionless, ≥ 0; 0 disables the criterion).
@@ -84,10 +90,9 @@ pub struct NewtonSettings {
     pub ordering: Ordering,
     /// Factorise on the rayon thread pool (default `true`): with the METIS ordering and a
     /// factor of ≥ 2e8 flops, the factorisation is split at the top nested-dissection level
-    /// and its two halves run concurrently when the pool has ≥ 2 threads (1.13–1.30× faster
-    /// than one thread at 20 480 faces, 1.51–1.68× at 81 920, on an idle 2-core VM:
-    /// `cargo xtask perf`), one after the other on one thread. The same floating-point
-    /// operations run in the same order for every pool size
+    /// and its two halves run concurrently when the pool has ≥ 2 threads (speed-ups in
+    /// docs/performance.md, `cargo xtask perf`), one after the other on one thread. The same
+    /// floating-point operations run in the same order for every pool size
     /// ([`SparseCholesky::new`](crate::SparseCholesky::new)), so results are bit-identical
     /// whatever the thread count. `false`: faer on the whole matrix, one thread (fewer flops
     /// on one core; results differ from `true`'s in the last bits).

@@ -1,11 +1,17 @@
 //! Taking a step along the Newton direction: the backtracking line search with its watchdog,
 //! and the ratio test of trust-region (shifted) steps.
 
-use super::*;
+use std::time::Instant;
 
-/// A watchdog step needs a predicted decrease this many times the round-off of f: near
-/// round-off, values cannot tell a good step from a bad one and the usual rules apply.
-pub(super) const WATCHDOG_MIN_DECREASE: f64 = 1e4;
+use super::checks::{first_non_finite, norm_inf};
+use super::escape::{SaddleStep, extrapolate, saddle_newton};
+use super::policy::{Policy, TR_ACCEPT};
+use super::report::Convergence;
+use super::settings::{IterationHessian, NewtonSettings};
+use super::solve::{Solve, WATCHDOG_MIN_DECREASE};
+use crate::SolverError;
+use crate::iterative::sym_lower_matvec;
+use crate::objective::Objective;
 
 /// The point before a watchdog step (see [`NewtonSettings::watchdog`]).
 pub(super) struct Watch {
@@ -47,10 +53,10 @@ impl Watchdog {
 
     /// Puts the best point back into `x` before the solve ends without converging: the one
     /// before a watched step (the record is cut back to it).
-    pub(super) fn restore_best(&mut self, x: &mut [f64], rec: &mut Record) {
+    pub(super) fn restore_best<O: ?Sized>(&mut self, s: &mut Solve<'_, O>) {
         if let Some(w) = self.watch.take() {
-            x.copy_from_slice(&w.x);
-            rec.residuals.truncate(w.len);
+            s.x.copy_from_slice(&w.x);
+            s.rec.residuals.truncate(w.len);
         }
     }
 
@@ -63,35 +69,30 @@ impl Watchdog {
     /// step's bound, or returns to the point before it when the watched iterates never
     /// recovered (then `true`: x, `ws.g`, f, the iteration count and the record are set back,
     /// and the caller goes on from there).
-    pub(super) fn after_step(
-        &mut self,
-        x: &mut [f64],
-        ws: &mut NewtonWorkspace,
-        f: &mut f64,
-        iteration: &mut usize,
-        rec: &mut Record,
-    ) -> bool {
+    pub(super) fn after_step<O: ?Sized>(&mut self, s: &mut Solve<'_, O>) -> bool {
         self.allowed = true;
         let Some(w) = self.watch.as_mut() else {
             return false;
         };
-        if *f <= w.bound {
+        if s.f <= w.bound {
             self.watch = None;
         } else if w.left == 0 {
             // The watched iterates never recovered: back to the point before the
             // non-monotone step, which the next iteration leaves by the usual line search.
-            x.copy_from_slice(&w.x);
-            ws.g.copy_from_slice(&w.g);
-            *f = w.f;
+            let rec = &mut s.rec;
+            s.x.copy_from_slice(&w.x);
+            s.ws.g.copy_from_slice(&w.g);
+            s.f = w.f;
             rec.watchdog_returns += 1;
             // The undone iterations leave the record (the record is the accepted path);
             // they still count against the iteration limit.
-            rec.watchdog_undone += *iteration - (w.len - 1);
-            *iteration = w.len - 1;
+            rec.watchdog_undone += s.iteration - (w.len - 1);
+            s.iteration = w.len - 1;
+            let iteration = s.iteration;
             rec.values.truncate(w.len);
             rec.residuals.truncate(w.len);
-            rec.hessians.truncate(*iteration);
-            rec.regularizations.retain(|e| e.iteration < *iteration);
+            rec.hessians.truncate(iteration);
+            rec.regularizations.retain(|e| e.iteration < iteration);
             self.watch = None;
             self.allowed = false;
             return true;
@@ -117,8 +118,8 @@ pub(super) enum Step {
     },
     /// No step: the iteration is redone at the same x (the policy has changed).
     Retry,
-    /// x moved along negative curvature to a point of this value.
-    Escaped(f64),
+    /// x moved along negative curvature (the solve's value and gradient are the new point's).
+    Escaped,
     /// x is converged.
     Converged(Convergence),
 }
@@ -142,63 +143,56 @@ pub(super) struct Direction {
 /// decrease the exact quadratic model predicts, otherwise redone with a larger shift. Where the
 /// model promises nothing f can resolve, x is near a critical point of an indefinite Hessian:
 /// it is left along negative curvature, or the unshifted Newton step converges to it.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn trust_region_step<O: Objective + ?Sized>(
-    objective: &mut O,
-    x: &mut [f64],
-    f: f64,
-    ws: &mut NewtonWorkspace,
-    rec: &mut Record,
+    s: &mut Solve<'_, O>,
     policy: &mut Policy,
-    frame: &Frame,
-    iteration: &mut usize,
     d: &Direction,
     alpha: f64,
 ) -> Result<Step, SolverError> {
+    let ws = &mut *s.ws;
     sym_lower_matvec(ws.hessian.as_ref(), 0.0, &ws.dx, &mut ws.hd);
     let dhd: f64 = ws.dx.iter().zip(&ws.hd).map(|(a, b)| a * b).sum();
     let pred = -(alpha * d.slope + 0.5 * alpha * alpha * dhd);
     // (NaN included: no usable prediction.)
-    if pred.is_nan() || pred <= WATCHDOG_MIN_DECREASE * rec.noise(f) {
-        if let Some(fe) = policy.leave_saddle(objective, x, f, ws, rec, frame, iteration, false)? {
-            return Ok(Step::Escaped(fe));
+    if pred.is_nan() || pred <= WATCHDOG_MIN_DECREASE * s.rec.noise(s.f) {
+        if policy.leave_saddle(s, false)? {
+            return Ok(Step::Escaped);
         }
         // No lower point that way (or saddles are answers here): the unshifted Newton step,
         // which converges to the critical point quadratically, and whose length is the
         // convergence test.
-        return Ok(
-            match saddle_newton(objective, x, f, ws, rec, d.step_limit)? {
-                SaddleStep::Converged => Step::Converged(Convergence::Step),
-                SaddleStep::Taken(f_t) => {
-                    policy.shifted_accepted();
-                    Step::Taken {
-                        f: f_t,
-                        alpha: 1.0,
-                        backtracks: 0,
-                        has_gradient: true,
-                        rho: f64::NAN,
-                        kind: IterationHessian::Own,
-                    }
+        return Ok(match saddle_newton(s, d.step_limit)? {
+            SaddleStep::Converged => Step::Converged(Convergence::Step),
+            SaddleStep::Taken(f_t) => {
+                policy.shifted_accepted();
+                Step::Taken {
+                    f: f_t,
+                    alpha: 1.0,
+                    backtracks: 0,
+                    has_gradient: true,
+                    rho: f64::NAN,
+                    kind: IterationHessian::Own,
                 }
-                SaddleStep::Unavailable => {
-                    // Let the PSD Hessian (and then the convergence tests) decide.
-                    rec.rejected_steps += 1;
-                    policy.psd_instead();
-                    Step::Retry
-                }
-            },
-        );
+            }
+            SaddleStep::Unavailable => {
+                // Let the PSD Hessian (and then the convergence tests) decide.
+                s.rec.rejected_steps += 1;
+                policy.psd_instead();
+                Step::Retry
+            }
+        });
     }
-    for ((xt, &xi), &dx) in ws.x_trial.iter_mut().zip(x.iter()).zip(&ws.dx) {
+    let ws = &mut *s.ws;
+    for ((xt, &xi), &dx) in ws.x_trial.iter_mut().zip(s.x.iter()).zip(&ws.dx) {
         *xt = xi + alpha * dx;
     }
     let t = Instant::now();
-    let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
-    rec.timings.assembly += t.elapsed();
-    let rho = (f - f_t) / pred;
+    let f_t = s.objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
+    s.rec.timings.assembly += t.elapsed();
+    let rho = (s.f - f_t) / pred;
     if !(f_t.is_finite() && rho >= TR_ACCEPT && first_non_finite(&ws.g_trial).is_none()) {
-        rec.rejected_steps += 1;
-        policy.shifted_rejected(frame.settings.line_search);
+        s.rec.rejected_steps += 1;
+        policy.shifted_rejected(s.frame.settings.line_search);
         return Ok(Step::Retry);
     }
     policy.shifted_accepted();
@@ -217,39 +211,33 @@ pub(super) fn trust_region_step<O: Objective + ?Sized>(
 /// value. A full step that fails the Armijo test is taken anyway as a watchdog step where the
 /// settings allow; a full step of the own Hessian that fails it is rejected (the iteration is
 /// redone with the PSD Hessian).
-#[allow(clippy::too_many_arguments)]
 pub(super) fn line_search<O: Objective + ?Sized>(
-    objective: &mut O,
-    x: &mut [f64],
-    f: f64,
-    ws: &mut NewtonWorkspace,
-    rec: &mut Record,
+    s: &mut Solve<'_, O>,
     policy: &mut Policy,
     watchdog: &mut Watchdog,
-    frame: &Frame,
-    iteration: usize,
     d: &Direction,
     mut alpha: f64,
 ) -> Result<Step, SolverError> {
-    let settings = frame.settings;
+    let settings = s.frame.settings;
+    let (f, iteration) = (s.f, s.iteration);
     let slope = d.slope;
     let mut backtracks = 0;
     let mut has_gradient;
     let f_trial = loop {
-        for ((xt, &xi), &dx) in ws.x_trial.iter_mut().zip(x.iter()).zip(&ws.dx) {
+        for ((xt, &xi), &dx) in s.ws.x_trial.iter_mut().zip(s.x.iter()).zip(&s.ws.dx) {
             *xt = xi + alpha * dx;
         }
         let t = Instant::now();
         let f_t = if backtracks == 0 {
             has_gradient = true;
-            let f_t = objective.gradient(&ws.x_trial, &mut ws.g_trial)?;
-            rec.timings.assembly += t.elapsed();
+            let f_t = s.objective.gradient(&s.ws.x_trial, &mut s.ws.g_trial)?;
+            s.rec.timings.assembly += t.elapsed();
             f_t
         } else {
             has_gradient = false;
-            let f_t = objective.value(&ws.x_trial)?;
-            rec.timings.line_search += t.elapsed();
-            rec.timings.line_search_evaluations += 1;
+            let f_t = s.objective.value(&s.ws.x_trial)?;
+            s.rec.timings.line_search += t.elapsed();
+            s.rec.timings.line_search_evaluations += 1;
             f_t
         };
         if !settings.line_search {
@@ -265,12 +253,10 @@ pub(super) fn line_search<O: Objective + ?Sized>(
         if f_t.is_finite() && slope < 0.0 {
             if f_t <= f + settings.armijo_c1 * alpha * slope {
                 if d.negative_curvature && backtracks == 0 && policy.escapes_saddles() {
-                    if let Some((a, fa)) =
-                        extrapolate(objective, x, ws, alpha, f_t, frame.length_scale, rec)?
-                    {
+                    if let Some((a, fa)) = extrapolate(s, alpha, f_t)? {
                         alpha = a;
                         has_gradient = false;
-                        rec.extrapolated_steps += 1;
+                        s.rec.extrapolated_steps += 1;
                         break fa;
                     }
                 }
@@ -279,11 +265,11 @@ pub(super) fn line_search<O: Objective + ?Sized>(
             // Once the predicted decrease is below the round-off of f, values cannot
             // discriminate: accept a full step that does not raise f beyond round-off and
             // reduces the gradient.
-            let noise = rec.noise(f.abs().max(f_t.abs()));
+            let noise = s.rec.noise(f.abs().max(f_t.abs()));
             if has_gradient
                 && -slope <= noise
                 && f_t <= f + noise
-                && norm_inf(&ws.g_trial) < norm_inf(&ws.g)
+                && norm_inf(&s.ws.g_trial) < norm_inf(&s.ws.g)
             {
                 break f_t;
             }
@@ -292,9 +278,9 @@ pub(super) fn line_search<O: Objective + ?Sized>(
             && settings.watchdog > 0
             && watchdog.watch.is_none()
             && watchdog.allowed
-            && -slope > WATCHDOG_MIN_DECREASE * rec.noise(f)
+            && -slope > WATCHDOG_MIN_DECREASE * s.rec.noise(f)
             && f_t.is_finite()
-            && first_non_finite(&ws.g_trial).is_none()
+            && first_non_finite(&s.ws.g_trial).is_none()
         {
             // Watchdog: take the full Newton step although f rose. A thin shell bending away
             // from flat is the typical case: the full step bends it with the right curvature
@@ -302,20 +288,20 @@ pub(super) fn line_search<O: Objective + ?Sized>(
             // Newton step relaxes the membrane; a monotone line search would instead crawl
             // along the bending mode with tiny steps.
             watchdog.watch = Some(Watch {
-                x: x.to_vec(),
-                g: ws.g.clone(),
+                x: s.x.to_vec(),
+                g: s.ws.g.clone(),
                 f,
                 bound: f + settings.armijo_c1 * slope,
-                len: rec.values.len(),
+                len: s.rec.values.len(),
                 left: settings.watchdog,
             });
-            rec.watchdog_steps += 1;
+            s.rec.watchdog_steps += 1;
             break f_t;
         }
         if backtracks == 0
             && watchdog.watch.is_none()
             && d.unshifted
-            && -0.5 * slope <= rec.noise(f)
+            && -0.5 * slope <= s.rec.noise(f)
         {
             // The unshifted Newton step predicts a decrease below the round-off of f and its
             // full step is not distinguishable from x: x is at the round-off floor (typically
@@ -326,24 +312,24 @@ pub(super) fn line_search<O: Objective + ?Sized>(
             // The own Hessian's quadratic model does not hold here (its full step fails the
             // Armijo test): redo the iteration with the PSD Hessian rather than take a short
             // step along a direction that may lead towards a saddle or a poor minimum.
-            rec.backtracks += backtracks;
-            rec.rejected_steps += 1;
+            s.rec.backtracks += backtracks;
+            s.rec.rejected_steps += 1;
             policy.own_failed();
             return Ok(Step::Retry);
         }
         if backtracks >= settings.max_backtracks || slope >= 0.0 {
-            watchdog.restore_best(x, rec);
+            watchdog.restore_best(s);
             return Err(SolverError::LineSearchFailed {
                 iteration,
                 backtracks,
-                residuals: std::mem::take(&mut rec.residuals),
-                last_good: x.to_vec(),
+                residuals: std::mem::take(&mut s.rec.residuals),
+                last_good: s.x.to_vec(),
             });
         }
         backtracks += 1;
         alpha *= settings.backtrack_factor;
     };
-    rec.backtracks += backtracks;
+    s.rec.backtracks += backtracks;
     Ok(Step::Taken {
         f: f_trial,
         alpha,

@@ -1,11 +1,26 @@
 //! The reusable state of Newton solves ([`NewtonWorkspace`]: symbolic factorisation, Hessian,
 //! vectors, the iterative fallback) and the stability analysis of an equilibrium ([`Stability`]).
 
-use super::*;
+use std::time::Instant;
+
+use faer::sparse::SparseColMat;
+
+use super::checks::assemble;
+use super::kept::{KeptFactor, KeptRecord};
+use super::report::NewtonTimings;
+use super::settings::{IterationHessian, IterativeFallback, LinearSolver, NewtonSettings};
+use crate::SolverError;
+use crate::curvature;
+use crate::iterative::{Ic0, PcgScratch};
+use crate::ldlt::SparseLdlt;
+use crate::linear::{FactorError, FactorStats, RegularizationKind, SparseCholesky};
+use crate::objective::Objective;
+use crate::ordering::Ordering;
+use crate::progress::{CancelFlag, ProgressHook};
 
 /// Reusable state of Newton solves on objectives with one Hessian pattern: the symbolic
 /// factorisation, the Hessian matrix, vectors, and the remembered regularisation shift.
-/// Build it once (e.g. per simulation) and pass it to every [`newton_solve`].
+/// Build it once (e.g. per simulation) and pass it to every [`newton_solve`](crate::newton_solve).
 pub struct NewtonWorkspace {
     /// The direct solver; `None` when its factor does not fit in memory (`fallback` is set).
     pub(super) cholesky: Option<SparseCholesky>,
@@ -17,13 +32,14 @@ pub struct NewtonWorkspace {
     /// CG work vectors (reuse and fallback).
     pub(super) pcg: PcgScratch,
     /// Kind of Hessian of the last Cholesky factor when it is unshifted and may precondition CG
-    /// ([`NewtonSettings::reuse_factor`]); `None`: refactorise.
+    /// ([`NewtonSettings::reuse_factor`](super::NewtonSettings::reuse_factor)); `None`:
+    /// refactorise.
     pub(super) reusable: Option<IterationHessian>,
     /// The input of the kept factor's factorisation (checkpoints, cancelled solves).
-    pub(super) kept: kept::KeptRecord,
+    pub(super) kept: KeptRecord,
     /// Statistics of the symbolic analysis (of the refused factor with the fallback).
     pub(super) stats: FactorStats,
-    /// Built with [`NewtonSettings::force_iterative`].
+    /// Built with [`NewtonSettings::force_iterative`](super::NewtonSettings::force_iterative).
     pub(super) forced: bool,
     pub(super) hessian: SparseColMat<usize, f64>,
     pub(super) g: Vec<f64>,
@@ -38,9 +54,9 @@ pub struct NewtonWorkspace {
     /// The settings the symbolic analysis was made with.
     pub(super) ordering: Ordering,
     pub(super) parallel: bool,
-    /// Called after every accepted iteration of [`newton_solve`].
+    /// Called after every accepted iteration of [`newton_solve`](crate::newton_solve).
     pub(super) progress: Option<ProgressHook>,
-    /// Checked before every iteration of [`newton_solve`].
+    /// Checked before every iteration of [`newton_solve`](crate::newton_solve).
     pub(super) cancel: Option<CancelFlag>,
     /// Indefinite factorisation for Newton steps to a critical point whose Hessian is
     /// indefinite (`saddle_newton`); analysed on first use.
@@ -185,7 +201,7 @@ impl NewtonWorkspace {
             diag_offsets,
             pcg: PcgScratch::new(n),
             reusable: None,
-            kept: kept::KeptRecord::default(),
+            kept: KeptRecord::default(),
             hessian,
             g: vec![0.0; n],
             g_trial: vec![0.0; n],
@@ -204,8 +220,8 @@ impl NewtonWorkspace {
 
     /// Whether the workspace was built with `settings`' ordering and parallelism. A cached
     /// workspace must be rebuilt when they change (or when the objective's number of unknowns
-    /// or Hessian pattern does): [`newton_solve`] rejects a wrong size but otherwise factorises
-    /// with the ordering and parallelism the workspace was built with.
+    /// or Hessian pattern does): [`newton_solve`](crate::newton_solve) rejects a wrong size but
+    /// otherwise factorises with the ordering and parallelism the workspace was built with.
     pub fn matches(&self, settings: &NewtonSettings) -> bool {
         self.ordering == settings.ordering
             && self.parallel == settings.parallel
@@ -231,8 +247,9 @@ impl NewtonWorkspace {
         self.fallback.as_ref().map(|f| f.iterative_estimate)
     }
 
-    /// Forgets the factor kept for reuse ([`NewtonSettings::reuse_factor`]): the next
-    /// iteration factorises afresh (e.g. after the objective changed discontinuously).
+    /// Forgets the factor kept for reuse
+    /// ([`NewtonSettings::reuse_factor`](super::NewtonSettings::reuse_factor)): the next iteration
+    /// factorises afresh (e.g. after the objective changed discontinuously).
     pub fn invalidate_factor(&mut self) {
         self.reusable = None;
     }
@@ -358,11 +375,13 @@ impl NewtonWorkspace {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Stability {
     /// Smallest eigenvalue λ of `H v = λ S v`: the objective's own Hessian H without its
-    /// diagonal shift ([`Objective::hessian_diagonal_shift`]), measured against each unknown's
-    /// own stiffness `S = diag(max(|H_dd|, 1e-6·mean|H_dd|))` (dimensionless), over the
-    /// unknowns' space less the objective's [`Objective::rigid_modes`]. Negative: the
-    /// equilibrium is unstable (a saddle or maximum); near 0: near a critical load. NaN when H
-    /// is so indefinite that `H + 10³·S` is not positive definite (`stable` is then false).
+    /// diagonal shift
+    /// ([`Objective::hessian_diagonal_shift`](crate::Objective::hessian_diagonal_shift)), measured
+    /// against each unknown's own stiffness `S = diag(max(|H_dd|, 1e-6·mean|H_dd|))`
+    /// (dimensionless), over the unknowns' space less the objective's
+    /// [`Objective::rigid_modes`](crate::Objective::rigid_modes). Negative: the equilibrium is
+    /// unstable (a saddle or maximum); near 0: near a critical load. NaN when H is so indefinite
+    /// that `H + 10³·S` is not positive definite (`stable` is then false).
     pub min_eigenvalue: f64,
     /// Its mode in the free unknowns, scaled to `‖v‖∞ = 1` (the buckling mode at a critical
     /// load).
@@ -456,5 +475,40 @@ impl Precond {
             Precond::Ic0(ic) => ic.apply(r),
             Precond::Jacobi(inv) => r.iter_mut().zip(inv).for_each(|(r, d)| *r *= d),
         }
+    }
+}
+
+impl NewtonWorkspace {
+    /// The input of the factorisation whose factor this workspace keeps for the next solve
+    /// ([`NewtonSettings::reuse_factor`](super::NewtonSettings::reuse_factor)); `None` when the
+    /// next solve factorises afresh. With [`restore_kept_factor`](Self::restore_kept_factor)
+    /// on a workspace built for the same objective and settings, the next solve takes the same
+    /// steps bit for bit (checkpoints save it).
+    pub fn kept_factor(&self) -> Option<KeptFactor> {
+        self.kept.current_of(self.reusable?)
+    }
+
+    /// Keeps `kept` (from [`kept_factor`](Self::kept_factor)) as the factor for the next solve
+    /// to reuse, refactorised before its first use; `None` forgets any kept factor.
+    ///
+    /// # Errors
+    /// [`SolverError::DimensionMismatch`] when `kept` has not one value per entry of this
+    /// workspace's Hessian pattern (the workspace is unchanged).
+    pub fn restore_kept_factor(&mut self, kept: Option<KeptFactor>) -> Result<(), SolverError> {
+        let Some(kept) = kept else {
+            self.reusable = None;
+            self.kept = KeptRecord::default();
+            return Ok(());
+        };
+        if kept.values.len() != self.nnz() {
+            return Err(SolverError::DimensionMismatch {
+                what: "kept factor values",
+                expected: self.nnz(),
+                found: kept.values.len(),
+            });
+        }
+        self.reusable = Some(kept.kind);
+        self.kept = KeptRecord::restored(kept);
+        Ok(())
     }
 }

@@ -25,7 +25,7 @@
 //!
 //! The predicted flops of every ordering on the shell Hessian (1 280 to 81 920 faces, both
 //! bending forms, a flat sheet) are in docs/performance.md ("Sparse Cholesky orderings" and
-//! issue #31's third part); `examples/ordering_flops.rs` reproduces them.
+//! "METIS's own nested dissection"); `examples/ordering_flops.rs` reproduces them.
 
 use faer::sparse::SymbolicSparseColMatRef;
 

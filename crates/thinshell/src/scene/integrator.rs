@@ -52,9 +52,10 @@ pub enum HessianSpec {
     /// (`thinshell_solver::HessianPolicy::Adaptive`).
     #[default]
     Adaptive,
-    /// The adaptive policy as it was before issue #26: Gauss–Newton wherever the exact Hessian
-    /// is indefinite, no trust-region steps, no saddle escape
-    /// (`thinshell_solver::HessianPolicy::AdaptivePsd`; for comparisons).
+    /// The adaptive policy without its indefinite-Hessian handling: Gauss–Newton wherever the
+    /// exact Hessian is indefinite, no trust-region steps, no saddle escape
+    /// (`thinshell_solver::HessianPolicy::AdaptivePsd`; for comparisons, docs/robustness.md
+    /// "Indefinite Hessians near critical points").
     AdaptivePsd,
     /// Exact second derivatives throughout (regularised when not positive definite).
     Exact,

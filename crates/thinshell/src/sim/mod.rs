@@ -18,6 +18,7 @@ mod checkpoint;
 mod describe;
 mod error;
 mod path;
+mod path_step;
 mod rest_edit;
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -85,7 +86,7 @@ pub struct StepRecord {
     /// Scenes with the `contact` effect: the contact term at the end of the step; `None`
     /// otherwise.
     pub contact: Option<ContactRecord>,
-    /// Numeric factorisations of the step's Newton solve (issue #17: fewer with
+    /// Numeric factorisations of the step's Newton solve (fewer with
     /// `integrator.newton.reuse_factor`).
     pub factorizations: usize,
     /// CG iterations of the step (factor reuse, iterative fallback).
@@ -173,7 +174,7 @@ impl ContactTotals {
 /// without active self pairs and obstacles), `contact_energy_J`, `contact_approximated_pairs` and
 /// `contact_pattern_rebuilds`. Empty or starting with a comma.
 pub fn csv_extra_header(sim: &Simulation) -> String {
-    let mut h = path::path_csv_header(sim);
+    let mut h = path::path_csv_header(sim.is_path_following().then(|| sim.path_monitors()));
     if sim.system().contact.is_some() {
         h += ",contact_pairs,contact_min_gap_m,contact_energy_J,contact_approximated_pairs,contact_pattern_rebuilds";
     }
@@ -182,7 +183,7 @@ pub fn csv_extra_header(sim: &Simulation) -> String {
 
 /// The values of [`csv_extra_header`]'s columns for one step.
 pub fn csv_extra_row(r: &StepRecord) -> String {
-    let mut row = path::path_csv_row(r);
+    let mut row = path::path_csv_row(r.stable, r.path.as_ref());
     if let Some(c) = &r.contact {
         let gap = c.min_gap.map(|g| format!("{g:e}")).unwrap_or_default();
         row += &format!(

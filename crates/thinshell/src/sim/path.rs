@@ -1,16 +1,14 @@
 //! Path following in a scene (`[path]`): each step of the run is one arc-length or
 //! displacement-controlled step of a [`ShellPath`], starting from the equilibrium of the
-//! start state at load factor 0.
-
-use std::time::Instant;
+//! start state at load factor 0. The step itself, a method of the simulation, is in
+//! `path_step.rs`; this module does not depend on the simulation type.
 
 use nalgebra::Vector3;
 use serde::Serialize;
 use thinshell_mesh::VertexId;
-use thinshell_solver::{PathControl, PathSettings, ShellPath, ShellSystem, SolverError};
+use thinshell_solver::{PathControl, PathSettings, ShellPath, ShellSystem};
 
 use super::error::BuildError;
-use super::{Simulation, StepError, StepFailure, StepRecord};
 use crate::scene::path::{PathControlName, PathSpec};
 
 /// A monitored vertex coordinate (a `steps.csv` column).
@@ -30,7 +28,7 @@ impl Monitor {
     }
 }
 
-/// What a path step did, besides the common [`StepRecord`] fields.
+/// What a path step did, besides the common [`StepRecord`](super::StepRecord) fields.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct PathRecord {
     /// Load-factor increment of the step (negative after a limit point).
@@ -44,18 +42,18 @@ pub struct PathRecord {
     /// Total potential Π = E − λ(F·x + p·V), J.
     pub potential: f64,
     /// Displacements of the monitored coordinates from the start state, m (order of
-    /// [`Simulation::path_monitors`]).
+    /// [`Simulation::path_monitors`](super::Simulation::path_monitors)).
     pub monitors: Vec<f64>,
 }
 
 /// The path-following part of a simulation.
 pub(crate) struct PathRun {
-    path: ShellPath,
-    monitors: Vec<Monitor>,
+    pub(super) path: ShellPath,
+    pub(super) monitors: Vec<Monitor>,
     /// The start state the monitored displacements are measured from.
-    x_start: Vec<Vector3<f64>>,
+    pub(super) x_start: Vec<Vector3<f64>>,
     /// Whether the start state has been brought to equilibrium at λ = 0.
-    started: bool,
+    pub(super) started: bool,
 }
 
 /// Builds the path run of `spec` on `system` (its load factor is set to 0), starting at `x`.
@@ -155,114 +153,33 @@ pub(crate) fn build(
     })
 }
 
-impl Simulation {
-    /// The monitored vertex coordinates of a path-following scene (the controlled coordinate
-    /// first, then `[[path.monitor]]`); empty otherwise.
-    pub fn path_monitors(&self) -> &[Monitor] {
-        self.path.as_ref().map_or(&[], |p| &p.monitors)
-    }
-
-    /// Whether the scene follows a path (`[path]`).
-    pub fn is_path_following(&self) -> bool {
-        self.path.is_some()
-    }
-
-    /// One path step (see [`Simulation::step`]); before the first, the start state is brought
-    /// to equilibrium at load factor 0 by the scene's static solve.
-    pub(crate) fn path_step(&mut self) -> Result<StepRecord, StepError> {
-        let start = Instant::now();
-        let step = self.steps_done + 1;
-        let time = self.state.t;
-        let fail = |e: SolverError| StepError {
-            step,
-            time,
-            source: StepFailure::Solver(e),
-        };
-        let Some(run) = self.path.as_mut() else {
-            return Err(fail(SolverError::InvalidSetting {
-                name: "path",
-                value: 0.0,
-                requirement: "the scene has no [path] table",
-            }));
-        };
-        if !run.started {
-            self.system.set_load_factor(0.0).map_err(fail)?;
-            self.integrator
-                .step(&mut self.system, &mut self.state)
-                .map_err(fail)?;
-            self.state.t = time;
-            run.started = true;
-        }
-        let mut x = self.state.x.clone();
-        let mut phi = self.state.phi.clone();
-        let point = run
-            .path
-            .step(&mut self.system, &mut x, &mut phi)
-            .map_err(fail)?;
-        let energy = self.system.energy_at(&x, &phi).map_err(fail)?;
-        let monitors = run
-            .monitors
-            .iter()
-            .map(|m| x[m.vertex][m.axis] - run.x_start[m.vertex][m.axis])
-            .collect();
-        self.state.x = x;
-        self.state.phi = phi;
-        self.state.t = time + self.dt;
-        self.steps_done = step;
-        self.load_factor = point.load_factor;
-        self.energy = energy;
-        Ok(StepRecord {
-            step,
-            time: self.state.t,
-            energy,
-            newton_iterations: point.iterations,
-            residual: point.residuals.last().copied().unwrap_or(0.0),
-            load_factor: point.load_factor,
-            stable: Some(point.stable()),
-            wall_s: start.elapsed().as_secs_f64(),
-            contact: self
-                .system
-                .contact_stats(&self.state.x)
-                .map(super::ContactRecord::from),
-            path: Some(PathRecord {
-                load_increment: point.load_increment,
-                step_length: point.step_length,
-                cutbacks: point.cutbacks,
-                negative_eigenvalues: point.negative_eigenvalues,
-                potential: point.value,
-                monitors,
-            }),
-            ..StepRecord::default()
-        })
-    }
-}
-
 /// The `steps.csv` columns a path-following run adds after the common ones
 /// ([`crate::output::STEPS_CSV_COLUMNS`]; other runs add none), before contact's: `stable` (1 / 0),
 /// `negative_eigenvalues` (of the Hessian at fixed load; empty where singular),
 /// `load_increment`, `step_length`, `cutbacks`, `potential_J` and one `u_<vertex>_<axis>_m`
-/// per monitored coordinate. Empty or starting with a comma.
-pub(crate) fn path_csv_header(sim: &Simulation) -> String {
-    if !sim.is_path_following() {
+/// per monitored coordinate (`monitors`: `None` for a run that does not follow a path). Empty or
+/// starting with a comma.
+pub(crate) fn path_csv_header(monitors: Option<&[Monitor]>) -> String {
+    let Some(monitors) = monitors else {
         return String::new();
-    }
+    };
     let mut h = String::from(
         ",stable,negative_eigenvalues,load_increment,step_length,cutbacks,potential_J",
     );
-    for m in sim.path_monitors() {
+    for m in monitors {
         h.push(',');
         h += &m.column();
     }
     h
 }
 
-/// The values of [`path_csv_header`]'s columns for one step (empty or starting with a
-/// comma).
-pub(crate) fn path_csv_row(r: &StepRecord) -> String {
-    let Some(p) = &r.path else {
+/// The values of [`path_csv_header`]'s columns for one step, from its stability and path record
+/// (`StepRecord::stable`, `StepRecord::path`; empty or starting with a comma).
+pub(crate) fn path_csv_row(stable: Option<bool>, path: Option<&PathRecord>) -> String {
+    let Some(p) = path else {
         return String::new();
     };
-    let stable = match r.stable {
+    let stable = match stable {
         Some(true) => "1",
         Some(false) => "0",
         None => "",

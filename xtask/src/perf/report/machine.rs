@@ -1,6 +1,7 @@
 //! The run's circumstances: machine, load, revision, date and the command that reproduces it.
 
-pub(super) use crate::clock::today;
+pub(super) use crate::common::today;
+use crate::common::{cpu_model, load_average};
 use std::fmt::Write as _;
 
 use super::format::bytes;
@@ -8,12 +9,7 @@ use crate::perf::facts::Run;
 
 /// The machine line: CPU model, cores, memory, date, git revision, load average.
 pub(super) fn machine() -> String {
-    let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
-    let cpu = cpuinfo
-        .lines()
-        .find(|l| l.starts_with("model name"))
-        .and_then(|l| l.split(':').nth(1))
-        .map_or("unknown CPU".to_string(), |m| m.trim().to_string());
+    let cpu = cpu_model().unwrap_or_else(|| "unknown CPU".to_string());
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
     let mem = std::fs::read_to_string("/proc/meminfo")
         .ok()
@@ -30,16 +26,6 @@ pub(super) fn machine() -> String {
         today(),
         git_rev()
     )
-}
-
-/// The 1-minute load average (/proc/loadavg).
-pub(crate) fn load_average() -> Option<f64> {
-    std::fs::read_to_string("/proc/loadavg")
-        .ok()?
-        .split_whitespace()
-        .next()?
-        .parse()
-        .ok()
 }
 
 /// A warning when other work ran: a load average above half the cores when the run starts
@@ -59,7 +45,7 @@ pub(super) fn load_warning(start: Option<f64>) -> Option<String> {
 
 /// `git rev-parse --short=12 HEAD`, plus a note when tracked files other than the docs differ.
 pub(super) fn git_rev() -> String {
-    let root = crate::workspace_root();
+    let root = crate::common::workspace_root();
     let rev = std::process::Command::new("git")
         .args(["rev-parse", "--short=12", "HEAD"])
         .current_dir(&root)

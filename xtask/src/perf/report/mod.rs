@@ -1,6 +1,6 @@
 //! The outputs of `cargo xtask perf`: `perf.json` (every raw sample, the facts of the symbolic
 //! analyses, the generated section with and without timings) and the generated section of the
-//! docs file between [`BEGIN`](super::BEGIN) and [`END`](super::END).
+//! docs file between [`BEGIN`] and [`END`].
 //!
 //! The section is built from blocks whose cells are either *stable* (sizes, flops, Newton
 //! iterations, targets, the libshell figures) or *timings* (everything measured with a clock,
@@ -9,12 +9,14 @@
 //! that a test can check it.
 
 use std::collections::BTreeMap;
+use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use serde_json::json;
 
 use super::facts::Run;
-use super::{BEGIN, END, Options, faces_at};
+use super::measure::faces_at;
+use crate::common::write_json;
 
 mod format;
 mod machine;
@@ -25,7 +27,6 @@ mod why;
 
 pub(crate) use format::grouped;
 use machine::command;
-pub(crate) use machine::load_average;
 
 /// Replaces the text between the markers of `docs` by `section`; errors if they are missing.
 pub(crate) fn splice(docs: &str, section: &str) -> Result<String> {
@@ -40,14 +41,20 @@ pub(crate) fn splice(docs: &str, section: &str) -> Result<String> {
     Ok(format!("{head}\n{section}{tail}"))
 }
 
-/// Writes the JSON and the docs section.
-pub(crate) fn write(opts: &Options, run: &Run, docs: &str) -> Result<()> {
+/// Marker lines of the generated part of the docs file.
+pub(crate) const BEGIN: &str = "<!-- perf:begin -->";
+/// See [`BEGIN`].
+pub(crate) const END: &str = "<!-- perf:end -->";
+
+/// Writes the docs section into `docs` (the file's text) at `docs_path`, and the JSON to
+/// `json_path`.
+pub(crate) fn write(docs_path: &Path, json_path: &Path, run: &Run, docs: &str) -> Result<()> {
     let blocks = sections::blocks(run);
     let section = format::render(&blocks, false);
     let masked = format::render(&blocks, true);
     let new_docs = splice(docs, &section)?;
-    std::fs::write(&opts.docs_path, new_docs)
-        .with_context(|| format!("writing {}", opts.docs_path.display()))?;
+    std::fs::write(docs_path, new_docs)
+        .with_context(|| format!("writing {}", docs_path.display()))?;
 
     let levels: BTreeMap<String, serde_json::Value> = run
         .facts
@@ -109,15 +116,11 @@ pub(crate) fn write(opts: &Options, run: &Run, docs: &str) -> Result<()> {
         "section": section,
         "section_masked": masked,
     });
-    if let Some(dir) = opts.json_path.parent() {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    std::fs::write(&opts.json_path, serde_json::to_string_pretty(&doc)?)
-        .with_context(|| format!("writing {}", opts.json_path.display()))?;
+    write_json(json_path, &doc)?;
     println!(
         "perf: wrote {} and {} ({:.0} s)",
-        opts.docs_path.display(),
-        opts.json_path.display(),
+        docs_path.display(),
+        json_path.display(),
         run.total_s
     );
     print!("{section}");

@@ -64,12 +64,12 @@ impl Target {
 /// A row of the main table.
 pub(super) struct Row {
     pub(super) measure: String,
-    /// libshell's figure and its value (for the ratio libshell / thinshell): issue #31's where
-    /// it has one, else issue #17's ([`Source`]).
+    /// libshell's figure and its value (for the ratio libshell / thinshell): the rerun's where
+    /// it has one, else the first cited figure ([`Source`]).
     pub(super) libshell: Option<(String, f64)>,
     /// Where `libshell` comes from.
     pub(super) source: Source,
-    /// Issue #17's figure of the row (the old column), if any.
+    /// The first cited figure of the row (the old column), if any.
     pub(super) libshell17: Option<String>,
     pub(super) thinshell: String,
     /// thinshell's value in libshell's unit.

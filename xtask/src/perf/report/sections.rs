@@ -8,9 +8,11 @@ use super::machine::{command, load_warning, machine};
 use super::row::{Row, Target};
 use super::sources::{K20, K80, Source, libshell, libshell31};
 use super::why;
+use crate::common::median;
 use crate::perf::facts::Run;
+use crate::perf::measure::{Samples, Sizes, faces_at, loglog_slope, med};
 use crate::perf::report::grouped;
-use crate::perf::{Samples, Sizes, faces_at, kernels, linear, loglog_slope, med, median, newton};
+use crate::perf::{kernels, linear, newton};
 
 /// What every part of the section reads.
 struct Ctx<'a> {
@@ -38,7 +40,7 @@ impl Ctx<'_> {
     }
 }
 
-/// (level, libshell time, libshell flops, their source, #17's time and flops).
+/// (level, libshell time, libshell flops, their source, the first cited time and flops).
 type FactorRef = (usize, f64, f64, Source, f64, f64);
 
 /// Growth exponents per thread count and the span of sizes they were fitted over.

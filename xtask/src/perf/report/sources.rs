@@ -1,5 +1,5 @@
-//! Where the libshell figures come from (issues #31 and #17) and the sizes they were
-//! measured at.
+//! Where the libshell figures come from (two cited measurements, both in docs/performance.md)
+//! and the sizes they were measured at.
 
 /// The sizes of the issue's figures.
 pub(super) const K20: &str = "20 480 faces";
@@ -8,14 +8,14 @@ pub(super) const K80: &str = "81 920 faces";
 /// Where a libshell figure comes from.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub(super) enum Source {
-    /// Issue #31's side-by-side rerun (the current figures).
+    /// The side-by-side rerun (the current figures).
     Issue31,
-    /// Issue #17's figures (an earlier libshell build on another CPU model), for the rows
-    /// issue #31 did not remeasure.
+    /// The first cited figures (an earlier libshell build on another CPU model), for the rows
+    /// the rerun did not remeasure.
     Issue17,
 }
 
-/// Issue #31's libshell figures: rerun side by side with thinshell on this machine kind (the
+/// The rerun's libshell figures: side by side with thinshell on this machine kind (the
 /// 2-core VM), interleaved, 7 rounds, medians; libshell built `-O3 -march=native -DNDEBUG`,
 /// CHOLMOD supernodal with METIS capped to one OpenMP thread, OpenBLAS with its AVX-512
 /// kernels; one thread. Cited, not re-measured.
@@ -31,8 +31,8 @@ pub(super) mod libshell31 {
     pub(crate) const METIS_FLOPS_20K: f64 = 6.39e9;
 }
 
-/// Issue #17's libshell figures (an earlier libshell build on another CPU model; cited, not
-/// re-measured): the old column, and the reference of the rows issue #31 did not remeasure
+/// The first cited libshell figures (an earlier libshell build on another CPU model; cited, not
+/// re-measured): the old column, and the reference of the rows the rerun did not remeasure
 /// (assembly; factorisation time and flops at 81 920 faces).
 pub(super) mod libshell {
     pub(crate) const ENERGY_NS: f64 = 188.0;
