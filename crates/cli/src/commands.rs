@@ -202,7 +202,7 @@ fn drive(
 
 /// What to try after a failed step that the message alone does not say: an implicit step whose
 /// Newton solve ran out of iterations has usually been asked to follow a fast instability in one
-/// step (empty otherwise).
+/// step (empty otherwise). On the same line: a failure is one line of output.
 fn failed_step_hint(e: &thinshell::sim::StepError, sim: &Simulation) -> &'static str {
     let newton_limit = matches!(
         &e.source,
@@ -211,7 +211,7 @@ fn failed_step_hint(e: &thinshell::sim::StepError, sim: &Simulation) -> &'static
         )
     );
     if newton_limit && sim.integrator() == thinshell::scene::integrator::IntegratorKind::Implicit {
-        "\nhint: an implicit step that has to follow a fast instability (buckling, collapse, \
+        "; hint: an implicit step that has to follow a fast instability (buckling, collapse, \
          snap-through) within one Δt can need more Newton iterations than the limit: \
          `integrator.adaptive_dt = true` halves Δt where a step fails; a smaller \
          `integrator.dt` or a larger `integrator.newton.max_iterations` also help"

@@ -151,7 +151,9 @@ pub enum SolverError {
         /// `‖dx‖∞ / size` of the last unshifted Newton correction computed (the convergence
         /// test that was not met), if any.
         last_correction: Option<f64>,
-        /// The step tolerance that correction was tested against.
+        /// The limit (relative to the length scale) that correction was tested against:
+        /// [`NewtonSettings::step_tolerance`](crate::NewtonSettings::step_tolerance), or the
+        /// relative one of implicit steps where that is larger.
         step_tolerance: f64,
         /// The last accepted iterate (the best one found when line search is on).
         last_good: Vec<f64>,

@@ -228,12 +228,19 @@ pub fn newton_solve<O: Objective + ?Sized>(
         if s.iteration + s.rec.watchdog_undone + s.rec.rejected_steps >= settings.max_iterations {
             // The failure carries the best point: the one before a watched step.
             watchdog.restore_best(&mut s);
+            // The limit the correction was tested against, relative steps included.
+            let limit = s.frame.step_limit(s.x);
+            let step_tolerance = if limit > settings.step_tolerance * s.frame.length_scale {
+                limit / s.frame.length_scale
+            } else {
+                settings.step_tolerance
+            };
             return Err(SolverError::NewtonDidNotConverge {
                 residuals: s.rec.residuals,
                 iterations: s.iteration + s.rec.watchdog_undone + s.rec.rejected_steps,
                 tolerance: settings.gradient_tolerance,
                 last_correction: s.rec.corrections.last().copied(),
-                step_tolerance: settings.step_tolerance,
+                step_tolerance,
                 last_good: s.x.to_vec(),
             });
         }

@@ -8,8 +8,8 @@ use thinshell_energy::{Material, RestState, SffKind};
 use thinshell_mesh::generators;
 use thinshell_solver::{Boundary, Loads};
 
+use super::case::{Curve, Outcome, Quantity, Spec};
 use super::solve::{Config, V3, equilibrium, ramp, system};
-use super::{Curve, Outcome, Quantity, Spec};
 
 /// Group name of these cases (the test checks their quick tolerances).
 pub(crate) const GROUP: &str = "exact / analytic";

@@ -15,8 +15,8 @@ use thinshell_energy::{Material, SffKind};
 use thinshell_mesh::{Mesh, VertexId, generators};
 use thinshell_solver::{Boundary, Loads};
 
+use super::case::{Curve, Outcome, Quantity, Spec};
 use super::solve::{Config, V3, equilibrium, stress_free, unheld, uniform_nodal_forces, vertex_at};
-use super::{Curve, Outcome, Quantity, Spec};
 
 const GROUP: &str = "linear plates and shells";
 

@@ -9,9 +9,9 @@ use thinshell_energy::{Material, SffKind};
 use thinshell_mesh::{Mesh, VertexId, generators};
 use thinshell_solver::{Boundary, Loads, PathSettings, ShellPath};
 
+use super::case::{Curve, Outcome, Quantity, Spec};
 use super::linear::{hemisphere_displacements, hemisphere_loads};
 use super::solve::{Config, V3, held_by_pins, ramp, stress_free, unheld, vertex_at};
-use super::{Curve, Outcome, Quantity, Spec};
 
 const GROUP: &str = "geometrically nonlinear paths (Sze, Liu & Lo 2004)";
 

@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use serde_json::{Value, json};
 use thinshell_energy::SffKind;
 
-use super::{CaseResult, Options, Run};
+use super::case::{CaseResult, Options, Run};
 use crate::accuracy::{Refinement, machine, slug};
 use crate::plot::{Chart, Mark, Series, save};
 
@@ -168,7 +168,7 @@ fn case_markdown(md: &mut String, c: &CaseResult, plot: &str) {
         for (r, order) in runs.iter().zip(orders(&runs)) {
             let o = &r.outcome;
             let worst = o.quantities.iter().max_by(|a, b| {
-                let e = |q: &super::Quantity| {
+                let e = |q: &super::case::Quantity| {
                     let e = (q.measured - q.reference).abs() / q.scale;
                     if e.is_finite() { e } else { f64::INFINITY }
                 };

@@ -100,9 +100,13 @@ impl Boundary {
     }
 
     /// A 3-2-1 pin set: six pinned coordinates that remove exactly the six rigid motions of a
-    /// free shell (three translations, three rotations) and nothing else, so at an equilibrium
-    /// under self-balanced loads (pressure on a closed surface, opposite point forces) the pins
-    /// carry no force. Which coordinates:
+    /// free shell (three translations, three rotations) and nothing else, so that under
+    /// self-balanced loads (pressure on a closed surface, opposite point forces) the pins carry
+    /// no force in the linear response. Under large displacements they do: the deformation
+    /// moves the pinned points against each other, the pins turn the deformed shell, and dead
+    /// loads that balanced in the reference no longer balance about the pins (up to half a load
+    /// point's force on a hemisphere under alternating forces, docs/verification.md). There, hold
+    /// coordinates that vanish on the problem's symmetry planes instead. Which coordinates:
     /// - all three of `anchor` (a): the translations;
     /// - two of the vertex b farthest from a: the rotations about the two axes across ab;
     /// - one of the vertex c farthest from the line ab: the rotation about ab.

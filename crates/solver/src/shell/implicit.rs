@@ -37,12 +37,9 @@ pub struct ImplicitEuler {
 
 /// Default [`NewtonSettings::relative_step_tolerance`] of implicit steps: a step's Newton
 /// solve has converged once its correction is 10⁻³ of how far the step moved from its start
-/// (the inertial prediction x̃ = x + Δt v; the move Δt²·a is of the order of the step's own
-/// time discretisation error). Measured on a falling flag (`tests/implicit_tolerance.rs`): the
-/// answer differs from a solve converged to round-off by 0.3 % of the time discretisation
-/// error, with 30 % fewer iterations; the seed scenes need as many iterations as before the
-/// scale-free convergence test (sphere_directed_heat, Δt = 10⁻³ s: 197, was 198; 10⁻⁴
-/// would take 251).
+/// (the move Δt²·a is of the order of the step's own time discretisation error). What it costs
+/// and saves against a solve converged to round-off: docs/robustness.md, "Indefinite Hessians
+/// near critical points" (the falling flag of `tests/implicit_tolerance.rs`).
 const IMPLICIT_RELATIVE_STEP_TOLERANCE: f64 = 1e-3;
 
 impl ImplicitEuler {
@@ -53,9 +50,8 @@ impl ImplicitEuler {
     /// Cholesky factor is reused across iterations and steps
     /// ([`NewtonSettings::reuse_factor`] = `true`): successive steps' Hessians differ little,
     /// so CG preconditioned with an earlier factor converges in a few iterations where a
-    /// factorisation costs tens to hundreds of them (1.1–2.6× faster per step on the seed's
-    /// scenes and a 20 480-face sphere, positions within 1e-8 of the body's size:
-    /// `cargo xtask perf`, section "Factor reuse").
+    /// factorisation costs tens to hundreds of them (measured in docs/performance.md, "Factor
+    /// reuse").
     pub fn new(dt: f64) -> ImplicitEuler {
         ImplicitEuler {
             dt,

@@ -9,15 +9,14 @@ pub(super) fn per_face(what: &str) -> &'static str {
         _ => "",
     }
 }
-pub(super) const ENERGY: &str = "*Energy only*: this path has no gradient or Hessian \
-    buffers since #17 (`eval_face_energy`: closed-form StVK, constants hoisted; 1 180 → 757 \
-    instructions per face, callgrind, docs/performance.md \"#17 kernels\"). What is left is \
-    the scalar arithmetic of b (three normalised flap normals) and the law, one face at a \
-    time; evaluating several faces per SIMD lane (a structure-of-arrays layout) is untried.";
-pub(super) const ENERGY_GRADIENT: &str = "*Energy + gradient*: one law evaluation and \
-    reverse mode through b (2 786 → 2 526 instructions per face); the rest is the scalar \
-    derivative of the flap normals and the scatter of 18 entries per face, not vectorised \
-    across faces.";
+pub(super) const ENERGY: &str = "*Energy only*: StVK with the mid-edge average or an edge-director \
+    form is evaluated four faces per SIMD lane (`assembly/batch.rs`, structure of arrays, run-time \
+    AVX2 dispatch; docs/performance.md \"item 6\"): what is left is the law's and b's arithmetic \
+    itself and the gather of the stencil positions.";
+pub(super) const ENERGY_GRADIENT: &str = "*Energy + gradient*: batched four faces a lane for the \
+    mid-edge average (`assembly/batch.rs`); about 115 of its instructions per face are the \
+    gradient's scatter of 18 entries per face, which stays scalar. The edge-director forms' \
+    gradient is still evaluated one face at a time.";
 pub(super) const FACTOR: &str = "*Factorisation*: the same METIS ordering as libshell's \
     CHOLMOD since issue #31 (the ordering row); what is left is the supernodal kernels' rate.";
 pub(super) const THREADS: &str = "*Two threads*: the split factorises the two halves of the \
