@@ -418,14 +418,7 @@ impl PathTracer {
             self.reequilibrate(obj, u)?;
         }
         if self.factor.as_ref().is_none_or(|f| f.n() != n) {
-            let template = obj.hessian_template();
-            self.factor = Some(SparseLdlt::new(
-                template.symbolic(),
-                self.settings.ordering,
-                Par::Seq,
-            )?);
-            self.hessian = Some(template);
-            self.tangent_current = false;
+            self.analyse(obj)?;
         }
         let lambda0 = obj.load_factor();
         let u0 = u.to_vec();
@@ -600,6 +593,12 @@ impl PathTracer {
         let mut ws = NewtonWorkspace::new(obj, &settings)?;
         newton_solve(obj, u, &settings, &mut ws)?;
         // newton_solve may have widened the Hessian pattern (contact pairs came near).
+        self.analyse(obj)
+    }
+
+    /// The tangent's pattern and symbolic factorisation from the objective's current Hessian
+    /// template; the factor no longer holds a tangent.
+    fn analyse<O: LoadedObjective + ?Sized>(&mut self, obj: &O) -> Result<(), SolverError> {
         let template = obj.hessian_template();
         self.factor = Some(SparseLdlt::new(
             template.symbolic(),
@@ -607,6 +606,7 @@ impl PathTracer {
             Par::Seq,
         )?);
         self.hessian = Some(template);
+        self.tangent_current = false;
         Ok(())
     }
 
@@ -640,12 +640,7 @@ impl PathTracer {
             .begin_iteration(u, iteration)
             .map_err(|e| e.to_string())?;
         if update.pattern_changed {
-            let template = obj.hessian_template();
-            self.factor = Some(
-                SparseLdlt::new(template.symbolic(), self.settings.ordering, Par::Seq)
-                    .map_err(|e| e.to_string())?,
-            );
-            self.hessian = Some(template);
+            self.analyse(obj).map_err(|e| e.to_string())?;
         }
         if update.pattern_changed || update.value_changed {
             self.tangent_current = false;

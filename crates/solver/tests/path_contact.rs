@@ -7,14 +7,11 @@
 //! minus h/2, the default thickness offset) of every vertex stays above it at every path point
 //! (for a plane, the vertices bound the faces).
 
-use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
-use thinshell_mesh::{Mesh, VertexId};
+use thinshell_energy::SffKind;
+use thinshell_mesh::VertexId;
 use thinshell_solver::nalgebra::Vector3;
-use thinshell_solver::{
-    Boundary, ContactSettings, Loads, Obstacle, PathSettings, ShellPath, ShellSystem,
-};
+use thinshell_solver::{ContactSettings, Obstacle, PathSettings, ShellPath, ShellSystem};
 
-const SPAN: f64 = 1.0;
 const RISE: f64 = 0.015;
 const THICKNESS: f64 = 0.01;
 /// The plane's height (m): the inverted arch's crown (−RISE) would put its lower surface
@@ -25,39 +22,8 @@ const PLANE_Z: f64 = -0.015;
 /// bending form), both short ends pinned, 1 N down on the crown vertex at λ = 1; with a plane
 /// obstacle at `PLANE_Z` (contact defaults) when `contact`.
 fn arch(contact: bool) -> (ShellSystem, Vec<Vector3<f64>>, VertexId) {
-    let flat = thinshell_mesh::generators::rectangle(SPAN, 0.1, 20, 2).expect("mesh");
-    let x: Vec<Vector3<f64>> = flat
-        .positions()
-        .iter()
-        .map(|p| Vector3::new(p.x, p.y, RISE * (1.0 - (2.0 * p.x / SPAN - 1.0).powi(2))))
-        .collect();
-    let mesh = Mesh::new(x.clone(), flat.faces_usize()).expect("mesh");
-    let sff = SffKind::default();
-    let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).expect("rest");
-    let model = ShellModel {
-        material: Material {
-            thickness: THICKNESS,
-            young: 1e7,
-            poisson: 0.3,
-            ..Material::paper()
-        },
-        terms: Terms::ELASTIC,
-        sff,
-    };
-    let ends = (0..mesh.n_vertices())
-        .map(VertexId::new)
-        .filter(|v| x[v.idx()].x < 1e-9 || x[v.idx()].x > SPAN - 1e-9)
-        .collect();
-    let crown = mesh.nearest_vertex(&Vector3::new(0.5 * SPAN, 0.05, RISE));
-    let boundary = Boundary {
-        pinned_vertices: ends,
-        ..Default::default()
-    };
-    let loads = Loads {
-        point_forces: vec![(crown, Vector3::new(0.0, 0.0, -1.0))],
-        ..Default::default()
-    };
-    let mut system = ShellSystem::new(mesh, model, rest, boundary, loads).expect("system");
+    let (mut system, x, crown) =
+        thinshell_testkit::fixtures::shallow_arch(RISE, 1.0, SffKind::default());
     if contact {
         let settings = ContactSettings {
             obstacles: vec![Obstacle::Plane {
@@ -68,7 +34,6 @@ fn arch(contact: bool) -> (ShellSystem, Vec<Vector3<f64>>, VertexId) {
         };
         system.set_contact(&settings, &x).expect("contact");
     }
-    system.set_load_factor(0.0).expect("λ = 0");
     (system, x, crown)
 }
 

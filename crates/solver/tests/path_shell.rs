@@ -2,52 +2,17 @@
 //! point, where load control jumps.
 
 use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
-use thinshell_mesh::{Mesh, VertexId};
+use thinshell_mesh::VertexId;
 use thinshell_solver::nalgebra::Vector3;
 use thinshell_solver::{Boundary, Loads, PathSettings, ShellPath, ShellSystem, Static};
 
-const SPAN: f64 = 1.0;
 const RISE: f64 = 0.015;
 
-/// The arch strip (span 1 m, width 0.1 m, rise 0.04 m, h = 5 mm, E = 10 MPa), both short ends
-/// pinned, load `force` (N) down on the crown vertex; returns the system (at λ = 0), the
-/// positions and the crown vertex.
+/// The arch strip of the test kit (span 1 m, width 0.1 m, rise 15 mm, h = 10 mm, E = 10 MPa,
+/// the mid-edge average), both short ends pinned, load `force` (N) down on the crown vertex;
+/// returns the system (at λ = 0), the positions and the crown vertex.
 fn arch(force: f64) -> (ShellSystem, Vec<Vector3<f64>>, VertexId) {
-    let flat = thinshell_mesh::generators::rectangle(SPAN, 0.1, 20, 2).expect("mesh");
-    let x: Vec<Vector3<f64>> = flat
-        .positions()
-        .iter()
-        .map(|p| Vector3::new(p.x, p.y, RISE * (1.0 - (2.0 * p.x / SPAN - 1.0).powi(2))))
-        .collect();
-    let mesh = Mesh::new(x.clone(), flat.faces_usize()).expect("mesh");
-    let sff = SffKind::MidEdgeAverage;
-    let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).expect("rest");
-    let model = ShellModel {
-        material: Material {
-            thickness: 0.01,
-            young: 1e7,
-            poisson: 0.3,
-            ..Material::paper()
-        },
-        terms: Terms::ELASTIC,
-        sff,
-    };
-    let ends = (0..mesh.n_vertices())
-        .map(VertexId::new)
-        .filter(|v| x[v.idx()].x < 1e-9 || x[v.idx()].x > SPAN - 1e-9)
-        .collect();
-    let crown = mesh.nearest_vertex(&Vector3::new(0.5 * SPAN, 0.05, RISE));
-    let boundary = Boundary {
-        pinned_vertices: ends,
-        ..Default::default()
-    };
-    let loads = Loads {
-        point_forces: vec![(crown, Vector3::new(0.0, 0.0, -force))],
-        ..Default::default()
-    };
-    let mut system = ShellSystem::new(mesh, model, rest, boundary, loads).expect("system");
-    system.set_load_factor(0.0).expect("λ = 0");
-    (system, x, crown)
+    thinshell_testkit::fixtures::shallow_arch(RISE, force, SffKind::MidEdgeAverage)
 }
 
 /// Turning points (sign changes of the increments) of a sequence.

@@ -478,3 +478,49 @@ pub fn pressurised_tube(
     let system = elastic_system(mesh, rest, (h, young, poisson), boundary, loads);
     (system, x0)
 }
+
+/// The shallow arch strip of the path-following tests: span 1 m, width 0.1 m, 20 × 2 cells,
+/// curved into z = rise·(1 − (2x − 1)²), h = 10 mm, E = 10 MPa, ν = 0.3 (paper's density), both
+/// short ends pinned and `force` (N) down on the crown vertex at load factor 1; the system is at
+/// load factor 0. Returns the system, the arch's positions and the crown vertex.
+pub fn shallow_arch(
+    rise: f64,
+    force: f64,
+    sff: SffKind,
+) -> (ShellSystem, Vec<Vector3<f64>>, thinshell_mesh::VertexId) {
+    use thinshell_mesh::VertexId;
+    let flat = generators::rectangle(1.0, 0.1, 20, 2).expect("rectangle");
+    let x: Vec<Vector3<f64>> = flat
+        .positions()
+        .iter()
+        .map(|p| Vector3::new(p.x, p.y, rise * (1.0 - (2.0 * p.x - 1.0).powi(2))))
+        .collect();
+    let mesh = Mesh::new(x.clone(), flat.faces_usize()).expect("arch mesh");
+    let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).expect("rest state");
+    let model = ShellModel {
+        material: Material {
+            thickness: 0.01,
+            young: 1e7,
+            poisson: 0.3,
+            ..Material::paper()
+        },
+        terms: Terms::ELASTIC,
+        sff,
+    };
+    let ends = (0..mesh.n_vertices())
+        .map(VertexId::new)
+        .filter(|v| x[v.idx()].x < 1e-9 || x[v.idx()].x > 1.0 - 1e-9)
+        .collect();
+    let crown = mesh.nearest_vertex(&Vector3::new(0.5, 0.05, rise));
+    let boundary = Boundary {
+        pinned_vertices: ends,
+        ..Default::default()
+    };
+    let loads = Loads {
+        point_forces: vec![(crown, Vector3::new(0.0, 0.0, -force))],
+        ..Default::default()
+    };
+    let mut system = ShellSystem::new(mesh, model, rest, boundary, loads).expect("arch system");
+    system.set_load_factor(0.0).expect("load factor 0");
+    (system, x, crown)
+}
