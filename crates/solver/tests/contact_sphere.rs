@@ -147,6 +147,18 @@ fn collapse(level: usize, dt: f64, steps: usize, contact: bool) -> Run {
     run
 }
 
+/// No faces met and the gap stayed positive at every step; at the end pairs are active, their
+/// smallest gap positive and below d̂.
+fn assert_in_contact_without_crossing(run: &Run) {
+    assert_eq!(run.first_meeting, None);
+    assert!(run.min_surface_gap > 0.0, "{run:?}");
+    let end = run.end.as_ref().unwrap();
+    assert!(
+        end.active_pairs > 0 && end.min_gap > 0.0 && end.min_gap < run.activation,
+        "{end:?}"
+    );
+}
+
 /// The same collapse on 5120 faces (`cargo test --release -p thinshell-solver --test
 /// contact_sphere -- --ignored`; minutes).
 #[test]
@@ -154,13 +166,7 @@ fn collapse(level: usize, dt: f64, steps: usize, contact: bool) -> Run {
 fn finer_sphere_under_pressure_dimples_into_self_contact_without_crossing() {
     let run = collapse(4, 2e-4, 50, true);
     eprintln!("with contact: {run:?}");
-    assert_eq!(run.first_meeting, None);
-    assert!(run.min_surface_gap > 0.0, "{run:?}");
-    let end = run.end.unwrap();
-    assert!(
-        end.active_pairs > 0 && end.min_gap > 0.0 && end.min_gap < run.activation,
-        "{end:?}"
-    );
+    assert_in_contact_without_crossing(&run);
     assert!(run.volume_ratio < 0.3, "{run:?}");
     assert!(run.max_rise < 1e-9 * run.start_energy.abs(), "{run:?}");
 }
@@ -177,13 +183,7 @@ fn sphere_under_pressure_dimples_into_self_contact_without_crossing() {
     );
     let run = collapse(3, 2e-4, 45, true);
     eprintln!("with contact: {run:?}");
-    assert_eq!(run.first_meeting, None);
-    assert!(run.min_surface_gap > 0.0, "{run:?}");
-    let end = run.end.unwrap();
-    assert!(
-        end.active_pairs > 0 && end.min_gap > 0.0 && end.min_gap < run.activation,
-        "{end:?}"
-    );
+    assert_in_contact_without_crossing(&run);
     // Collapsed: most of the volume is gone, and the two dimples' bottoms press against each
     // other at the centre: the poked vertices' mid-surfaces a thickness plus a gap below d̂
     // apart (measured 1.69 mm = h + 0.92 d̂).

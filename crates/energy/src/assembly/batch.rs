@@ -288,9 +288,9 @@ fn sym(ms: &[Matrix2<f64>; LANES]) -> Sym {
     out
 }
 
-/// Entries (p, q, r) of m⁻¹ per face, q averaged (as `inv2` then `sym_entries`).
+/// The entries m00, m01, m10, m11 of each face's matrix, one lane per face.
 #[inline(always)]
-fn inv_sym(ms: &[Matrix2<f64>; LANES]) -> Sym {
+fn entries(ms: &[Matrix2<f64>; LANES]) -> [Lanes; 4] {
     let mut g = [Lanes::zero(); 4];
     for (l, m) in ms.iter().enumerate() {
         g[0].0[l] = m[(0, 0)];
@@ -298,7 +298,13 @@ fn inv_sym(ms: &[Matrix2<f64>; LANES]) -> Sym {
         g[2].0[l] = m[(1, 0)];
         g[3].0[l] = m[(1, 1)];
     }
-    let [m00, m01, m10, m11] = g;
+    g
+}
+
+/// Entries (p, q, r) of m⁻¹ per face, q averaged (as `inv2` then `sym_entries`).
+#[inline(always)]
+fn inv_sym(ms: &[Matrix2<f64>; LANES]) -> Sym {
+    let [m00, m01, m10, m11] = entries(ms);
     let det = m00 * m11 - m01 * m10;
     let inv = det.recip();
     [m11 * inv, (-m01 * inv + -m10 * inv) * 0.5, m00 * inv]
@@ -308,14 +314,8 @@ fn inv_sym(ms: &[Matrix2<f64>; LANES]) -> Sym {
 /// kernels' A = √det ā.
 #[inline(always)]
 fn sqrt_det(ms: &[Matrix2<f64>; LANES]) -> Lanes {
-    let mut a = [Lanes::zero(); 4];
-    for (l, m) in ms.iter().enumerate() {
-        a[0].0[l] = m[(0, 0)];
-        a[1].0[l] = m[(1, 1)];
-        a[2].0[l] = m[(1, 0)];
-        a[3].0[l] = m[(0, 1)];
-    }
-    (a[0] * a[1] - a[2] * a[3]).sqrt()
+    let [m00, m01, m10, m11] = entries(ms);
+    (m00 * m11 - m10 * m01).sqrt()
 }
 
 /// ‖M⁻¹D‖²_SV = α/2 tr(M⁻¹D)² + β tr((M⁻¹D)²) from the entries (p, q, r) of M⁻¹ and d of D

@@ -12,6 +12,7 @@ use faer::sparse::linalg::cholesky::{
 use crate::SolverError;
 use crate::ordering::{
     DEFAULT_LEAF_SIZE, Ordering, inverse_permutation, nested_dissection, node_nd_with_split,
+    square_order,
 };
 
 /// Position of (d, d) in the value array for each column d; checks the pattern is square and
@@ -19,14 +20,7 @@ use crate::ordering::{
 pub fn diagonal_offsets(
     pattern: SymbolicSparseColMatRef<'_, usize>,
 ) -> Result<Vec<usize>, SolverError> {
-    let n = pattern.ncols();
-    if pattern.nrows() != n {
-        return Err(SolverError::DimensionMismatch {
-            what: "Hessian pattern rows",
-            expected: n,
-            found: pattern.nrows(),
-        });
-    }
+    let n = square_order(pattern)?;
     if pattern.col_nnz().is_some() {
         return Err(SolverError::InvalidPattern {
             dof: 0,

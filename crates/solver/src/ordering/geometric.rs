@@ -5,7 +5,7 @@ use crate::SolverError;
 use faer::sparse::SymbolicSparseColMatRef;
 
 use super::dissector::{Dissector, Split};
-use super::graph::Graph;
+use super::graph::{Graph, square_order};
 
 /// Nested-dissection ordering of a symmetric pattern.
 ///
@@ -21,14 +21,7 @@ pub fn nested_dissection(
     coordinates: Option<&[[f64; 3]]>,
     leaf_size: usize,
 ) -> Result<Vec<usize>, SolverError> {
-    let n = pattern.ncols();
-    if pattern.nrows() != n {
-        return Err(SolverError::DimensionMismatch {
-            what: "Hessian pattern rows",
-            expected: n,
-            found: pattern.nrows(),
-        });
-    }
+    let n = square_order(pattern)?;
     if let Some(c) = coordinates {
         if c.len() != n {
             return Err(SolverError::DimensionMismatch {

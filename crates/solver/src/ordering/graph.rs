@@ -3,6 +3,23 @@
 
 use faer::sparse::SymbolicSparseColMatRef;
 
+use crate::SolverError;
+
+/// The order n of a square pattern; an error naming the row count otherwise.
+pub(crate) fn square_order(
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+) -> Result<usize, SolverError> {
+    let n = pattern.ncols();
+    if pattern.nrows() != n {
+        return Err(SolverError::DimensionMismatch {
+            what: "Hessian pattern rows",
+            expected: n,
+            found: pattern.nrows(),
+        });
+    }
+    Ok(n)
+}
+
 /// Symmetric adjacency (CSR, no self loops) of a pattern holding the lower triangle (entries
 /// of the upper triangle, if any, are mirrored too).
 #[derive(Clone, Debug)]

@@ -5,7 +5,7 @@ use crate::SolverError;
 use faer::sparse::SymbolicSparseColMatRef;
 
 use super::dissector::Dissector;
-use super::graph::{Compressed, Graph};
+use super::graph::{Compressed, Graph, square_order};
 use super::separator::Flow;
 
 /// Seed of METIS's randomised coarsening: fixed, so the same pattern always gets the same
@@ -49,14 +49,7 @@ fn metis_dissection_with_split(
     pattern: SymbolicSparseColMatRef<'_, usize>,
     leaf_size: usize,
 ) -> Result<(Vec<usize>, Option<[usize; 3]>), SolverError> {
-    let n = pattern.ncols();
-    if pattern.nrows() != n {
-        return Err(SolverError::DimensionMismatch {
-            what: "Hessian pattern rows",
-            expected: n,
-            found: pattern.nrows(),
-        });
-    }
+    let n = square_order(pattern)?;
     let leaf_size = leaf_size.max(2);
     let graph = Graph::from_pattern(pattern);
     if ::metis::Idx::try_from(graph.adj.len().max(n)).is_err() {

@@ -40,6 +40,8 @@ mod separator;
 #[cfg(test)]
 mod test_patterns;
 
+pub(crate) use graph::square_order;
+
 pub use geometric::nested_dissection;
 pub use metis::metis_nested_dissection;
 
@@ -61,14 +63,7 @@ pub fn metis_node_nd(
 pub(crate) fn node_nd_with_split(
     pattern: SymbolicSparseColMatRef<'_, usize>,
 ) -> Result<(Vec<usize>, Option<[usize; 3]>), SolverError> {
-    let n = pattern.ncols();
-    if pattern.nrows() != n {
-        return Err(SolverError::DimensionMismatch {
-            what: "Hessian pattern rows",
-            expected: n,
-            found: pattern.nrows(),
-        });
-    }
+    let n = square_order(pattern)?;
     if n == 0 {
         return Ok((Vec::new(), None));
     }

@@ -121,21 +121,25 @@ fn collision_free_start(
     phi: &[f64],
     prediction: Vec<f64>,
 ) -> Result<Vec<f64>, SolverError> {
-    let un = obj.sys.gather(x, phi);
-    if prediction.len() != un.len() {
-        return Ok(un);
-    }
-    let du: Vec<f64> = prediction.iter().zip(&un).map(|(p, a)| p - a).collect();
-    let alpha = obj.max_step(&un, &du)?;
-    let start = if alpha >= 1.0 {
+    let start = if obj.sys.contact.is_none() {
         prediction
     } else {
-        un.iter().zip(&du).map(|(a, d)| a + alpha * d).collect()
+        let un = obj.sys.gather(x, phi);
+        if prediction.len() != un.len() {
+            return Ok(un);
+        }
+        let du: Vec<f64> = prediction.iter().zip(&un).map(|(p, a)| p - a).collect();
+        let alpha = obj.max_step(&un, &du)?;
+        if alpha >= 1.0 {
+            prediction
+        } else {
+            un.iter().zip(&du).map(|(a, d)| a + alpha * d).collect()
+        }
     };
     if obj.value(&start)?.is_finite() {
         Ok(start)
     } else {
-        Ok(un)
+        Ok(obj.sys.gather(x, phi))
     }
 }
 
