@@ -190,6 +190,40 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    // A face with one free edge (fitted director, model.md §1.2) and one with a clamped edge
+    // (§1.3), default form: their derivatives are the boundary faces' whole cost.
+    let form = EdgeDirector::default();
+    let mut free = s;
+    free.flap[1] = false;
+    free.ghost[1] = true;
+    let mut clamped = s;
+    clamped.flap[1] = false;
+    clamped.clamp[1] = Some(Vector3::new(-0.2, 0.1, 1.0).normalize());
+    let gradient_only = Want {
+        gradient: true,
+        hessian: None,
+    };
+    for (name, stencil, want) in [
+        ("edge-director-tan/free-edge", &free, want),
+        ("edge-director-tan/free-edge/gradient", &free, gradient_only),
+        ("edge-director-tan/clamped-edge", &clamped, want),
+    ] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                eval_face(
+                    &form,
+                    &material,
+                    black_box(stencil),
+                    &rest,
+                    None,
+                    bend_only,
+                    want,
+                    &mut dout,
+                );
+                black_box(dout.energy.bend)
+            })
+        });
+    }
     g.finish();
 
     // Stretching + bending with an exact Hessian for each material model and both forms.

@@ -2,7 +2,7 @@
 //! orientation signs for edge-director unknowns) from the mesh topology, built once.
 
 use crate::EnergyError;
-use crate::sff::{fit_quality, fitted_moments};
+use crate::sff::{fit_quality, fitted_edge_angle};
 use crate::stencil::{EdgeAngles, FaceStencil, edge_signs};
 use nalgebra::Vector3;
 use thinshell_mesh::{EdgeId, FaceId, Mesh, VertexId};
@@ -130,9 +130,7 @@ impl Stencils {
                 let edge = x[(e + 2) % 3] - x[(e + 1) % 3];
                 let (n, axis) = (normal.normalize(), edge.normalize());
                 let alpha = if s.ghost[e] {
-                    let p: [[f64; 3]; 6] = std::array::from_fn(|v| [x[v].x, x[v].y, x[v].z]);
-                    let d = normal.norm() / edge.norm();
-                    (0.5 * fitted_moments(&p)[e] / d).atan()
+                    fitted_edge_angle(&x.map(|v| [v.x, v.y, v.z]), e).1
                 } else {
                     0.0
                 };

@@ -153,6 +153,12 @@ fn check_derivatives(
     let mut h = SMatrix::<f64, N, N>::zeros();
     let d = form.derivatives(&s, &a, Some((&w, &mut h)));
     prop_assert!((d.b - form.b_with_angles(&s, &a)).abs().max() < 1e-14);
+    // Gradient-only evaluations (first-order duals at boundary edges) agree with the Hessian
+    // path: b to the last bit, the Jacobian to round-off.
+    let d1 = form.derivatives(&s, &a, None);
+    prop_assert!(d1.b == d.b);
+    let jmax = d.jacobian.abs().max().max(1.0);
+    prop_assert!((d1.jacobian - d.jacobian).abs().max() <= 1e-12 * jmax);
     let x0 = flat(&s, &a);
     let jfd = fd_jacobian(
         |v| {

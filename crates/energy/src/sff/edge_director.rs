@@ -14,9 +14,11 @@
 //!
 //! On a free edge with a fit (`stencil.ghost[i]`, model.md §1.2) θ_i/2 is replaced by
 //! atan(II_i^fit / (2 d_i)), II_i^fit the second moment of the quadratic through the six stencil
-//! points ([`boundary::fitted_moments`]); on a clamped edge (`stencil.clamp[i]`, §1.3) by the
+//! points ([`boundary::fitted_edge_angle`]); on a clamped edge (`stencil.clamp[i]`, §1.3) by the
 //! angle from the face normal to the clamp's director about the edge. Their derivatives come
-//! from dual numbers over the 18 positions and φ_i.
+//! from dual numbers over the positions relative to x_0 (first order for gradients; for
+//! Hessians the fit in two levels, see [`boundary::fitted_edge_angle_hessian`]), φ_i chained
+//! by hand.
 //!
 //! Derivatives are taken per edge over 13 local dofs — the hinge vertices (p0, p1, p2, q) =
 //! (x_i, x_{i+1}, x_{i+2}, x_{3+i}) and φ_i — and scattered into the 21 face dofs
@@ -29,12 +31,12 @@
 
 use super::normals::{add_cross_hess, cross_normal, normalize_jac, skew};
 use super::{SecondFundamentalForm, SffDerivatives};
-use crate::material::dual::DualN;
+use crate::material::dual::{Dual1, DualN, Scalar};
 use crate::stencil::{EdgeAngles, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
 mod boundary;
-pub(crate) use boundary::{fit_quality, fitted_moments};
+pub(crate) use boundary::{fit_quality, fitted_edge_angle};
 
 /// Number of face dofs of the director form: 18 positions, then the three edge angles.
 pub const DIRECTOR_DOFS: usize = 21;
@@ -253,20 +255,157 @@ fn clamp_of(s: &FaceStencil, i: usize) -> Option<[f64; 3]> {
     s.clamp[i].filter(|_| !s.flap[i]).map(|n| [n.x, n.y, n.z])
 }
 
+/// II_i of a boundary edge (m), its gradient over the 19 local dofs (18 stencil positions, then
+/// φ_i) and, if asked, its Hessian.
+struct BoundaryMoment {
+    v: f64,
+    g: SVector<f64, 19>,
+    h: Option<SMatrix<f64, 19, 19>>,
+}
+
+/// (d_i, β_i) of fitted free edge or clamped edge i, see [`boundary::fitted_edge_angle`].
+fn boundary_angle<T: Scalar>(s: &FaceStencil, i: usize, p: &[[T; 3]; 6]) -> (T, T) {
+    match clamp_of(s, i) {
+        Some(nc) => boundary::clamped_edge_angle(p, i, nc),
+        None => boundary::fitted_edge_angle(p, i),
+    }
+}
+
+/// The stencil positions with the first N coordinates of x_1 … x_5 as dual variables and the
+/// rest (x_0 always) constants: the boundary angles depend on differences only, so x_0's
+/// derivatives follow from the others'; a clamp depends on the face (N = 6: x_1, x_2), a fit on
+/// all six points (N = 15), and fewer variables cost (N/19)² of 19 in every second-order
+/// operation.
+fn relative_positions<T: Scalar>(
+    s: &FaceStencil,
+    n: usize,
+    var: impl Fn(f64, usize) -> T,
+) -> [[T; 3]; 6] {
+    std::array::from_fn(|v| {
+        std::array::from_fn(|c| {
+            let k = (3 * v + c).wrapping_sub(3);
+            if v > 0 && k < n {
+                var(s.x[v][c], k)
+            } else {
+                T::cst(s.x[v][c])
+            }
+        })
+    })
+}
+
+/// A gradient over x_1 … x_5 relative to x_0 as one over the 18 positions: x_0's entries are
+/// minus the sum of the others' (translation invariance).
+fn to_positions(g: &RVec) -> SVector<f64, 18> {
+    let mut out = SVector::<f64, 18>::zeros();
+    out.fixed_rows_mut::<REL>(3).copy_from(g);
+    for a in 0..5 {
+        let v = out.fixed_rows::<3>(3 + 3 * a).into_owned();
+        let mut x0 = out.fixed_rows_mut::<3>(0);
+        x0 -= v;
+    }
+    out
+}
+
+/// Relative coordinates of the boundary angles' derivatives (x_1 … x_5 minus x_0).
+const REL: usize = 15;
+type RVec = SVector<f64, REL>;
+type RMat = SMatrix<f64, REL, REL>;
+
+/// (d, ∇d, ∇²d, β, ∇β, ∇²β) of boundary edge i over the 15 relative coordinates, from dual
+/// numbers in the first N of them (the others' derivatives are zero); Hessians only if `hess`.
+#[allow(clippy::type_complexity)]
+fn boundary_angle_derivatives<const N: usize>(
+    s: &FaceStencil,
+    i: usize,
+    hess: bool,
+) -> (f64, RVec, Option<RMat>, f64, RVec, Option<RMat>) {
+    let pad_g = |g: &SVector<f64, N>| {
+        let mut out = RVec::zeros();
+        out.fixed_rows_mut::<N>(0).copy_from(g);
+        out
+    };
+    let pad_h = |h: &SMatrix<f64, N, N>| {
+        let mut out = RMat::zeros();
+        out.fixed_view_mut::<N, N>(0, 0).copy_from(h);
+        out
+    };
+    if hess {
+        let p = relative_positions(s, N, DualN::<N>::variable);
+        let (d, b) = boundary_angle(s, i, &p);
+        let (hd, hb) = (Some(pad_h(&d.h)), Some(pad_h(&b.h)));
+        (d.v, pad_g(&d.g), hd, b.v, pad_g(&b.g), hb)
+    } else {
+        let p = relative_positions(s, N, Dual1::<N>::variable);
+        let (d, b) = boundary_angle(s, i, &p);
+        (d.v, pad_g(&d.g), None, b.v, pad_g(&b.g), None)
+    }
+}
+
 impl EdgeDirector {
-    /// II_i (m) of fitted free edge or clamped edge i with its gradient and Hessian over the 18
-    /// stencil positions (dual variables 0..18) and φ_i (variable 18): 2 d_i f(α_i) with
-    /// α_i = atan(t) + σ_i φ_i, t = II_i^fit / (2 d_i) (fit) or the tangent of the angle from the
-    /// face normal to the clamp's director (clamp).
-    fn boundary_moment(&self, s: &FaceStencil, angles: &EdgeAngles, i: usize) -> DualN<19> {
-        type D = DualN<19>;
-        let p: [[D; 3]; 6] =
-            std::array::from_fn(|v| std::array::from_fn(|c| D::variable(s.x[v][c], 3 * v + c)));
-        let sigma_phi = D::variable(angles.phi[i], 18).scale(angles.sigma[i]);
-        let f = |a| self.variant.eval(a);
-        match clamp_of(s, i) {
-            Some(nc) => boundary::clamped_edge_moment(&p, i, nc, sigma_phi, f),
-            None => boundary::fitted_edge_moment(&p, i, sigma_phi, f),
+    /// II_i (m) of fitted free edge or clamped edge i with its gradient and (if `hess`) Hessian
+    /// over the 18 stencil positions and φ_i: II_i = 2 d_i f(α_i), α_i = β_i + σ_i φ_i, β_i
+    /// from the fit (free edge) or the angle from the face normal to the clamp's director
+    /// (clamp). d and β come from dual numbers over x_1 … x_5 relative to x_0 (first order
+    /// without `hess`); φ_i enters through α only and is chained here:
+    /// ∇II = 2 f ∇d + 2 d f′ ∇β, ∇²II = 2 f ∇²d + 2 f′ (∇d ∇βᵀ + ∇β ∇dᵀ) + 2 d f″ ∇β ∇βᵀ +
+    /// 2 d f′ ∇²β, ∂II/∂φ = 2 d f′ σ, ∂²II/∂φ∂x = σ (2 f′ ∇d + 2 d f″ ∇β), ∂²II/∂φ² = 2 d f″ σ².
+    fn boundary_moment(
+        &self,
+        s: &FaceStencil,
+        angles: &EdgeAngles,
+        i: usize,
+        hess: bool,
+    ) -> BoundaryMoment {
+        const R: usize = REL;
+        let (d, gd, hd, beta, gb, hb) = match clamp_of(s, i) {
+            Some(_) => boundary_angle_derivatives::<6>(s, i, hess),
+            None if hess => {
+                let x = s.x.map(|v| [v.x, v.y, v.z]);
+                let (d, gd, hd, b, gb, hb) = boundary::fitted_edge_angle_hessian(&x, i);
+                (d, gd, Some(hd), b, gb, Some(hb))
+            }
+            None => boundary_angle_derivatives::<REL>(s, i, false),
+        };
+        let sigma = angles.sigma[i];
+        let (f0, f1, f2) = self.variant.eval(beta + sigma * angles.phi[i]);
+        let mut g = SVector::<f64, 19>::zeros();
+        g.fixed_rows_mut::<18>(0)
+            .copy_from(&to_positions(&(gd * (2.0 * f0) + gb * (2.0 * d * f1))));
+        g[18] = 2.0 * d * f1 * sigma;
+        let h = match (hd, hb) {
+            (Some(hd), Some(hb)) => {
+                let cross = gd * gb.transpose();
+                let hr = hd * (2.0 * f0)
+                    + (cross + cross.transpose()) * (2.0 * f1)
+                    + gb * gb.transpose() * (2.0 * d * f2)
+                    + hb * (2.0 * d * f1);
+                let mixed = to_positions(&((gd * (2.0 * f1) + gb * (2.0 * d * f2)) * sigma));
+                let mut h = SMatrix::<f64, 19, 19>::zeros();
+                // x_0's blocks: minus the block sums over the others' (translation invariance).
+                let mut col = SMatrix::<f64, 3, R>::zeros();
+                for a in 0..5 {
+                    col -= hr.fixed_rows::<3>(3 * a);
+                }
+                let mut corner = Matrix3::zeros();
+                for b in 0..5 {
+                    corner -= col.fixed_columns::<3>(3 * b);
+                }
+                h.fixed_view_mut::<R, R>(3, 3).copy_from(&hr);
+                h.fixed_view_mut::<3, R>(0, 3).copy_from(&col);
+                h.fixed_view_mut::<R, 3>(3, 0).copy_from(&col.transpose());
+                h.fixed_view_mut::<3, 3>(0, 0).copy_from(&corner);
+                h.fixed_view_mut::<18, 1>(0, 18).copy_from(&mixed);
+                h.fixed_view_mut::<1, 18>(18, 0)
+                    .copy_from(&mixed.transpose());
+                h[(18, 18)] = 2.0 * d * f2 * sigma * sigma;
+                Some(h)
+            }
+            _ => None,
+        };
+        BoundaryMoment {
+            v: d * f0 * 2.0,
+            g,
+            h,
         }
     }
 
@@ -276,14 +415,10 @@ impl EdgeDirector {
         let area2 = (x[1] - x[0]).cross(&(x[2] - x[0])).norm();
         let p: [[f64; 3]; 6] = std::array::from_fn(|v| [x[v].x, x[v].y, x[v].z]);
         std::array::from_fn(|i| {
-            if let Some(nc) = clamp_of(s, i) {
+            if !s.flap[i] && (s.ghost[i] || s.clamp[i].is_some()) {
+                let (d, beta) = boundary_angle(s, i, &p);
                 let sigma_phi = angles.sigma[i] * angles.phi[i];
-                let f = |a| self.variant.eval(a);
-                return boundary::clamped_edge_moment(&p, i, nc, sigma_phi, f);
-            }
-            if !s.flap[i] && s.ghost[i] {
-                let sigma_phi = angles.sigma[i] * angles.phi[i];
-                return boundary::fitted_edge_moment(&p, i, sigma_phi, |a| self.variant.eval(a));
+                return boundary::edge_moment(d, beta, sigma_phi, |a| self.variant.eval(a));
             }
             let [a, b, c, q] = hinge_blocks(i);
             let d = area2 / (x[c] - x[b]).norm();
@@ -333,7 +468,7 @@ impl EdgeDirector {
             let omega: f64 = w.map_or(0.0, |w| (0..3).map(|k| w[k] * C[k][i]).sum());
             let want_h = h.is_some() && omega != 0.0;
             if !s.flap[i] && (s.ghost[i] || s.clamp[i].is_some()) {
-                let d = self.boundary_moment(s, angles, i);
+                let d = self.boundary_moment(s, angles, i, want_h);
                 ii[i] = d.v;
                 for k in 0..3 {
                     if C[k][i] != 0.0 {
@@ -343,11 +478,11 @@ impl EdgeDirector {
                         jac[(k, 18 + i)] -= C[k][i] * d.g[18];
                     }
                 }
-                if let Some(h) = h.as_deref_mut().filter(|_| want_h) {
+                if let (Some(h), Some(dh)) = (h.as_deref_mut(), &d.h) {
                     let dof = |l: usize| if l < 18 { l } else { 18 + i };
                     for r in 0..19 {
                         for c in 0..19 {
-                            h[(dof(r), dof(c))] -= omega * d.h[(r, c)];
+                            h[(dof(r), dof(c))] -= omega * dh[(r, c)];
                         }
                     }
                 }

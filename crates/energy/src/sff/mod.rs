@@ -5,7 +5,7 @@ mod mid_edge_average;
 pub(crate) mod normals;
 
 pub use edge_director::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
-pub(crate) use edge_director::{fit_quality, fitted_moments};
+pub(crate) use edge_director::{fit_quality, fitted_edge_angle};
 pub use mid_edge_average::MidEdgeAverage;
 
 use crate::stencil::FaceStencil;
