@@ -426,6 +426,9 @@ pub(super) struct EqualError {
     pub short: Vec<(Layout, f64)>,
     /// Pairs where it also reached 10× the average's best accuracy (which no average run did).
     pub ten_times: usize,
+    /// Per pair, wall time per Newton iteration of the form's converged solve on the finest
+    /// mesh over the average's on the same mesh.
+    pub per_iteration: Vec<f64>,
 }
 
 /// Wall time (s) each form needs to reach `target` shape error on (layout, angle).
@@ -476,6 +479,18 @@ pub(super) fn verdict(study: &LayoutStudy) -> Verdict {
                 }
                 if time_to(study, layout, angle, *f, 0.1 * target).is_some() {
                     eq.ten_times += 1;
+                }
+                let per_it = |p: &ShapePoint| p.wall_s / p.iterations as f64;
+                let finest = |f: SffKind| {
+                    study
+                        .find(layout, angle, f)
+                        .and_then(|s| s.shape.last())
+                        .filter(|p| p.converged && p.iterations > 0)
+                };
+                if let (Some(p), Some(a)) = (finest(*f), finest(SffKind::MidEdgeAverage))
+                    && p.faces == a.faces
+                {
+                    eq.per_iteration.push(per_it(p) / per_it(a));
                 }
             }
         }
@@ -570,11 +585,23 @@ pub(super) fn advice(study: &LayoutStudy) -> String {
         r.sort_by(f64::total_cmp);
         r.get(r.len() / 2).copied().unwrap_or(f64::NAN)
     };
+    let per_iteration: Vec<String> = v
+        .at_equal_error
+        .iter()
+        .map(|(f, eq)| {
+            format!(
+                "{:.1}× ({})",
+                median(eq.per_iteration.clone()),
+                sff_name(*f)
+            )
+        })
+        .collect();
     let _ = write!(
         s,
         "At equal error (the mid-edge average's best static shape error on each pair, see \"Error \
-         vs time at equal error\"; the director forms cost about 3× per Newton iteration on the \
-         same mesh):"
+         vs time at equal error\"; per Newton iteration on the same finest mesh the other forms \
+         cost {} the average's, medians over the pairs):",
+        per_iteration.join(" and ")
     );
     for (f, eq) in &v.at_equal_error {
         let ratios: Vec<f64> = eq.cheaper.iter().map(|p| p.2).collect();
