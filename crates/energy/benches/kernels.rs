@@ -168,31 +168,16 @@ fn bench(c: &mut Criterion) {
             black_box(out.energy.bend)
         })
     });
+    // Interior faces for both variants; then, default form, a face with one free edge (fitted
+    // director, model.md §1.2) and one with a clamped edge (§1.3): their derivatives are the
+    // boundary faces' whole cost.
     let mut dout = FaceEval::<21>::default();
-    for (name, variant) in [
-        ("edge-director-sin", DirectorVariant::Sin),
-        ("edge-director-tan", DirectorVariant::Tan),
-    ] {
-        let form = EdgeDirector { variant };
-        g.bench_function(name, |b| {
-            b.iter(|| {
-                eval_face(
-                    &form,
-                    &material,
-                    black_box(&s),
-                    &rest,
-                    None,
-                    bend_only,
-                    want,
-                    &mut dout,
-                );
-                black_box(dout.energy.bend)
-            })
-        });
-    }
-    // A face with one free edge (fitted director, model.md §1.2) and one with a clamped edge
-    // (§1.3), default form: their derivatives are the boundary faces' whole cost.
-    let form = EdgeDirector::default();
+    let (sin, tan) = (
+        EdgeDirector {
+            variant: DirectorVariant::Sin,
+        },
+        EdgeDirector::default(),
+    );
     let mut free = s;
     free.flap[1] = false;
     free.ghost[1] = true;
@@ -203,15 +188,22 @@ fn bench(c: &mut Criterion) {
         gradient: true,
         hessian: None,
     };
-    for (name, stencil, want) in [
-        ("edge-director-tan/free-edge", &free, want),
-        ("edge-director-tan/free-edge/gradient", &free, gradient_only),
-        ("edge-director-tan/clamped-edge", &clamped, want),
+    for (name, form, stencil, want) in [
+        ("edge-director-sin", &sin, &s, want),
+        ("edge-director-tan", &tan, &s, want),
+        ("edge-director-tan/free-edge", &tan, &free, want),
+        (
+            "edge-director-tan/free-edge/gradient",
+            &tan,
+            &free,
+            gradient_only,
+        ),
+        ("edge-director-tan/clamped-edge", &tan, &clamped, want),
     ] {
         g.bench_function(name, |b| {
             b.iter(|| {
                 eval_face(
-                    &form,
+                    form,
                     &material,
                     black_box(stencil),
                     &rest,
