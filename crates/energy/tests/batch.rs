@@ -340,8 +340,7 @@ fn director_passes(
             let edge = (s.x[(i + 2) % 3] - s.x[(i + 1) % 3]).norm();
             scalar.f_max = scalar.f_max.max(ii.abs() * edge / (2.0 * area2));
         }
-        let v = stencils.vertices(f);
-        for slot in 0..6 {
+        for (slot, v) in stencils.vertices(f).iter().enumerate() {
             // Without edge unknowns (bending off) the assembler's pattern keeps the flap
             // slots only, not a free-edge fit's outer vertex: mirrored here.
             let present = if phi.is_empty() {
@@ -351,7 +350,7 @@ fn director_passes(
             };
             if present {
                 for a in 0..3 {
-                    scalar.g[3 * v[slot].idx() + a] += out.gradient[3 * slot + a];
+                    scalar.g[3 * v.idx() + a] += out.gradient[3 * slot + a];
                 }
             }
         }

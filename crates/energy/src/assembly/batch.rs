@@ -517,25 +517,29 @@ fn load(inp: &Inputs<'_>, f: &[usize; LANES], batch: &mut Batch) -> Rest {
     }
 }
 
-/// The edge-director form's b with what its reverse pass reuses, per local edge i (opposite
-/// vertex i): II_i = 2 d_i f(α_i), α_i = θ_i/2 + σ_i φ_i (`EdgeDirector::b_with_angles` away
-/// from fitted and clamped free edges).
+/// The edge-director form's b with what its reverse pass reuses (`EdgeDirector::b_with_angles`
+/// away from fitted and clamped free edges).
 struct Director {
     /// Unit face normal n_f and 1/|c_f|, c_f = (x1 − x0) × (x2 − x0).
     nf: V3,
     inv_area2: Lanes,
-    /// Per edge: unit edge ê (from x_{i+1} to x_{i+2}), its length L and 1/L, the altitude d.
-    eh: [V3; 3],
-    le: [Lanes; 3],
-    inv_le: [Lanes; 3],
-    d: [Lanes; 3],
-    /// Per edge: unit neighbour normal n_g and 1/|c_g| (NaN without a flap, discarded by lane).
-    ng: [V3; 3],
-    inv_lg: [Lanes; 3],
-    /// Per edge: f(α) and f′(α).
-    f: [Lanes; 3],
-    df: [Lanes; 3],
+    edge: [DirectorEdge; 3],
     b: Sym,
+}
+
+/// Local edge i (opposite vertex i) of [`Director`]: II_i = 2 d_i f(α_i), α_i = θ_i/2 + σ_i φ_i.
+struct DirectorEdge {
+    /// Unit edge ê (from x_{i+1} to x_{i+2}), its length L and 1/L, the altitude d = |c_f|/L.
+    eh: V3,
+    le: Lanes,
+    inv_le: Lanes,
+    d: Lanes,
+    /// Unit neighbour normal n_g and 1/|c_g| (NaN without a flap, discarded by lane).
+    ng: V3,
+    inv_lg: Lanes,
+    /// f(α) and f′(α).
+    f: Lanes,
+    df: Lanes,
 }
 
 /// b of the edge-director form (`EdgeDirector::b_with_angles` away from fitted and clamped
@@ -554,66 +558,73 @@ fn director(s: &Batch, variant: DirectorVariant) -> Director {
     let area2 = cf.norm();
     let inv_area2 = area2.recip();
     let nf = cf.scale(inv_area2);
-    let mut out = Director {
+    // Written out per edge: `from_fn` with this closure is not inlined.
+    let edge = [
+        director_edge(s, variant, &nf, area2, 0),
+        director_edge(s, variant, &nf, area2, 1),
+        director_edge(s, variant, &nf, area2, 2),
+    ];
+    let ii: [Lanes; 3] = std::array::from_fn(|i| edge[i].d * 2.0 * edge[i].f);
+    Director {
         nf,
         inv_area2,
-        eh: [V3::zero(); 3],
-        le: [Lanes::zero(); 3],
-        inv_le: [Lanes::zero(); 3],
-        d: [Lanes::zero(); 3],
-        ng: [V3::zero(); 3],
-        inv_lg: [Lanes::zero(); 3],
-        f: [Lanes::zero(); 3],
-        df: [Lanes::zero(); 3],
-        b: [Lanes::zero(); 3],
-    };
-    let mut ii = [Lanes::zero(); 3];
-    for i in 0..3 {
-        let (b, c, q) = ((i + 1) % 3, (i + 2) % 3, 3 + i);
-        let e = x[c] - x[b];
-        let le = e.norm();
-        let inv_le = le.recip();
-        let d = area2 * inv_le;
-        let ng_raw = (x[b] - x[c]).cross(&(x[q] - x[c]));
-        let inv_lg = ng_raw.norm().recip();
-        let ng = ng_raw.scale(inv_lg);
-        let eh = e.scale(inv_le);
-        let sn = nf.cross(&ng).dot(&eh);
-        let cs = nf.dot(&ng);
-        let r = (sn * sn + cs * cs).sqrt();
-        let non_negative: [bool; LANES] = std::array::from_fn(|l| cs.0[l] >= 0.0);
-        let r_plus_c = Lanes::select(&non_negative, r + cs, sn * sn / (r - cs));
-        let flap = &s.flap[i];
-        let [u, cos_u] = s.angle[i];
-        let (f, df) = match variant {
-            DirectorVariant::Tan => {
-                let t = Lanes::select(flap, sn / r_plus_c, Lanes::zero());
-                let f = (t + u) / (Lanes::splat(1.0) - t * u);
-                (f, Lanes::splat(1.0) + f * f)
-            }
-            DirectorVariant::Sin => {
-                let half_sin = sn / (r * r_plus_c * 2.0).sqrt();
-                let half_cos = (r_plus_c / (r * 2.0)).sqrt();
-                let half_sin = Lanes::select(flap, half_sin, Lanes::zero());
-                let half_cos = Lanes::select(flap, half_cos, Lanes::splat(1.0));
-                (
-                    half_sin * cos_u + half_cos * u,
-                    half_cos * cos_u - half_sin * u,
-                )
-            }
-        };
-        ii[i] = d * 2.0 * f;
-        out.eh[i] = eh;
-        out.le[i] = le;
-        out.inv_le[i] = inv_le;
-        out.d[i] = d;
-        out.ng[i] = ng;
-        out.inv_lg[i] = inv_lg;
-        out.f[i] = f;
-        out.df[i] = df;
+        b: [-(ii[0] + ii[1]), -ii[0], -(ii[0] + ii[2])],
+        edge,
     }
-    out.b = [-(ii[0] + ii[1]), -ii[0], -(ii[0] + ii[2])];
-    out
+}
+
+/// Local edge i of [`director`], with the face's unit normal `nf` and |c_f| = `area2`.
+#[inline(always)]
+fn director_edge(
+    s: &Batch,
+    variant: DirectorVariant,
+    nf: &V3,
+    area2: Lanes,
+    i: usize,
+) -> DirectorEdge {
+    let x = &s.x;
+    let (b, c, q) = ((i + 1) % 3, (i + 2) % 3, 3 + i);
+    let e = x[c] - x[b];
+    let le = e.norm();
+    let inv_le = le.recip();
+    let ng_raw = (x[b] - x[c]).cross(&(x[q] - x[c]));
+    let inv_lg = ng_raw.norm().recip();
+    let ng = ng_raw.scale(inv_lg);
+    let eh = e.scale(inv_le);
+    let sn = nf.cross(&ng).dot(&eh);
+    let cs = nf.dot(&ng);
+    let r = (sn * sn + cs * cs).sqrt();
+    let non_negative: [bool; LANES] = std::array::from_fn(|l| cs.0[l] >= 0.0);
+    let r_plus_c = Lanes::select(&non_negative, r + cs, sn * sn / (r - cs));
+    let flap = &s.flap[i];
+    let [u, cos_u] = s.angle[i];
+    let (f, df) = match variant {
+        DirectorVariant::Tan => {
+            let t = Lanes::select(flap, sn / r_plus_c, Lanes::zero());
+            let f = (t + u) / (Lanes::splat(1.0) - t * u);
+            (f, Lanes::splat(1.0) + f * f)
+        }
+        DirectorVariant::Sin => {
+            let half_sin = sn / (r * r_plus_c * 2.0).sqrt();
+            let half_cos = (r_plus_c / (r * 2.0)).sqrt();
+            let half_sin = Lanes::select(flap, half_sin, Lanes::zero());
+            let half_cos = Lanes::select(flap, half_cos, Lanes::splat(1.0));
+            (
+                half_sin * cos_u + half_cos * u,
+                half_cos * cos_u - half_sin * u,
+            )
+        }
+    };
+    DirectorEdge {
+        eh,
+        le,
+        inv_le,
+        d: area2 * inv_le,
+        ng,
+        inv_lg,
+        f,
+        df,
+    }
 }
 
 /// Adds the gradient of w·b (w = ∂E/∂(b11, b12, b22)) of the edge-director form to the
@@ -631,27 +642,23 @@ fn director_reverse(s: &Batch, dr: &Director, w: &Sym, g: &mut [V3; 9]) {
     let x = &s.x;
     let omega = [w[0] + w[1] + w[2], w[0], w[2]];
     let mut g_area = Lanes::zero();
-    for i in 0..3 {
+    for (i, de) in dr.edge.iter().enumerate() {
         let (a, b, c, q) = (i, (i + 1) % 3, (i + 2) % 3, 3 + i);
-        let (d, le, inv_le) = (dr.d[i], dr.le[i], dr.inv_le[i]);
+        let (d, le, inv_le) = (de.d, de.le, de.inv_le);
         let g_ii = -omega[i];
-        let g_d = g_ii * dr.f[i] * 2.0;
-        let g_alpha = g_ii * d * dr.df[i] * 2.0;
+        let g_d = g_ii * de.f * 2.0;
+        let g_alpha = g_ii * d * de.df * 2.0;
         g[6 + i].x = g_alpha * s.sigma[i];
         // d = |c_f| / L.
         g_area += g_d * inv_le;
-        let v = dr.eh[i].scale(-(g_d * d * inv_le));
+        let v = de.eh.scale(-(g_d * d * inv_le));
         g[c] += v;
         g[b] = g[b] - v;
         // θ_i, whose NaN terms on a lane without a flap are discarded by the selects.
         let flap = &s.flap[i];
         let g_theta = Lanes::select(flap, g_alpha * 0.5, Lanes::zero());
         let uf = dr.nf.scale(g_theta * le * dr.inv_area2);
-        let ug = V3::select(
-            flap,
-            &dr.ng[i].scale(g_theta * le * dr.inv_lg[i]),
-            &V3::zero(),
-        );
+        let ug = V3::select(flap, &de.ng.scale(g_theta * le * de.inv_lg), &V3::zero());
         let e = x[c] - x[b];
         let inv_l2 = inv_le * inv_le;
         let tf = (x[a] - x[b]).dot(&e) * inv_l2;
@@ -721,10 +728,67 @@ fn pull(m: &V3, len: Lanes, v: &V3) -> V3 {
     (*v - m.scale(m.dot(v))).scale(len.recip())
 }
 
-/// The forward pass of a batch's b, kept for its reverse pass.
-enum BForward {
-    MidEdgeAverage(Normals),
-    EdgeDirector(Director),
+/// A bending form's forward pass, kept for its reverse pass.
+trait Forward {
+    /// b (m).
+    fn b(&self) -> Sym;
+    /// Adds the gradient of w·b, w = ∂E/∂(b11, b12, b22), to the stencil blocks `g[..6]` (and
+    /// for the edge-director form writes ∂E/∂φ_i to `g[6 + i].x`).
+    fn reverse(&self, s: &Batch, w: &Sym, g: &mut [V3; 9]);
+}
+
+impl Forward for Normals {
+    #[inline(always)]
+    fn b(&self) -> Sym {
+        self.b
+    }
+
+    /// Reverse mode through the mid-edge normals: w·b = Σ_e n_e·p_e, p_e = A_e e1 + B_e e2
+    /// (the coefficients of `edge_weights`).
+    #[inline(always)]
+    fn reverse(&self, s: &Batch, w: &Sym, g: &mut [V3; 9]) {
+        let x = &s.x;
+        let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
+        let coef = [
+            (-(w[0] * 2.0) - w[1], -w[1] - w[2] * 2.0),
+            (w[0] * 2.0, w[1]),
+            (w[1], w[2] * 2.0),
+        ];
+        let mut mu_f = V3::zero();
+        for (e, &(ca, cb)) in coef.iter().enumerate() {
+            let p = e1.scale(ca) + e2.scale(cb);
+            let n = &self.n[e];
+            g[0] += n.scale(-(ca + cb));
+            g[1] += n.scale(ca);
+            g[2] += n.scale(cb);
+            let mu_s = pull(n, self.ls[e], &p);
+            let nu = pull(&self.ng[e], self.lg[e], &mu_s);
+            let flap = &s.flap[e];
+            mu_f += V3::select(flap, &mu_s, &p);
+            let nu = V3::select(flap, &nu, &V3::zero());
+            let [i0, i1, i2] = NEIGHBOUR[e];
+            let (q0, q1, q2) = (x[i0], x[i1], x[i2]);
+            g[i0] += (q1 - q2).cross(&nu);
+            g[i1] += (q2 - q0).cross(&nu);
+            g[i2] += nu.cross(&(q1 - q0));
+        }
+        let nu = pull(&self.nf, self.lf, &mu_f);
+        g[0] += (x[1] - x[2]).cross(&nu);
+        g[1] += (x[2] - x[0]).cross(&nu);
+        g[2] += nu.cross(&(x[1] - x[0]));
+    }
+}
+
+impl Forward for Director {
+    #[inline(always)]
+    fn b(&self) -> Sym {
+        self.b
+    }
+
+    #[inline(always)]
+    fn reverse(&self, s: &Batch, w: &Sym, g: &mut [V3; 9]) {
+        director_reverse(s, self, w, g);
+    }
 }
 
 /// Energies and the gradient blocks of a batch (`eval_face` with the gradient: the law's 2Kd,
@@ -733,22 +797,41 @@ enum BForward {
 /// `g[6 + i].x` (zero y, z, as the assembler's edge slots).
 #[inline(always)]
 fn energy_gradient(inp: &Inputs<'_>, s: &Batch, r: &Rest, g: &mut [V3; 9]) -> [Lanes; 3] {
+    // One instantiation per form, and no closures (they are not inlined, and their large
+    // results are copied through memory).
+    let uses_b = inp.terms.bend || r.prev.is_some();
+    match inp.form {
+        Form::MidEdgeAverage => {
+            let fwd = if uses_b { Some(normals(s)) } else { None };
+            energy_gradient_with(inp, s, r, g, fwd)
+        }
+        Form::EdgeDirector(variant, _) => {
+            let fwd = if uses_b {
+                Some(director(s, variant))
+            } else {
+                None
+            };
+            energy_gradient_with(inp, s, r, g, fwd)
+        }
+    }
+}
+
+/// [`energy_gradient`] with the bending form's forward pass `fwd` (`None` when b is not used).
+#[inline(always)]
+fn energy_gradient_with<F: Forward>(
+    inp: &Inputs<'_>,
+    s: &Batch,
+    r: &Rest,
+    g: &mut [V3; 9],
+    fwd: Option<F>,
+) -> [Lanes; 3] {
     let k = &inp.constants;
     let t = inp.terms;
     let x = &s.x;
-    let uses_b = t.bend || r.prev.is_some();
     let uses_a = t.stretch || r.prev.is_some();
-    let fwd = uses_b.then(|| match inp.form {
-        Form::MidEdgeAverage => BForward::MidEdgeAverage(normals(s)),
-        Form::EdgeDirector(variant, _) => BForward::EdgeDirector(director(s, variant)),
-    });
     let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
     let a = metric(&e1, &e2);
-    let b = match &fwd {
-        Some(BForward::MidEdgeAverage(nm)) => nm.b,
-        Some(BForward::EdgeDirector(dr)) => dr.b,
-        None => r.b_bar,
-    };
+    let b = fwd.as_ref().map_or(r.b_bar, F::b);
     let mut energies = [Lanes::zero(); 3];
     let mut ga = [Lanes::zero(); 3];
     let mut gb = [Lanes::zero(); 3];
@@ -767,40 +850,8 @@ fn energy_gradient(inp: &Inputs<'_>, s: &Batch, r: &Rest, g: &mut [V3; 9]) -> [L
     }
 
     *g = [V3::zero(); 9];
-    if let Some(BForward::EdgeDirector(dr)) = &fwd {
-        director_reverse(s, dr, &gb, g);
-    }
-    if let Some(BForward::MidEdgeAverage(nm)) = &fwd {
-        // w·b = Σ_e n_e·p_e, p_e = A_e e1 + B_e e2 (the coefficients of `edge_weights`).
-        let w = gb;
-        let coef = [
-            (-(w[0] * 2.0) - w[1], -w[1] - w[2] * 2.0),
-            (w[0] * 2.0, w[1]),
-            (w[1], w[2] * 2.0),
-        ];
-        let mut mu_f = V3::zero();
-        for e in 0..3 {
-            let (ca, cb) = coef[e];
-            let p = e1.scale(ca) + e2.scale(cb);
-            let n = &nm.n[e];
-            g[0] += n.scale(-(ca + cb));
-            g[1] += n.scale(ca);
-            g[2] += n.scale(cb);
-            let mu_s = pull(n, nm.ls[e], &p);
-            let nu = pull(&nm.ng[e], nm.lg[e], &mu_s);
-            let flap = &s.flap[e];
-            mu_f += V3::select(flap, &mu_s, &p);
-            let nu = V3::select(flap, &nu, &V3::zero());
-            let [i0, i1, i2] = NEIGHBOUR[e];
-            let (q0, q1, q2) = (x[i0], x[i1], x[i2]);
-            g[i0] += (q1 - q2).cross(&nu);
-            g[i1] += (q2 - q0).cross(&nu);
-            g[i2] += nu.cross(&(q1 - q0));
-        }
-        let nu = pull(&nm.nf, nm.lf, &mu_f);
-        g[0] += (x[1] - x[2]).cross(&nu);
-        g[1] += (x[2] - x[0]).cross(&nu);
-        g[2] += nu.cross(&(x[1] - x[0]));
+    if let Some(fwd) = &fwd {
+        fwd.reverse(s, &gb, g);
     }
     if uses_a {
         let g1 = e1.scale(ga[0] * 2.0) + e2.scale(ga[1]);
