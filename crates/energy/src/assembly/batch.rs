@@ -451,7 +451,8 @@ fn faces(first: usize, start: usize, count: usize) -> [usize; LANES] {
     std::array::from_fn(|l| first + (start + l).min(count - 1))
 }
 
-/// Gathers the stencil positions, flap masks and rest (and damping) forms of faces `f`.
+/// Gathers the stencil positions, flap masks, edge angles and rest (and damping) forms of
+/// faces `f`.
 #[inline(always)]
 fn load(inp: &Inputs<'_>, f: &[usize; LANES], batch: &mut Batch) -> Rest {
     let st = inp.stencils;
@@ -564,7 +565,7 @@ fn director(s: &Batch, variant: DirectorVariant) -> Director {
         director_edge(s, variant, &nf, area2, 1),
         director_edge(s, variant, &nf, area2, 2),
     ];
-    let ii: [Lanes; 3] = std::array::from_fn(|i| edge[i].d * 2.0 * edge[i].f);
+    let ii = edge.each_ref().map(|e| e.d * 2.0 * e.f);
     Director {
         nf,
         inv_area2,
