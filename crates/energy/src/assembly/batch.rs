@@ -254,7 +254,8 @@ pub(crate) struct Inputs<'a> {
     pub(crate) x: &'a [Vector3<f64>],
     pub(crate) rest: &'a RestState,
     pub(crate) damping: Option<&'a DampingState>,
-    /// Gradient slots written per face (3, or 6 with flap vertices) and the buffer stride.
+    /// Vertex slots per face (3, or 6 with flap vertices) and the gradient buffer's stride
+    /// (3 per slot: the vertex slots, then with edge unknowns one slot per edge angle).
     pub(crate) slots: usize,
     pub(crate) grad_stride: usize,
 }
@@ -878,7 +879,8 @@ pub(crate) fn run_chunk(
     let mut start = 0;
     let mut batch = Batch::new();
     let mut g = [V3::zero(); 9];
-    // Vertex slots, then the edge slots of the edge-director form's angle unknowns.
+    // The vertex slots, then the edge slots of the edge-director form's angle unknowns: those
+    // exist only with bending on, hence after all six vertex slots, as `g` has them.
     let slots = inp.grad_stride / 3;
     while start < count {
         let f = faces(first, start, count);
