@@ -5,12 +5,14 @@
 //! Every quantity of the scalar kernels ([`crate::eval_face_energy`], [`crate::eval_face`] with
 //! the gradient: the mid-edge normals or the edge directors' second moments, b, the SV
 //! quadratics, the reverse-mode pull-back through the normals or through the altitudes and
-//! dihedral angles) is a [`Lanes`] here, one face per lane, so that each arithmetic operation is one SIMD instruction. Lanes never mix: a
-//! face's result does not depend on its lane, on the other faces of its batch or on the
-//! chunking, and only IEEE-exact operations are used (no fused multiply-add; the edge angles'
-//! tan, sin and cos are the scalar libm calls, per lane), so results are bit-identical
-//! whatever the instruction set and the thread count. They equal the scalar kernels to
-//! round-off (the operation order differs slightly; `tests/batch.rs` checks 1e-13 relative).
+//! dihedral angles) is a [`Lanes`] here, one face per lane, so that each arithmetic operation
+//! is one SIMD instruction. Lanes never mix: a face's result does not depend on its lane, on
+//! the other faces of its batch or on the chunking, and only IEEE-exact operations are used
+//! (no fused multiply-add; the edge angles' tan, sin and cos are the scalar libm calls, per
+//! lane), so results are bit-identical whatever the instruction set and the thread count.
+//! They equal the scalar kernels to round-off (the operation order differs slightly;
+//! `tests/batch.rs` checks 1e-13 relative, for the director's gradient scaled by tan's
+//! conditioning near a fold).
 //! Edge-director faces with a fitted or clamped free edge (dual numbers, model.md §1.2–1.3),
 //! and any face whose batched energy or gradient is not finite, are evaluated by the per-face
 //! kernel.
