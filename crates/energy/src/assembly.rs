@@ -13,9 +13,9 @@
 //! the calling thread instead: handing them to rayon's pool costs more than they take.
 //!
 //! St. Venant–Kirchhoff evaluates energy and energy + gradient with the mid-edge average (the
-//! form the paper authors' library shares), and the energy alone with the edge-director forms,
-//! four faces at a time, one face per SIMD lane (`batch`); every other combination, and every
-//! Hessian, runs the per-face kernels.
+//! form the paper authors' library shares) and with the edge-director forms, four faces at a
+//! time, one face per SIMD lane (`batch`); every other material, and every Hessian, runs the
+//! per-face kernels.
 //!
 //! No thread ever adds into shared memory, so results are bit-identical for any number of
 //! threads (and on either path), and nothing is allocated per evaluation beyond rayon's
@@ -231,7 +231,7 @@ impl Assembler {
     /// line-search case) the faces run the lean energy-only kernel
     /// [`crate::eval_face_energy`] and no per-face buffer is touched. St. Venant–Kirchhoff runs
     /// batched across faces instead (the same values to round-off, 1e-13 relative): energy and
-    /// energy + gradient with the mid-edge average, the energy with the edge-director forms.
+    /// energy + gradient, with the mid-edge average and the edge-director forms.
     ///
     /// Errors: `model.terms` differ from the assembler's ([`EnergyError::TermsMismatch`]);
     /// invalid material; wrong lengths; damping on without a [`DampingState`]; a Hessian not
@@ -335,16 +335,15 @@ impl Assembler {
                 want.gradient,
                 parallel,
             )?,
-            SffKind::EdgeDirector(variant) if batched && !want.gradient => self
-                .evaluate_faces_batched(
-                    batch::Form::EdgeDirector(variant, phi),
-                    model,
-                    x,
-                    rest,
-                    damping,
-                    false,
-                    parallel,
-                )?,
+            SffKind::EdgeDirector(variant) if batched => self.evaluate_faces_batched(
+                batch::Form::EdgeDirector(variant, phi),
+                model,
+                x,
+                rest,
+                damping,
+                want.gradient,
+                parallel,
+            )?,
             SffKind::MidEdgeAverage => self.evaluate_faces(
                 &MidEdgeAverage,
                 model,
@@ -387,8 +386,8 @@ impl Assembler {
         Ok(total)
     }
 
-    /// The energy pass of StVK with `form`, or its energy + gradient pass with the mid-edge
-    /// average, [`batch::LANES`] faces at a time ([`batch`]), in parallel over chunks of [`batch::CHUNK`] faces or on the
+    /// The energy or energy + gradient pass of StVK with `form`, [`batch::LANES`] faces at a
+    /// time ([`batch`]), in parallel over chunks of [`batch::CHUNK`] faces or on the
     /// calling thread (the same per-face results either way), into `self.energies` and the
     /// gradient slots.
     #[allow(clippy::too_many_arguments)] // mirrors `evaluate_with_angles`

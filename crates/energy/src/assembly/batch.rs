@@ -1,18 +1,21 @@
 //! The assembler's energy and energy + gradient passes for St. Venant–Kirchhoff with the mid-edge
-//! average, and its energy pass for the edge-director forms (model.md §1–2), [`LANES`] faces at
-//! a time in structure-of-arrays form.
+//! average and with the edge-director forms (model.md §1–2), [`LANES`] faces at a time in
+//! structure-of-arrays form.
 //!
 //! Every quantity of the scalar kernels ([`crate::eval_face_energy`], [`crate::eval_face`] with
 //! the gradient: the mid-edge normals or the edge directors' second moments, b, the SV
-//! quadratics, the reverse-mode pull-back through the normals) is a [`Lanes`] here, one face
-//! per lane, so that each arithmetic operation is one SIMD instruction. Lanes never mix: a
-//! face's result does not depend on its lane, on the other faces of its batch or on the
-//! chunking, and only IEEE-exact operations are used (no fused multiply-add; the edge angles'
-//! tan, sin and cos are the scalar libm calls, per lane), so results are bit-identical
-//! whatever the instruction set and the thread count. They equal the scalar kernels to
-//! round-off (the operation order differs slightly; `tests/batch.rs` checks 1e-13 relative).
+//! quadratics, the reverse-mode pull-back through the normals or through the altitudes and
+//! dihedral angles) is a [`Lanes`] here, one face per lane, so that each arithmetic operation
+//! is one SIMD instruction. Lanes never mix: a face's result does not depend on its lane, on
+//! the other faces of its batch or on the chunking, and only IEEE-exact operations are used
+//! (no fused multiply-add; the edge angles' tan, sin and cos are the scalar libm calls, per
+//! lane), so results are bit-identical whatever the instruction set and the thread count.
+//! They equal the scalar kernels to round-off (the operation order differs slightly;
+//! `tests/batch.rs` checks 1e-13 relative, for the director's gradient scaled by tan's
+//! conditioning near a fold).
 //! Edge-director faces with a fitted or clamped free edge (dual numbers, model.md §1.2–1.3),
-//! and any face whose batched energy is not finite, are evaluated by the per-face kernel.
+//! and any face whose batched energy or gradient is not finite, are evaluated by the per-face
+//! kernel.
 //!
 //! Branches of the scalar code become selects: a face without a flap across edge e (its
 //! stencil slot repeats the opposite face vertex, which makes the neighbour normal's sum
@@ -22,11 +25,13 @@
 //! build's baseline otherwise): the whole chunk loop is inlined into pulp's dispatch, whose
 //! target features then apply to the plain array arithmetic below, which LLVM vectorises.
 
-use crate::kernel::{EnergyTerms, FaceDamping, FaceRest, eval_face_energy};
+use crate::kernel::{
+    EnergyTerms, FaceDamping, FaceEval, FaceRest, Want, eval_face, eval_face_energy,
+};
 use crate::material::EnergyConstants;
 use crate::material::Material;
 use crate::rest::{DampingState, RestState};
-use crate::sff::{DirectorVariant, EdgeDirector};
+use crate::sff::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
 use crate::stencil::EdgeAngles;
 use crate::stencils::Stencils;
 use crate::terms::Terms;
@@ -241,7 +246,7 @@ impl Constants {
 /// Everything a chunk of faces reads.
 pub(crate) struct Inputs<'a> {
     pub(crate) constants: Constants,
-    /// The second fundamental form (the gradient pass: the mid-edge average only).
+    /// The second fundamental form.
     pub(crate) form: Form<'a>,
     /// The material and its constants, for faces the batch hands back to the per-face kernel.
     pub(crate) material: &'a Material,
@@ -251,7 +256,8 @@ pub(crate) struct Inputs<'a> {
     pub(crate) x: &'a [Vector3<f64>],
     pub(crate) rest: &'a RestState,
     pub(crate) damping: Option<&'a DampingState>,
-    /// Gradient slots written per face (3, or 6 with flap vertices) and the buffer stride.
+    /// Vertex slots per face (3, or 6 with flap vertices) and the gradient buffer's stride
+    /// (3 per slot: the vertex slots, then with edge unknowns one slot per edge angle).
     pub(crate) slots: usize,
     pub(crate) grad_stride: usize,
 }
@@ -364,6 +370,8 @@ struct Batch {
     flap: [[bool; LANES]; 3],
     /// Edge-director form, per local edge: tan(σφ) (tan) or sin(σφ) (sin), and cos(σφ) (sin).
     angle: [[Lanes; 2]; 3],
+    /// Edge-director form, per local edge: the orientation sign σ (±1).
+    sigma: [Lanes; 3],
     /// Faces the batch hands back to the per-face kernel (edge-director faces with a fitted
     /// or clamped free edge, whose director comes from dual numbers).
     special: [bool; LANES],
@@ -375,6 +383,7 @@ impl Batch {
             x: [V3::zero(); 6],
             flap: [[false; LANES]; 3],
             angle: [[Lanes::zero(); 2]; 3],
+            sigma: [Lanes::zero(); 3],
             special: [false; LANES],
         }
     }
@@ -445,7 +454,8 @@ fn faces(first: usize, start: usize, count: usize) -> [usize; LANES] {
     std::array::from_fn(|l| first + (start + l).min(count - 1))
 }
 
-/// Gathers the stencil positions, flap masks and rest (and damping) forms of faces `f`.
+/// Gathers the stencil positions, flap masks, edge angles and rest (and damping) forms of
+/// faces `f`.
 #[inline(always)]
 fn load(inp: &Inputs<'_>, f: &[usize; LANES], batch: &mut Batch) -> Rest {
     let st = inp.stencils;
@@ -453,6 +463,7 @@ fn load(inp: &Inputs<'_>, f: &[usize; LANES], batch: &mut Batch) -> Rest {
         x,
         flap,
         angle,
+        sigma,
         special,
     } = batch;
     let mut a_bar = [Matrix2::zeros(); LANES];
@@ -479,6 +490,7 @@ fn load(inp: &Inputs<'_>, f: &[usize; LANES], batch: &mut Batch) -> Rest {
                 st.angles(fl, phi)
             };
             for (e, slot) in angle.iter_mut().enumerate() {
+                sigma[e].0[l] = ang.sigma[e];
                 let a = ang.sigma[e] * ang.phi[e];
                 match variant {
                     DirectorVariant::Tan => slot[0].0[l] = a.tan(),
@@ -509,52 +521,162 @@ fn load(inp: &Inputs<'_>, f: &[usize; LANES], batch: &mut Batch) -> Rest {
     }
 }
 
+/// The edge-director form's b with what its reverse pass reuses (`EdgeDirector::b_with_angles`
+/// away from fitted and clamped free edges).
+struct Director {
+    /// Unit face normal n_f and 1/|c_f|, c_f = (x1 − x0) × (x2 − x0).
+    nf: V3,
+    inv_area2: Lanes,
+    edge: [DirectorEdge; 3],
+    b: Sym,
+}
+
+/// Local edge i (opposite vertex i) of [`Director`]: II_i = 2 d_i f(α_i), α_i = θ_i/2 + σ_i φ_i.
+struct DirectorEdge {
+    /// Unit edge ê (from x_{i+1} to x_{i+2}), its length L and 1/L, the altitude d = |c_f|/L.
+    eh: V3,
+    le: Lanes,
+    inv_le: Lanes,
+    d: Lanes,
+    /// Unit neighbour normal n_g and 1/|c_g| (NaN without a flap, discarded by lane).
+    ng: V3,
+    inv_lg: Lanes,
+    /// f(α) and f′(α).
+    f: Lanes,
+    df: Lanes,
+}
+
 /// b of the edge-director form (`EdgeDirector::b_with_angles` away from fitted and clamped
 /// free edges): II_i = 2 d_i f(θ_i/2 + σ_i φ_i), b = −[[II_0 + II_1, II_0], [II_0, II_0 + II_2]].
 /// The half dihedral angle enters through half-angle identities instead of atan2 (which does
 /// not vectorise): with s = (n_f × n_g)·ê, c = n_f·n_g and r = √(s² + c²), r + c (written
 /// s²/(r − c) for c < 0, free of cancellation near a fold) gives tan(θ/2) = s/(r + c),
 /// cos(θ/2) = √((r + c)/2r) and sin(θ/2) = s/√(2r(r + c)); the addition formulas take the
-/// angle's tan, sin and cos from the batch. A hinge folded completely flat (r + c = 0) gives
-/// NaN here, and the face goes back to the per-face kernel.
+/// angle's tan, sin and cos from the batch (and f′ = 1 + f² for tan, the cosine of the sum
+/// for sin). A hinge folded completely flat (r + c = 0) gives NaN here, and the face goes
+/// back to the per-face kernel.
 #[inline(always)]
-fn director_b(s: &Batch, variant: DirectorVariant) -> Sym {
+fn director(s: &Batch, variant: DirectorVariant) -> Director {
     let x = &s.x;
-    let area2 = (x[1] - x[0]).cross(&(x[2] - x[0])).norm();
-    let mut ii = [Lanes::zero(); 3];
-    for (i, ii) in ii.iter_mut().enumerate() {
-        let (a, b, c, q) = (i, (i + 1) % 3, (i + 2) % 3, 3 + i);
-        let e = x[c] - x[b];
-        let le = e.norm();
-        let d = area2 / le;
-        let nf_raw = (x[b] - x[a]).cross(&(x[c] - x[a]));
-        let ng_raw = (x[b] - x[c]).cross(&(x[q] - x[c]));
-        let nf = nf_raw.scale(nf_raw.norm().recip());
-        let ng = ng_raw.scale(ng_raw.norm().recip());
-        let eh = e.scale(le.recip());
-        let sn = nf.cross(&ng).dot(&eh);
-        let cs = nf.dot(&ng);
-        let r = (sn * sn + cs * cs).sqrt();
-        let non_negative: [bool; LANES] = std::array::from_fn(|l| cs.0[l] >= 0.0);
-        let r_plus_c = Lanes::select(&non_negative, r + cs, sn * sn / (r - cs));
-        let flap = &s.flap[i];
-        let [u, cos_u] = s.angle[i];
-        let f = match variant {
-            DirectorVariant::Tan => {
-                let t = Lanes::select(flap, sn / r_plus_c, Lanes::zero());
-                (t + u) / (Lanes::splat(1.0) - t * u)
-            }
-            DirectorVariant::Sin => {
-                let half_sin = sn / (r * r_plus_c * 2.0).sqrt();
-                let half_cos = (r_plus_c / (r * 2.0)).sqrt();
-                let half_sin = Lanes::select(flap, half_sin, Lanes::zero());
-                let half_cos = Lanes::select(flap, half_cos, Lanes::splat(1.0));
-                half_sin * cos_u + half_cos * u
-            }
-        };
-        *ii = d * 2.0 * f;
+    let cf = (x[1] - x[0]).cross(&(x[2] - x[0]));
+    let area2 = cf.norm();
+    let inv_area2 = area2.recip();
+    let nf = cf.scale(inv_area2);
+    // Written out per edge: `from_fn` with this closure is not inlined.
+    let edge = [
+        director_edge(s, variant, &nf, area2, 0),
+        director_edge(s, variant, &nf, area2, 1),
+        director_edge(s, variant, &nf, area2, 2),
+    ];
+    let ii = edge.each_ref().map(|e| e.d * 2.0 * e.f);
+    Director {
+        nf,
+        inv_area2,
+        b: [-(ii[0] + ii[1]), -ii[0], -(ii[0] + ii[2])],
+        edge,
     }
-    [-(ii[0] + ii[1]), -ii[0], -(ii[0] + ii[2])]
+}
+
+/// Local edge i of [`director`], with the face's unit normal `nf` and |c_f| = `area2`.
+#[inline(always)]
+fn director_edge(
+    s: &Batch,
+    variant: DirectorVariant,
+    nf: &V3,
+    area2: Lanes,
+    i: usize,
+) -> DirectorEdge {
+    let x = &s.x;
+    let (b, c, q) = ((i + 1) % 3, (i + 2) % 3, 3 + i);
+    let e = x[c] - x[b];
+    let le = e.norm();
+    let inv_le = le.recip();
+    let ng_raw = (x[b] - x[c]).cross(&(x[q] - x[c]));
+    let inv_lg = ng_raw.norm().recip();
+    let ng = ng_raw.scale(inv_lg);
+    let eh = e.scale(inv_le);
+    let sn = nf.cross(&ng).dot(&eh);
+    let cs = nf.dot(&ng);
+    let r = (sn * sn + cs * cs).sqrt();
+    let non_negative: [bool; LANES] = std::array::from_fn(|l| cs.0[l] >= 0.0);
+    let r_plus_c = Lanes::select(&non_negative, r + cs, sn * sn / (r - cs));
+    let flap = &s.flap[i];
+    let [u, cos_u] = s.angle[i];
+    let (f, df) = match variant {
+        DirectorVariant::Tan => {
+            let t = Lanes::select(flap, sn / r_plus_c, Lanes::zero());
+            let f = (t + u) / (Lanes::splat(1.0) - t * u);
+            (f, Lanes::splat(1.0) + f * f)
+        }
+        DirectorVariant::Sin => {
+            let half_sin = sn / (r * r_plus_c * 2.0).sqrt();
+            let half_cos = (r_plus_c / (r * 2.0)).sqrt();
+            let half_sin = Lanes::select(flap, half_sin, Lanes::zero());
+            let half_cos = Lanes::select(flap, half_cos, Lanes::splat(1.0));
+            (
+                half_sin * cos_u + half_cos * u,
+                half_cos * cos_u - half_sin * u,
+            )
+        }
+    };
+    DirectorEdge {
+        eh,
+        le,
+        inv_le,
+        d: area2 * inv_le,
+        ng,
+        inv_lg,
+        f,
+        df,
+    }
+}
+
+/// Adds the gradient of w·b (w = ∂E/∂(b11, b12, b22)) of the edge-director form to the
+/// position blocks `g[..6]` and writes its edge-angle derivatives ∂E/∂φ_i to `g[6 + i].x`
+/// (`EdgeDirector::derivatives` contracted with w, per lane). With ω = (w11 + w12 + w22,
+/// w11, w22), ∂E/∂II_i = −ω_i; II_i = 2 d_i f(α_i) gives ∂E/∂d_i = −2 ω_i f and ∂E/∂α_i =
+/// −2 ω_i d_i f′ (∂α/∂φ_i = σ_i, ∂α/∂θ_i = 1/2). The altitude d = |c_f|/L pulls back through
+/// |c_f| (once for the three edges) and L; the dihedral angle through Bridson's closed form
+/// (`dihedral_derivatives`): with u_f = n_f L/|c_f|, u_g = n_g L/|c_g| and the feet of the
+/// altitudes t_f = (p0 − p1)·e/L², t_g = (q − p1)·e/L², ∇_{p0}θ = −u_f, ∇_qθ = −u_g,
+/// ∇_{p2}θ = t_f u_f + t_g u_g and ∇_{p1}θ = u_f + u_g − ∇_{p2}θ; zero on a lane without
+/// a flap (θ = 0 there).
+#[inline(always)]
+fn director_reverse(s: &Batch, dr: &Director, w: &Sym, g: &mut [V3; 9]) {
+    let x = &s.x;
+    let omega = [w[0] + w[1] + w[2], w[0], w[2]];
+    let mut g_area = Lanes::zero();
+    for (i, de) in dr.edge.iter().enumerate() {
+        let (a, b, c, q) = (i, (i + 1) % 3, (i + 2) % 3, 3 + i);
+        let (d, le, inv_le) = (de.d, de.le, de.inv_le);
+        let g_ii = -omega[i];
+        let g_d = g_ii * de.f * 2.0;
+        let g_alpha = g_ii * d * de.df * 2.0;
+        g[6 + i].x = g_alpha * s.sigma[i];
+        // d = |c_f| / L.
+        g_area += g_d * inv_le;
+        let v = de.eh.scale(-(g_d * d * inv_le));
+        g[c] += v;
+        g[b] = g[b] - v;
+        // θ_i, whose NaN terms on a lane without a flap are discarded by the selects.
+        let flap = &s.flap[i];
+        let g_theta = Lanes::select(flap, g_alpha * 0.5, Lanes::zero());
+        let uf = dr.nf.scale(g_theta * le * dr.inv_area2);
+        let ug = V3::select(flap, &de.ng.scale(g_theta * le * de.inv_lg), &V3::zero());
+        let e = x[c] - x[b];
+        let inv_l2 = inv_le * inv_le;
+        let tf = (x[a] - x[b]).dot(&e) * inv_l2;
+        let tg = (x[q] - x[b]).dot(&e) * inv_l2;
+        let w2 = uf.scale(tf) + ug.scale(tg);
+        g[a] = g[a] - uf;
+        g[q] = g[q] - ug;
+        g[c] += w2;
+        g[b] += uf + ug - w2;
+    }
+    let nu = dr.nf.scale(g_area);
+    g[0] += (x[1] - x[2]).cross(&nu);
+    g[1] += (x[2] - x[0]).cross(&nu);
+    g[2] += nu.cross(&(x[1] - x[0]));
 }
 
 /// Energies of a batch (`eval_face_energy` for StVK and the mid-edge average).
@@ -569,7 +691,7 @@ fn energy(inp: &Inputs<'_>, s: &Batch, r: &Rest) -> [Lanes; 3] {
     } else {
         match inp.form {
             Form::MidEdgeAverage => normals(s).b,
-            Form::EdgeDirector(variant, _) => director_b(s, variant),
+            Form::EdgeDirector(variant, _) => director(s, variant).b,
         }
     };
     let stretch = if t.stretch {
@@ -610,19 +732,110 @@ fn pull(m: &V3, len: Lanes, v: &V3) -> V3 {
     (*v - m.scale(m.dot(v))).scale(len.recip())
 }
 
-/// Energies and the gradient blocks (one per stencil slot) of a batch (`eval_face` with the
-/// gradient: the law's 2Kd, reverse mode through the mid-edge normals, J_aᵀ ∂E/∂a).
+/// A bending form's forward pass, kept for its reverse pass.
+trait Forward {
+    /// b (m).
+    fn b(&self) -> Sym;
+    /// Adds the gradient of w·b, w = ∂E/∂(b11, b12, b22), to the stencil blocks `g[..6]` (and
+    /// for the edge-director form writes ∂E/∂φ_i to `g[6 + i].x`).
+    fn reverse(&self, s: &Batch, w: &Sym, g: &mut [V3; 9]);
+}
+
+impl Forward for Normals {
+    #[inline(always)]
+    fn b(&self) -> Sym {
+        self.b
+    }
+
+    /// Reverse mode through the mid-edge normals: w·b = Σ_e n_e·p_e, p_e = A_e e1 + B_e e2
+    /// (the coefficients of `edge_weights`).
+    #[inline(always)]
+    fn reverse(&self, s: &Batch, w: &Sym, g: &mut [V3; 9]) {
+        let x = &s.x;
+        let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
+        let coef = [
+            (-(w[0] * 2.0) - w[1], -w[1] - w[2] * 2.0),
+            (w[0] * 2.0, w[1]),
+            (w[1], w[2] * 2.0),
+        ];
+        let mut mu_f = V3::zero();
+        for (e, &(ca, cb)) in coef.iter().enumerate() {
+            let p = e1.scale(ca) + e2.scale(cb);
+            let n = &self.n[e];
+            g[0] += n.scale(-(ca + cb));
+            g[1] += n.scale(ca);
+            g[2] += n.scale(cb);
+            let mu_s = pull(n, self.ls[e], &p);
+            let nu = pull(&self.ng[e], self.lg[e], &mu_s);
+            let flap = &s.flap[e];
+            mu_f += V3::select(flap, &mu_s, &p);
+            let nu = V3::select(flap, &nu, &V3::zero());
+            let [i0, i1, i2] = NEIGHBOUR[e];
+            let (q0, q1, q2) = (x[i0], x[i1], x[i2]);
+            g[i0] += (q1 - q2).cross(&nu);
+            g[i1] += (q2 - q0).cross(&nu);
+            g[i2] += nu.cross(&(q1 - q0));
+        }
+        let nu = pull(&self.nf, self.lf, &mu_f);
+        g[0] += (x[1] - x[2]).cross(&nu);
+        g[1] += (x[2] - x[0]).cross(&nu);
+        g[2] += nu.cross(&(x[1] - x[0]));
+    }
+}
+
+impl Forward for Director {
+    #[inline(always)]
+    fn b(&self) -> Sym {
+        self.b
+    }
+
+    #[inline(always)]
+    fn reverse(&self, s: &Batch, w: &Sym, g: &mut [V3; 9]) {
+        director_reverse(s, self, w, g);
+    }
+}
+
+/// Energies and the gradient blocks of a batch (`eval_face` with the gradient: the law's 2Kd,
+/// reverse mode through the mid-edge normals or the edge directors' second moments, J_aᵀ
+/// ∂E/∂a): one block per stencil slot, then with the edge-director form ∂E/∂φ_i in
+/// `g[6 + i].x` (zero y, z, as the assembler's edge slots).
 #[inline(always)]
-fn energy_gradient(inp: &Inputs<'_>, s: &Batch, r: &Rest, g: &mut [V3; 6]) -> [Lanes; 3] {
+fn energy_gradient(inp: &Inputs<'_>, s: &Batch, r: &Rest, g: &mut [V3; 9]) -> [Lanes; 3] {
+    // One instantiation per form, and no closures (they are not inlined, and their large
+    // results are copied through memory).
+    let uses_b = inp.terms.bend || r.prev.is_some();
+    match inp.form {
+        Form::MidEdgeAverage => {
+            let fwd = if uses_b { Some(normals(s)) } else { None };
+            energy_gradient_with(inp, s, r, g, fwd)
+        }
+        Form::EdgeDirector(variant, _) => {
+            let fwd = if uses_b {
+                Some(director(s, variant))
+            } else {
+                None
+            };
+            energy_gradient_with(inp, s, r, g, fwd)
+        }
+    }
+}
+
+/// [`energy_gradient`] with the bending form's forward pass `fwd` (`None` when b is not used).
+#[inline(always)]
+fn energy_gradient_with<F: Forward>(
+    inp: &Inputs<'_>,
+    s: &Batch,
+    r: &Rest,
+    g: &mut [V3; 9],
+    fwd: Option<F>,
+) -> [Lanes; 3] {
     let k = &inp.constants;
     let t = inp.terms;
     let x = &s.x;
-    let uses_b = t.bend || r.prev.is_some();
     let uses_a = t.stretch || r.prev.is_some();
-    let nm = if uses_b { Some(normals(s)) } else { None };
     let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
     let a = metric(&e1, &e2);
-    let b = nm.as_ref().map_or(r.b_bar, |nm| nm.b);
+    let b = fwd.as_ref().map_or(r.b_bar, F::b);
     let mut energies = [Lanes::zero(); 3];
     let mut ga = [Lanes::zero(); 3];
     let mut gb = [Lanes::zero(); 3];
@@ -640,38 +853,9 @@ fn energy_gradient(inp: &Inputs<'_>, s: &Batch, r: &Rest, g: &mut [V3; 6]) -> [L
             + quadratic(k, inv, c * k.h3_24, &sub3(&b, bp), &mut gb);
     }
 
-    *g = [V3::zero(); 6];
-    if let Some(nm) = &nm {
-        // w·b = Σ_e n_e·p_e, p_e = A_e e1 + B_e e2 (the coefficients of `edge_weights`).
-        let w = gb;
-        let coef = [
-            (-(w[0] * 2.0) - w[1], -w[1] - w[2] * 2.0),
-            (w[0] * 2.0, w[1]),
-            (w[1], w[2] * 2.0),
-        ];
-        let mut mu_f = V3::zero();
-        for e in 0..3 {
-            let (ca, cb) = coef[e];
-            let p = e1.scale(ca) + e2.scale(cb);
-            let n = &nm.n[e];
-            g[0] += n.scale(-(ca + cb));
-            g[1] += n.scale(ca);
-            g[2] += n.scale(cb);
-            let mu_s = pull(n, nm.ls[e], &p);
-            let nu = pull(&nm.ng[e], nm.lg[e], &mu_s);
-            let flap = &s.flap[e];
-            mu_f += V3::select(flap, &mu_s, &p);
-            let nu = V3::select(flap, &nu, &V3::zero());
-            let [i0, i1, i2] = NEIGHBOUR[e];
-            let (q0, q1, q2) = (x[i0], x[i1], x[i2]);
-            g[i0] += (q1 - q2).cross(&nu);
-            g[i1] += (q2 - q0).cross(&nu);
-            g[i2] += nu.cross(&(q1 - q0));
-        }
-        let nu = pull(&nm.nf, nm.lf, &mu_f);
-        g[0] += (x[1] - x[2]).cross(&nu);
-        g[1] += (x[2] - x[0]).cross(&nu);
-        g[2] += nu.cross(&(x[1] - x[0]));
+    *g = [V3::zero(); 9];
+    if let Some(fwd) = &fwd {
+        fwd.reverse(s, &gb, g);
     }
     if uses_a {
         let g1 = e1.scale(ga[0] * 2.0) + e2.scale(ga[1]);
@@ -696,7 +880,10 @@ pub(crate) fn run_chunk(
     let mut bad = None;
     let mut start = 0;
     let mut batch = Batch::new();
-    let mut g = [V3::zero(); 6];
+    let mut g = [V3::zero(); 9];
+    // The vertex slots, then the edge slots of the edge-director form's angle unknowns: those
+    // exist only with bending on, hence after all six vertex slots, as `g` has them.
+    let slots = inp.grad_stride / 3;
     while start < count {
         let f = faces(first, start, count);
         let rest = load(inp, &f, &mut batch);
@@ -712,10 +899,15 @@ pub(crate) fn run_chunk(
                 };
                 let out = &mut grad[i * inp.grad_stride..(i + 1) * inp.grad_stride];
                 let mut finite = energies[i].total().is_finite();
-                for (sl, v) in g.iter().enumerate().take(inp.slots) {
+                for (sl, v) in g.iter().enumerate().take(slots) {
                     let c = [v.x.0[l], v.y.0[l], v.z.0[l]];
                     finite &= (c[0] * 0.0 + c[1] * 0.0 + c[2] * 0.0) == 0.0;
                     out[3 * sl..3 * sl + 3].copy_from_slice(&c);
+                }
+                if batch.special[l] || !finite {
+                    energies[i] = face_energy_gradient(inp, first + i, out);
+                    finite =
+                        energies[i].total().is_finite() && out.iter().all(|v| (v * 0.0) == 0.0);
                 }
                 if !finite && bad.is_none() {
                     bad = Some(first + i);
@@ -771,6 +963,63 @@ fn face_energy(inp: &Inputs<'_>, f: usize) -> EnergyTerms {
             };
             let form = EdgeDirector { variant };
             eval_face_energy(&form, m, k, &s, &rest, damping.as_ref(), t)
+        }
+    }
+}
+
+/// The energies and gradient slots (`out`, the assembler's layout: vertex slots, then one
+/// slot per edge angle on axis 0) of face `f` by the per-face kernel ([`eval_face`]), for the
+/// faces the batch does not cover and those whose batched result is not finite.
+#[inline(never)]
+fn face_energy_gradient(inp: &Inputs<'_>, f: usize, out: &mut [f64]) -> EnergyTerms {
+    let st = inp.stencils;
+    let rest = FaceRest {
+        a_bar: inp.rest.a_bar[f],
+        b_bar: inp.rest.b_bar[f],
+    };
+    let damping = inp.damping.map(|d| FaceDamping {
+        a_prev: d.a_prev[f],
+        b_prev: d.b_prev[f],
+        dt: d.dt,
+    });
+    let want = Want {
+        gradient: true,
+        hessian: None,
+    };
+    let (m, t) = (inp.material, inp.terms);
+    let vertex_slots = inp.slots;
+    match inp.form {
+        Form::MidEdgeAverage => {
+            let s = st.stencil(f, inp.x);
+            let mut fe = FaceEval::<18>::default();
+            eval_face(
+                &crate::MidEdgeAverage,
+                m,
+                &s,
+                &rest,
+                damping.as_ref(),
+                t,
+                want,
+                &mut fe,
+            );
+            out[..3 * vertex_slots].copy_from_slice(&fe.gradient.as_slice()[..3 * vertex_slots]);
+            fe.energy
+        }
+        Form::EdgeDirector(variant, phi) => {
+            let s = if phi.is_empty() {
+                st.stencil(f, inp.x)
+            } else {
+                st.stencil_at(f, inp.x, phi)
+            };
+            let form = EdgeDirector { variant };
+            let mut fe = FaceEval::<DIRECTOR_DOFS>::default();
+            eval_face(&form, m, &s, &rest, damping.as_ref(), t, want, &mut fe);
+            let g = fe.gradient.as_slice();
+            out[..3 * vertex_slots].copy_from_slice(&g[..3 * vertex_slots]);
+            for (e, slot) in out[3 * vertex_slots..].chunks_exact_mut(3).enumerate() {
+                slot.copy_from_slice(&[g[18 + e], 0.0, 0.0]);
+            }
+            fe.energy
         }
     }
 }
