@@ -727,6 +727,15 @@ impl Assembler {
         self.stencils.set_clamped_edges(edges, x_ref)
     }
 
+    /// Makes `edges` mirror edges on symmetry planes with the given normals (model.md §1.4);
+    /// see [`Stencils::set_mirror_edges`]. Read by the edge-director forms only. Same errors.
+    pub fn set_mirror_edges(
+        &mut self,
+        edges: &[(thinshell_mesh::EdgeId, Vector3<f64>)],
+    ) -> Result<(), EnergyError> {
+        self.stencils.set_mirror_edges(edges)
+    }
+
     /// Kelvin–Voigt damping forms of the configuration (`x_prev` m, `phi_prev` rad or empty)
     /// at the start of a step of `dt` s, as [`DampingState::from_configuration`] but through
     /// this assembler's stencils, so that clamped edges (model.md §1.3) enter b^prev as they

@@ -15,7 +15,8 @@
 //! On a free edge with a fit (`stencil.ghost[i]`, model.md §1.2) θ_i/2 is replaced by
 //! atan(II_i^fit / (2 d_i)), II_i^fit the second moment of the quadratic through the six stencil
 //! points ([`boundary::fitted_moments`]); on a clamped edge (`stencil.clamp[i]`, §1.3) by the
-//! angle from the face normal to the clamp's director about the edge. Their derivatives come
+//! angle from the face normal to the clamp's director about the edge, on a mirror edge (§1.4)
+//! likewise with the director in the symmetry plane across the edge. Their derivatives come
 //! from dual numbers over the 18 positions and φ_i.
 //!
 //! Derivatives are taken per edge over 13 local dofs — the hinge vertices (p0, p1, p2, q) =
@@ -30,7 +31,7 @@
 use super::normals::{add_cross_hess, cross_normal, normalize_jac, skew};
 use super::{SecondFundamentalForm, SffDerivatives};
 use crate::material::dual::DualN;
-use crate::stencil::{EdgeAngles, FaceStencil};
+use crate::stencil::{EdgeAngles, EdgeClamp, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
 mod boundary;
@@ -247,10 +248,25 @@ fn dihedral_derivatives(p: [&Vector3<f64>; 4], hess: bool) -> (f64, PVec, Option
     (theta, g, Some(h))
 }
 
-/// The prescribed director of clamped boundary edge i, if any.
+/// How the director of boundary edge i is prescribed, if it is: held or mirrored.
 #[inline]
-fn clamp_of(s: &FaceStencil, i: usize) -> Option<[f64; 3]> {
-    s.clamp[i].filter(|_| !s.flap[i]).map(|n| [n.x, n.y, n.z])
+fn clamp_of(s: &FaceStencil, i: usize) -> Option<EdgeClamp> {
+    s.clamp[i].filter(|_| !s.flap[i])
+}
+
+/// II_i (m) of clamped or mirror edge i (`c` from [`clamp_of`]).
+#[inline]
+fn prescribed_moment<T: crate::material::dual::Scalar>(
+    p: &[[T; 3]; 6],
+    i: usize,
+    c: EdgeClamp,
+    sigma_phi: T,
+    f: impl Fn(f64) -> (f64, f64, f64),
+) -> T {
+    match c {
+        EdgeClamp::Held(n) => boundary::clamped_edge_moment(p, i, [n.x, n.y, n.z], sigma_phi, f),
+        EdgeClamp::Mirror(n) => boundary::mirrored_edge_moment(p, i, [n.x, n.y, n.z], sigma_phi, f),
+    }
 }
 
 impl EdgeDirector {
@@ -265,7 +281,7 @@ impl EdgeDirector {
         let sigma_phi = D::variable(angles.phi[i], 18).scale(angles.sigma[i]);
         let f = |a| self.variant.eval(a);
         match clamp_of(s, i) {
-            Some(nc) => boundary::clamped_edge_moment(&p, i, nc, sigma_phi, f),
+            Some(c) => prescribed_moment(&p, i, c, sigma_phi, f),
             None => boundary::fitted_edge_moment(&p, i, sigma_phi, f),
         }
     }
@@ -276,10 +292,9 @@ impl EdgeDirector {
         let area2 = (x[1] - x[0]).cross(&(x[2] - x[0])).norm();
         let p: [[f64; 3]; 6] = std::array::from_fn(|v| [x[v].x, x[v].y, x[v].z]);
         std::array::from_fn(|i| {
-            if let Some(nc) = clamp_of(s, i) {
+            if let Some(c) = clamp_of(s, i) {
                 let sigma_phi = angles.sigma[i] * angles.phi[i];
-                let f = |a| self.variant.eval(a);
-                return boundary::clamped_edge_moment(&p, i, nc, sigma_phi, f);
+                return prescribed_moment(&p, i, c, sigma_phi, |a| self.variant.eval(a));
             }
             if !s.flap[i] && s.ghost[i] {
                 let sigma_phi = angles.sigma[i] * angles.phi[i];
