@@ -143,6 +143,7 @@ impl ShellSystem {
         let mut assembler = Assembler::for_model(&self.mesh, &self.dofs, model)?;
         if self.has_edge_unknowns() {
             assembler.clamp_edges(&self.boundary.clamped_edges, self.clamp_reference())?;
+            assembler.set_mirror_edges(&self.boundary.mirror_normals())?;
         }
         Ok(assembler)
     }
@@ -177,19 +178,31 @@ impl ShellSystem {
             });
         }
         let directors = ShellSystem::has_edge_unknowns_for(&model);
+        if !boundary.mirror_edges.is_empty() && model.terms.bend && !directors {
+            return Err(SolverError::InvalidSetting {
+                name: "mirror_edges",
+                value: boundary.mirror_edges.len() as f64,
+                requirement: "an edge-director bending form (edge_director_tan or \
+                    edge_director_sin): the mid-edge average has no director to mirror",
+            });
+        }
         let mut dofs = boundary.dof_map(&mesh, !directors)?;
         if directors {
-            // Fitted free edges have no angle unknown (model.md §1.2).
+            // Fitted free edges have no angle unknown (model.md §1.2), nor do mirror edges
+            // (their director lies in the plane, §1.4).
             let fitted = thinshell_energy::fitted_free_edges(&mesh);
-            let fixed = boundary.clamped_edges.iter().chain(&fitted).copied();
+            let mirrored = boundary.mirror_edges.iter().map(|m| m.0);
+            let fixed = boundary.clamped_edges.iter().chain(&fitted).copied().chain(mirrored);
             dofs = dofs.with_edges(mesh.n_edges(), fixed)?;
         }
         let mass = lumped_mass(&mesh, &rest, &model.material)?;
         let f_ext = loads.forces(&mass)?;
         let mut assembler = Assembler::for_model(&mesh, &dofs, &model)?;
         if directors {
-            // The clamp holds the directors of the clamped edges (model.md §1.3).
+            // The clamp holds the directors of the clamped edges (model.md §1.3), a mirror
+            // keeps them in the symmetry plane (§1.4).
             assembler.clamp_edges(&boundary.clamped_edges, mesh.positions())?;
+            assembler.set_mirror_edges(&boundary.mirror_normals())?;
         }
         let angle_scale = mean_edge_length(&mesh);
         Ok(ShellSystem {
@@ -535,7 +548,7 @@ impl ShellSystem {
             let mut problem = AngleRelaxation::new(
                 &self.mesh,
                 &model,
-                &self.boundary.clamped_edges,
+                &self.boundary,
                 self.clamp_reference(),
             )?;
             problem.relax(&model, &self.rest, x, &mut phi, None, &settings)?;
@@ -736,7 +749,7 @@ impl ShellSystem {
             _ => Box::new(AngleRelaxation::new(
                 &self.mesh,
                 &self.model,
-                &self.boundary.clamped_edges,
+                &self.boundary,
                 self.clamp_reference(),
             )?),
         };
