@@ -326,7 +326,10 @@ impl Assembler {
         // batched across faces where `batch` covers it.
         let batched = want.hessian.is_none() && model.material.model == MaterialModel::StVK;
         match model.sff {
-            SffKind::MidEdgeAverage if batched => self.evaluate_faces_batched(
+            // The batch has no mirror edges (model.md §1.4): their faces need the per-face
+            // kernel, and the batched gradient pass has no fallback per face.
+            SffKind::MidEdgeAverage if batched && !self.stencils.has_mirror_edges() => self
+                .evaluate_faces_batched(
                 batch::Form::MidEdgeAverage,
                 model,
                 x,

@@ -156,7 +156,9 @@ impl Stencils {
     /// plane with the given normal (any length; normalised here): the director of such an edge
     /// lies in the plane, perpendicular to the edge, as the shell mirrored across the plane
     /// would share it. Their vertices must be held on the plane by the caller (a coordinate
-    /// pin), and their edge angles are not unknowns (like a clamp's). Replaces earlier mirror
+    /// pin), and their edge angles are not unknowns (like a clamp's). The mid-edge average
+    /// reads them too (its edge normal there is the face normal projected into the plane).
+    /// Replaces earlier mirror
     /// edges; takes precedence over a clamp of the same edge. Errors on an edge out of range,
     /// an interior edge, or a zero or non-finite normal.
     pub fn set_mirror_edges(&mut self, edges: &[(EdgeId, Vector3<f64>)]) -> Result<(), EnergyError> {
@@ -228,6 +230,11 @@ impl Stencils {
             !self.flap[f][e]
                 && (self.ghost[f][e] || self.clamp[f][e].is_some() || self.mirror[f][e].is_some())
         })
+    }
+
+    /// Whether any edge is a mirror edge ([`Stencils::set_mirror_edges`]).
+    pub(crate) fn has_mirror_edges(&self) -> bool {
+        self.mirror.iter().any(|m| m.iter().any(Option::is_some))
     }
 
     /// The edges of face `f` in local-edge order.

@@ -3,7 +3,10 @@
 //! nonlinear (w_c ≈ 1.6 h), solved on the quarter [0, 1]² with mirror edges on x = 0 and y = 0
 //! and on the whole plate [−1, 1]², built by mirroring the quarter mesh so that both
 //! discretisations are the same shell. The flat rest shape makes the clamps' directors the face
-//! normals on either mesh, so nothing but the mirror edges tells the two apart.
+//! normals on either mesh, so nothing but the mirror edges tells the two apart. The mid-edge
+//! average's clamp holds a second row of vertices, which at the clamp's end on a symmetry plane
+//! differs between the two meshes, so its plate is simply supported (outer vertices pinned;
+//! its boundary normal is the face normal on either mesh).
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::Vector3;
@@ -62,8 +65,9 @@ fn edges_on(mesh: &Mesh, axis: usize, value: f64) -> Vec<EdgeId> {
 }
 
 /// Solves the plate on `mesh` with its outer edges (x = 1, y = 1 and, on the whole plate,
-/// x = −1, y = −1) clamped, `mirror_edges` and `pins`, and the load `load` at the vertex at the
-/// origin; returns the positions and the centre vertex.
+/// x = −1, y = −1) clamped (edge-director forms) or pinned (mid-edge average), `mirror_edges`
+/// and `pins`, and the load `load` at the vertex at the origin; returns the positions and the
+/// centre vertex.
 fn solve(
     mesh: Mesh,
     sff: SffKind,
@@ -77,12 +81,21 @@ fn solve(
             clamped_edges.extend(e.into_iter().map(|e| e.0));
         }
     }
+    let mut pinned_vertices = Vec::new();
+    if sff.director().is_none() {
+        let topo = mesh.topology();
+        pinned_vertices = clamped_edges
+            .drain(..)
+            .flat_map(|e| topo.edge(e).vertices)
+            .collect();
+    }
     let centre = (0..mesh.n_vertices())
         .find(|&v| mesh.positions()[v].norm() < 1e-12)
         .map(VertexId::new)
         .unwrap();
     let boundary = Boundary {
         clamped_edges,
+        pinned_vertices,
         mirror_edges,
         pinned_coordinates: pins,
         ..Boundary::default()
@@ -112,14 +125,18 @@ fn solve(
 
 /// The quarter with mirror edges is the whole plate to solver tolerance: every vertex of the
 /// quarter within 1e-9 w_c of its place in the whole plate (both solves converge to the same
-/// state to round-off, about 1e-14 w_c), both edge-director forms. With free edges on the
-/// planes instead (the coordinates still held) the centre deflects more than 10 % further
-/// (16.5 %): the comparison fails when the mirror's director is wrong.
+/// state to round-off, about 1e-14 w_c), every form. With free edges on the planes instead
+/// (the coordinates still held) the centre deflects more than 10 % further (15.5–16.5 %):
+/// the comparison fails when the mirror's director is wrong.
 #[test]
 fn quarter_plate_with_mirror_edges_is_the_whole_plate() {
     let quarter = generators::rectangle(1.0, 1.0, N, N).unwrap();
     let whole = mirrored(&mirrored(&quarter, 0), 1);
-    for sff in [SffKind::EdgeDirector(DirectorVariant::Tan), SffKind::EdgeDirector(DirectorVariant::Sin)] {
+    for sff in [
+        SffKind::EdgeDirector(DirectorVariant::Tan),
+        SffKind::EdgeDirector(DirectorVariant::Sin),
+        SffKind::MidEdgeAverage,
+    ] {
         let mirror: Vec<(EdgeId, usize)> = (0..2)
             .flat_map(|axis| edges_on(&quarter, axis, 0.0).into_iter().map(move |e| (e, axis)))
             .collect();
@@ -127,7 +144,7 @@ fn quarter_plate_with_mirror_edges_is_the_whole_plate() {
         // Rigid motion of the whole plate is held by its clamps.
         let (xw, cw) = solve(whole.clone(), sff, vec![], vec![], LOAD);
         let w_c = -xw[cw.idx()].z;
-        assert!(w_c > 1.5 * material().thickness, "{sff:?}: w_c = {w_c}");
+        assert!(w_c > 1.2 * material().thickness, "{sff:?}: w_c = {w_c}");
         let worst = (0..quarter.n_vertices())
             .map(|v| (xq[v] - xw[v]).norm())
             .fold(0.0f64, f64::max);
@@ -145,46 +162,6 @@ fn quarter_plate_with_mirror_edges_is_the_whole_plate() {
         let w_free = -xf[c.idx()].z;
         assert!(w_free > 1.1 * w_c, "{sff:?}: free {w_free} vs mirror {w_c}");
     }
-}
-
-/// The mid-edge average has no director to mirror: refused with bending on, naming the
-/// setting; accepted as plain coordinate pins when bending is off.
-#[test]
-fn mirror_edges_need_an_edge_director_form() {
-    let mesh = generators::rectangle(1.0, 1.0, 4, 4).unwrap();
-    let boundary = || Boundary {
-        mirror_edges: Boundary::symmetry_plane(&mesh, 0, 0.0, 1e-12).unwrap(),
-        ..Boundary::default()
-    };
-    let sff = SffKind::MidEdgeAverage;
-    let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
-    let model = ShellModel {
-        material: material(),
-        terms: Terms::ELASTIC,
-        sff,
-    };
-    let err = ShellSystem::new(
-        mesh.clone(),
-        model,
-        rest.clone(),
-        boundary(),
-        Loads::default(),
-    )
-    .unwrap_err();
-    assert!(
-        matches!(err, SolverError::InvalidSetting { name: "mirror_edges", .. }),
-        "{err}"
-    );
-    assert!(err.to_string().contains("mid-edge average"), "{err}");
-    let membrane = ShellModel {
-        terms: Terms {
-            bend: false,
-            ..Terms::ELASTIC
-        },
-        ..model
-    };
-    let sys = ShellSystem::new(mesh.clone(), membrane, rest, boundary(), Loads::default());
-    assert!(sys.is_ok());
 }
 
 /// `symmetry_plane` selects the boundary edges on the plane and refuses bad planes.

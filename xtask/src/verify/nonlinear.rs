@@ -11,7 +11,7 @@ use thinshell_solver::{Boundary, Loads, PathSettings, ShellPath};
 
 use super::case::{Curve, Outcome, Quantity, Spec};
 use super::linear::{hemisphere_displacements, hemisphere_loads};
-use super::solve::{Config, V3, held_by_pins, ramp, stress_free, unheld, vertex_at};
+use super::solve::{Config, V3, held_by_pins, ramp, stress_free, vertex_at};
 
 const GROUP: &str = "geometrically nonlinear paths (Sze, Liu & Lo 2004)";
 
@@ -416,41 +416,79 @@ fn hemisphere_path(sff: SffKind, level: usize) -> Result<Outcome> {
     })
 }
 
-fn pullout(sff: SffKind, level: usize) -> Result<Outcome> {
-    let (r, len, h, e, nu, pmax) = (4.953, 10.35, 0.094, 10.5e6, 0.3125, 40_000.0);
-    let (around, along) = (32 + 16 * level, 12 + 6 * level);
-    let mesh = generators::cylinder_patch(r, std::f64::consts::TAU, len, around, along)?;
-    let faces = mesh.n_faces();
+/// The pull-out's octant mesh of `level` (quarter circle × half length): (8 + 4 level) ×
+/// (6 + 3 level) cells, i.e. the full model's (32 + 16 level) × (12 + 6 level), so that the
+/// load point, B and C are vertices and the cells keep their shape.
+fn pullout_octant_mesh(level: usize) -> (usize, usize) {
+    (8 + 4 * level, 6 + 3 * level)
+}
+
+/// The pull-out's octant x ≥ 0, y ≥ 0, z ≤ L/2 with mirror edges on the planes x = 0, y = 0,
+/// z = L/2 (the paper's model; a quarter of the load at the load point, which lies on two of
+/// them), its reading of (w_A, −u_B, −u_C) and its mesh label.
+struct Pullout {
+    sys: thinshell_solver::ShellSystem,
+    /// (w_A, −u_B, −u_C) at positions `x`.
+    measure: Box<dyn Fn(&[V3]) -> [f64; 3]>,
+    label: String,
+    faces: usize,
+}
+
+/// The octant of [`Pullout`] on `nq × nh` cells (quarter circle × half length), thickness `h`
+/// and peak load `pmax` (N, the whole shell's).
+fn pullout_shell(sff: SffKind, (nq, nh): (usize, usize), h: f64, pmax: f64) -> Result<Pullout> {
+    let (r, len, e, nu) = (4.953, 10.35, 10.5e6, 0.3125);
     let mid = 0.5 * len;
-    let pair = |x: f64, y: f64, z: f64| -> Result<[VertexId; 2]> {
-        Ok([
-            vertex_at(&mesh, V3::new(x, y, z))?,
-            vertex_at(&mesh, V3::new(-x, -y, z))?,
-        ])
+    let material = Material {
+        thickness: h,
+        young: e,
+        poisson: nu,
+        ..Material::paper()
     };
-    let a = pair(0.0, r, mid)?;
-    let b = pair(r, 0.0, mid)?;
-    let c = pair(r, 0.0, 0.0)?;
-    let point_forces = vec![
-        (a[0], V3::new(0.0, pmax, 0.0)),
-        (a[1], V3::new(0.0, -pmax, 0.0)),
-    ];
-    let x0 = mesh.positions().to_vec();
-    let mut sys = unheld(
-        mesh,
+    let mesh = generators::cylinder_patch(r, std::f64::consts::FRAC_PI_2, mid, nq, nh)?;
+    let faces = mesh.n_faces();
+    let tol = 1e-9 * r;
+    let mut mirror_edges = Vec::new();
+    for (axis, value) in [(0, 0.0), (1, 0.0), (2, mid)] {
+        mirror_edges.extend(Boundary::symmetry_plane(&mesh, axis, value, tol)?);
+    }
+    let a = vertex_at(&mesh, V3::new(0.0, r, mid))?;
+    let b = vertex_at(&mesh, V3::new(r, 0.0, mid))?;
+    let c = vertex_at(&mesh, V3::new(r, 0.0, 0.0))?;
+    let boundary = Boundary {
+        mirror_edges,
+        ..Boundary::default()
+    };
+    let rest = thinshell_energy::RestState::from_mesh_with_mirrors(
+        &mesh,
+        mesh.positions(),
         sff,
-        Material {
-            thickness: h,
-            young: e,
-            poisson: nu,
-            ..Material::paper()
-        },
-        point_forces,
+        &boundary.mirror_normals(),
     )?;
-    // Half the change of the distance between a pair (outward positive).
-    let half_change = |x: &[V3], p: [VertexId; 2]| {
-        0.5 * ((x[p[0].idx()] - x[p[1].idx()]).norm() - (x0[p[0].idx()] - x0[p[1].idx()]).norm())
+    let loads = Loads {
+        point_forces: vec![(a, V3::new(0.0, 0.25 * pmax, 0.0))],
+        ..Loads::default()
     };
+    let sys = super::solve::system(mesh, rest, sff, material, boundary, loads)?;
+    // On the symmetric state each point's mirror image is its reflection in the plane through
+    // the axis, so half the change of their distance is the change of its distance from that
+    // plane.
+    Ok(Pullout {
+        sys,
+        measure: Box::new(move |x| [x[a.idx()].y - r, r - x[b.idx()].x, r - x[c.idx()].x]),
+        label: format!("open cylinder {}×{}, octant {nq}×{nh}", 4 * nq, 2 * nh),
+        faces,
+    })
+}
+
+fn pullout(sff: SffKind, level: usize) -> Result<Outcome> {
+    let Pullout {
+        mut sys,
+        measure,
+        label,
+        faces,
+    } = pullout_shell(sff, pullout_octant_mesh(level), 0.094, 40_000.0)?;
+    let x0 = sys.mesh().positions().to_vec();
     sys.set_load_factor(0.0)?;
     let mut cfg = Config::of(&sys, x0.clone());
     let mut tracer = ShellPath::new(PathSettings {
@@ -458,19 +496,15 @@ fn pullout(sff: SffKind, level: usize) -> Result<Outcome> {
         ..PathSettings::default()
     });
     // (λ, w_A, −u_B, −u_C) along the path.
-    let measure = |k: &Config, l: f64| {
-        [
-            l,
-            half_change(&k.x, a),
-            -half_change(&k.x, b),
-            -half_change(&k.x, c),
-        ]
+    let point = |k: &Config, l: f64| {
+        let [wa, ub, uc] = measure(&k.x);
+        [l, wa, ub, uc]
     };
-    let mut path = vec![measure(&cfg, 0.0)];
+    let mut path = vec![point(&cfg, 0.0)];
     let mut failure = None;
     for _ in 0..PULL_MAX_STEPS {
         match tracer.step(&mut sys, &mut cfg.x, &mut cfg.phi) {
-            Ok(p) => path.push(measure(&cfg, p.load_factor)),
+            Ok(p) => path.push(point(&cfg, p.load_factor)),
             Err(e) => {
                 failure = Some(e.to_string());
                 break;
@@ -515,7 +549,7 @@ fn pullout(sff: SffKind, level: usize) -> Result<Outcome> {
         })
         .collect();
     Ok(Outcome {
-        mesh: format!("open cylinder {around}×{along}"),
+        mesh: label,
         faces,
         quantities,
         converged: failure.is_none() && wa.len() == PULL_LEVELS.len(),
@@ -669,13 +703,6 @@ fn quadratic_at(p: [(f64, f64); 3], x: f64) -> f64 {
         + y2 * (x - x0) * (x - x1) / ((x2 - x0) * (x2 - x1))
 }
 
-/// The pull-out study's meshes (around × along): 32 (level + 1) × 12 (level + 1), so that the
-/// load points, B and C are vertices and the cells keep their shape.
-#[cfg(test)]
-fn pullout_study_mesh(level: usize) -> (usize, usize) {
-    (32 * (level + 1), 12 * (level + 1))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -729,9 +756,10 @@ mod tests {
 
     /// The pull-out before its snap (not a check; prints a table): w_A, −u_B, −u_C and the
     /// stretching share of the energy at P/Pmax = 0.1, 0.3, 0.5 (or `PULL_STUDY_LAMBDA`) by
-    /// load stepping, on the meshes `pullout_study_mesh` of `PULL_STUDY_LEVELS` (default
-    /// 1,2,3: 64×24, 96×36, 128×48), with the thickness scaled by `PULL_STUDY_T` (factors,
-    /// default 1) and the load by its cube. Run:
+    /// load stepping on the octant model, on the meshes `pullout_octant_mesh` of
+    /// `PULL_STUDY_LEVELS` (default 2,4,6: octant 16×12, 24×18, 32×24, i.e. the full model's
+    /// 64×24, 96×36, 128×48), with the thickness scaled by `PULL_STUDY_T` (factors, default 1)
+    /// and the load by its cube. Run:
     /// `cargo test -p xtask --release pullout_presnap_study -- --ignored --nocapture`.
     #[test]
     #[ignore = "a study of minutes; prints a table"]
@@ -743,55 +771,33 @@ mod tests {
                 .map(|s| s.trim().parse::<f64>())
                 .collect::<std::result::Result<_, _>>()?)
         };
-        let levels = list("PULL_STUDY_LEVELS", "1,2,3")?;
+        let levels = list("PULL_STUDY_LEVELS", "2,4,6")?;
         let lambdas = list("PULL_STUDY_LAMBDA", "0.1,0.3,0.5")?;
         let factors = list("PULL_STUDY_T", "1")?;
-        let (r, len, h, e, nu, pmax) = (4.953, 10.35, 0.094, 10.5e6, 0.3125, 40_000.0);
+        let (h, pmax) = (0.094, 40_000.0);
         println!("h | P_max | mesh | faces | λ | w_A | −u_B | −u_C | stretch share | s");
         for &f in &factors {
             for &level in &levels {
-                let level = level as usize;
-                let (around, along) = pullout_study_mesh(level);
-                let mesh =
-                    generators::cylinder_patch(r, std::f64::consts::TAU, len, around, along)?;
-                let faces = mesh.n_faces();
-                let pair = |x: f64, y: f64, z: f64| -> Result<[VertexId; 2]> {
-                    Ok([
-                        vertex_at(&mesh, V3::new(x, y, z))?,
-                        vertex_at(&mesh, V3::new(-x, -y, z))?,
-                    ])
-                };
-                let a = pair(0.0, r, 0.5 * len)?;
-                let b = pair(r, 0.0, 0.5 * len)?;
-                let c = pair(r, 0.0, 0.0)?;
                 let p = pmax * f.powi(3);
-                let forces = vec![(a[0], V3::new(0.0, p, 0.0)), (a[1], V3::new(0.0, -p, 0.0))];
-                let x0 = mesh.positions().to_vec();
-                let mut sys = unheld(
-                    mesh,
+                let Pullout {
+                    mut sys,
+                    measure,
+                    label,
+                    faces,
+                } = pullout_shell(
                     SffKind::default(),
-                    Material {
-                        thickness: h * f,
-                        young: e,
-                        poisson: nu,
-                        ..Material::paper()
-                    },
-                    forces,
+                    pullout_octant_mesh(level as usize),
+                    h * f,
+                    p,
                 )?;
-                let half = |x: &[V3], q: [VertexId; 2]| {
-                    0.5 * ((x[q[0].idx()] - x[q[1].idx()]).norm()
-                        - (x0[q[0].idx()] - x0[q[1].idx()]).norm())
-                };
-                let mut cfg = Config::of(&sys, x0.clone());
+                let mut cfg = Config::of(&sys, sys.mesh().positions().to_vec());
                 let start = std::time::Instant::now();
                 let stopped = ramp(&mut sys, &mut cfg, &lambdas, 0.1, |sys, l, k| {
                     let en = sys.energy_at(&k.x, &k.phi)?;
+                    let [wa, ub, uc] = measure(&k.x);
                     println!(
-                        "{:.4} | {p:.0} | {around}×{along} | {faces} | {l} | {:.4} | {:.4} | {:.4} | {:.4} | {:.1}",
+                        "{:.4} | {p:.0} | {label} | {faces} | {l} | {wa:.4} | {ub:.4} | {uc:.4} | {:.4} | {:.1}",
                         h * f,
-                        half(&k.x, a),
-                        -half(&k.x, b),
-                        -half(&k.x, c),
                         en.stretch / (en.stretch + en.bend),
                         start.elapsed().as_secs_f64()
                     );

@@ -46,13 +46,12 @@ pub struct Boundary {
     /// (x, y, z), for a model of a symmetric shell cut along its symmetry planes under loads
     /// with the same symmetry (a load on a plane carries the share of the modelled part, e.g.
     /// half of a point force on one plane). Their vertices keep that coordinate (as
-    /// [`Boundary::pinned_coordinates`]), and with edge-director bending (the default form)
-    /// the edge's director lies in the plane, perpendicular to the edge: the one the mirrored
-    /// shell would share (model.md §1.4), so the cut carries the bending moment of the whole
-    /// shell instead of being a free edge. The mid-edge average has no such director and
-    /// [`crate::ShellSystem::new`] refuses mirror edges with it (with bending on). The rest
-    /// forms of such a model come from `RestState::from_mesh_with_mirrors`
-    /// ([`Boundary::mirror_normals`]). [`Boundary::symmetry_plane`] selects the edges.
+    /// [`Boundary::pinned_coordinates`]), and the bending form sees the mirrored shell across
+    /// the edge (model.md §1.4) instead of a free edge: with edge directors the edge's director
+    /// lies in the plane, perpendicular to the edge (no angle unknown there); the mid-edge
+    /// average's edge normal is the face normal projected into the plane. The rest forms of
+    /// such a model come from `RestState::from_mesh_with_mirrors` ([`Boundary::mirror_normals`]).
+    /// [`Boundary::symmetry_plane`] selects the edges.
     pub mirror_edges: Vec<(EdgeId, usize)>,
     /// Vertices moved along a prescribed path.
     pub prescribed: Vec<Prescribed>,

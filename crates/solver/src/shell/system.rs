@@ -143,8 +143,8 @@ impl ShellSystem {
         let mut assembler = Assembler::for_model(&self.mesh, &self.dofs, model)?;
         if self.has_edge_unknowns() {
             assembler.clamp_edges(&self.boundary.clamped_edges, self.clamp_reference())?;
-            assembler.set_mirror_edges(&self.boundary.mirror_normals())?;
         }
+        assembler.set_mirror_edges(&self.boundary.mirror_normals())?;
         Ok(assembler)
     }
 
@@ -178,14 +178,6 @@ impl ShellSystem {
             });
         }
         let directors = ShellSystem::has_edge_unknowns_for(&model);
-        if !boundary.mirror_edges.is_empty() && model.terms.bend && !directors {
-            return Err(SolverError::InvalidSetting {
-                name: "mirror_edges",
-                value: boundary.mirror_edges.len() as f64,
-                requirement: "an edge-director bending form (edge_director_tan or \
-                    edge_director_sin): the mid-edge average has no director to mirror",
-            });
-        }
         let mut dofs = boundary.dof_map(&mesh, !directors)?;
         if directors {
             // Fitted free edges have no angle unknown (model.md §1.2), nor do mirror edges
@@ -199,11 +191,11 @@ impl ShellSystem {
         let f_ext = loads.forces(&mass)?;
         let mut assembler = Assembler::for_model(&mesh, &dofs, &model)?;
         if directors {
-            // The clamp holds the directors of the clamped edges (model.md §1.3), a mirror
-            // keeps them in the symmetry plane (§1.4).
+            // The clamp holds the directors of the clamped edges (model.md §1.3).
             assembler.clamp_edges(&boundary.clamped_edges, mesh.positions())?;
-            assembler.set_mirror_edges(&boundary.mirror_normals())?;
         }
+        // Every bending form sees the mirrored shell across a mirror edge (§1.4).
+        assembler.set_mirror_edges(&boundary.mirror_normals())?;
         let angle_scale = mean_edge_length(&mesh);
         Ok(ShellSystem {
             mesh,
