@@ -134,8 +134,8 @@ pub(crate) static SPECS: [Spec; 4] = [
             the full run starts at 48×18 (it saves about 100 s of the suite).",
         tolerance: 0.03,
         quick_tolerance: 1.0,
-        levels: 3,
-        first_level: 1,
+        levels: 5,
+        first_level: 2,
         reference_curves: pullout_reference,
         run: pullout,
     },
@@ -416,11 +416,11 @@ fn hemisphere_path(sff: SffKind, level: usize) -> Result<Outcome> {
     })
 }
 
-/// The pull-out's octant mesh of `level` (quarter circle × half length): (8 + 4 level) ×
-/// (6 + 3 level) cells, i.e. the full model's (32 + 16 level) × (12 + 6 level), so that the
-/// load point, B and C are vertices and the cells keep their shape.
+/// The pull-out's octant mesh of `level` (quarter circle × half length): (8 + 12 level) ×
+/// (6 + 9 level) cells, i.e. the full model's (32 + 48 level) × (12 + 18 level), so that the
+/// cells keep their shape (the load point, B and C are corners of the octant).
 fn pullout_octant_mesh(level: usize) -> (usize, usize) {
-    (8 + 4 * level, 6 + 3 * level)
+    (8 + 12 * level, 6 + 9 * level)
 }
 
 /// The pull-out's octant x ≥ 0, y ≥ 0, z ≤ L/2 with mirror edges on the planes x = 0, y = 0,
