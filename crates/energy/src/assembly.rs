@@ -330,14 +330,14 @@ impl Assembler {
             // kernel, and the batched gradient pass has no fallback per face.
             SffKind::MidEdgeAverage if batched && !self.stencils.has_mirror_edges() => self
                 .evaluate_faces_batched(
-                batch::Form::MidEdgeAverage,
-                model,
-                x,
-                rest,
-                damping,
-                want.gradient,
-                parallel,
-            )?,
+                    batch::Form::MidEdgeAverage,
+                    model,
+                    x,
+                    rest,
+                    damping,
+                    want.gradient,
+                    parallel,
+                )?,
             SffKind::EdgeDirector(variant) if batched && !want.gradient => self
                 .evaluate_faces_batched(
                     batch::Form::EdgeDirector(variant, phi),

@@ -161,7 +161,10 @@ impl Stencils {
     /// Replaces earlier mirror
     /// edges; takes precedence over a clamp of the same edge. Errors on an edge out of range,
     /// an interior edge, or a zero or non-finite normal.
-    pub fn set_mirror_edges(&mut self, edges: &[(EdgeId, Vector3<f64>)]) -> Result<(), EnergyError> {
+    pub fn set_mirror_edges(
+        &mut self,
+        edges: &[(EdgeId, Vector3<f64>)],
+    ) -> Result<(), EnergyError> {
         let n_edges = self.n_edges;
         let mut normal: Vec<Option<Vector3<f64>>> = vec![None; n_edges];
         for &(e, p) in edges {

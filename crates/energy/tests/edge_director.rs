@@ -1103,11 +1103,18 @@ fn mirror_edge_is_the_interior_edge_to_the_mirror_image() {
             let form = EdgeDirector { variant };
             let (b, b_image) = (form.b(&mirror), form.b(&image));
             let scale = b_image.abs().max();
-            assert!((b - b_image).abs().max() <= 1e-12 * scale, "{b} vs {b_image}");
+            assert!(
+                (b - b_image).abs().max() <= 1e-12 * scale,
+                "{b} vs {b_image}"
+            );
             if (form.b(&free) - b).abs().max() > 1e-3 * scale {
                 differs += 1;
             }
         }
     }
-    assert!(differs > 150, "the free edge gave the mirror's b in {} of 200", 200 - differs);
+    assert!(
+        differs > 150,
+        "the free edge gave the mirror's b in {} of 200",
+        200 - differs
+    );
 }

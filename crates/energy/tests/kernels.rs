@@ -88,7 +88,8 @@ fn mirror_stencil_strategy() -> impl Strategy<Value = FaceStencil> {
             FaceStencil {
                 clamp: std::array::from_fn(|e| {
                     (!s.flap[e] && coin[e]).then(|| {
-                        let edge = nalgebra::Unit::new_normalize(s.x[(e + 2) % 3] - s.x[(e + 1) % 3]);
+                        let edge =
+                            nalgebra::Unit::new_normalize(s.x[(e + 2) % 3] - s.x[(e + 1) % 3]);
                         let m = nalgebra::Rotation3::from_axis_angle(&edge, tilt[e]) * n;
                         EdgeClamp::Mirror(edge.cross(&m).normalize())
                     })

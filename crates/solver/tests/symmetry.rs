@@ -138,7 +138,11 @@ fn quarter_plate_with_mirror_edges_is_the_whole_plate() {
         SffKind::MidEdgeAverage,
     ] {
         let mirror: Vec<(EdgeId, usize)> = (0..2)
-            .flat_map(|axis| edges_on(&quarter, axis, 0.0).into_iter().map(move |e| (e, axis)))
+            .flat_map(|axis| {
+                edges_on(&quarter, axis, 0.0)
+                    .into_iter()
+                    .map(move |e| (e, axis))
+            })
             .collect();
         let (xq, c) = solve(quarter.clone(), sff, mirror.clone(), vec![], LOAD / 4.0);
         // Rigid motion of the whole plate is held by its clamps.
@@ -178,7 +182,12 @@ fn symmetry_plane_selects_boundary_edges_and_checks_its_input() {
         }
     }
     // The interior line x = 0.5 holds no boundary edge.
-    for (axis, value, tol) in [(0, 0.5, 1e-9), (3, 0.0, 1e-9), (0, f64::NAN, 1e-9), (0, 0.0, -1.0)] {
+    for (axis, value, tol) in [
+        (0, 0.5, 1e-9),
+        (3, 0.0, 1e-9),
+        (0, f64::NAN, 1e-9),
+        (0, 0.0, -1.0),
+    ] {
         let err = Boundary::symmetry_plane(&mesh, axis, value, tol).unwrap_err();
         assert!(matches!(err, SolverError::InvalidSetting { .. }), "{err}");
     }

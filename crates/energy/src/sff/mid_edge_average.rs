@@ -227,8 +227,7 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
         }
         let mut interior: [Option<Interior>; 3] = [None, None, None];
         // Mirror edges: (plane normal p, n_e, |P n_f|, I − n_e n_eᵀ).
-        let mut mirrored: [Option<(Vector3<f64>, Vector3<f64>, f64, Matrix3<f64>)>; 3] =
-            [None; 3];
+        let mut mirrored: [Option<(Vector3<f64>, Vector3<f64>, f64, Matrix3<f64>)>; 3] = [None; 3];
         for e in 0..3 {
             if s.flap[e] {
                 let gi = neighbour_blocks(e);

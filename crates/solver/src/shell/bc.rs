@@ -68,11 +68,15 @@ impl Boundary {
     ) -> Result<Vec<(VertexId, usize)>, SolverError> {
         let mut held: Vec<(VertexId, usize)> = self.pinned_coordinates.clone();
         for &(e, axis) in &self.mirror_edges {
-            let edge = mesh.topology().edges().get(e.idx()).ok_or(SolverError::InvalidSetting {
-                name: "mirror_edges",
-                value: e.idx() as f64,
-                requirement: "edge id out of range",
-            })?;
+            let edge = mesh
+                .topology()
+                .edges()
+                .get(e.idx())
+                .ok_or(SolverError::InvalidSetting {
+                    name: "mirror_edges",
+                    value: e.idx() as f64,
+                    requirement: "edge id out of range",
+                })?;
             if axis > 2 {
                 return Err(SolverError::InvalidSetting {
                     name: "mirror_edges axis",

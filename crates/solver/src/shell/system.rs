@@ -184,7 +184,12 @@ impl ShellSystem {
             // (their director lies in the plane, §1.4).
             let fitted = thinshell_energy::fitted_free_edges(&mesh);
             let mirrored = boundary.mirror_edges.iter().map(|m| m.0);
-            let fixed = boundary.clamped_edges.iter().chain(&fitted).copied().chain(mirrored);
+            let fixed = boundary
+                .clamped_edges
+                .iter()
+                .chain(&fitted)
+                .copied()
+                .chain(mirrored);
             dofs = dofs.with_edges(mesh.n_edges(), fixed)?;
         }
         let mass = lumped_mass(&mesh, &rest, &model.material)?;
@@ -537,12 +542,8 @@ impl ShellSystem {
         if self.model.terms.damping {
             // The cached angle problem includes damping; the elastic minimiser needs its own.
             let model = self.elastic_model();
-            let mut problem = AngleRelaxation::new(
-                &self.mesh,
-                &model,
-                &self.boundary,
-                self.clamp_reference(),
-            )?;
+            let mut problem =
+                AngleRelaxation::new(&self.mesh, &model, &self.boundary, self.clamp_reference())?;
             problem.relax(&model, &self.rest, x, &mut phi, None, &settings)?;
         } else {
             self.relax_edge_angles(x, &mut phi, None, &settings, None)?;

@@ -167,7 +167,10 @@ pub fn build(
     }
     for (i, plane) in spec.symmetry.iter().enumerate() {
         let axis = "xyz".find(plane.axis.as_str()).ok_or_else(|| {
-            problem(format!("boundary.symmetry[{i}].axis"), "must be \"x\", \"y\" or \"z\"")
+            problem(
+                format!("boundary.symmetry[{i}].axis"),
+                "must be \"x\", \"y\" or \"z\"",
+            )
         })?;
         let tolerance = plane
             .tolerance
