@@ -430,10 +430,32 @@ fn pullout_octant_mesh(level: usize) -> (usize, usize) {
 /// them), its reading of (w_A, −u_B, −u_C) and its mesh label.
 struct Pullout {
     sys: thinshell_solver::ShellSystem,
-    /// (w_A, −u_B, −u_C) at positions `x`.
-    measure: Box<dyn Fn(&[V3]) -> [f64; 3]>,
+    gauges: PulloutGauges,
     label: String,
     faces: usize,
+}
+
+/// The vertices at A (load point), B and C of the octant of radius `r` (m).
+#[derive(Clone, Copy)]
+struct PulloutGauges {
+    a: VertexId,
+    b: VertexId,
+    c: VertexId,
+    r: f64,
+}
+
+impl PulloutGauges {
+    /// (w_A, −u_B, −u_C) at positions `x`: on the symmetric state each point's mirror image
+    /// is its reflection in the plane through the axis, so half the change of their distance
+    /// is the change of its distance from that plane.
+    fn measure(&self, x: &[V3]) -> [f64; 3] {
+        let r = self.r;
+        [
+            x[self.a.idx()].y - r,
+            r - x[self.b.idx()].x,
+            r - x[self.c.idx()].x,
+        ]
+    }
 }
 
 /// The octant of [`Pullout`] on `nq × nh` cells (quarter circle × half length), thickness `h`
@@ -472,12 +494,9 @@ fn pullout_shell(sff: SffKind, (nq, nh): (usize, usize), h: f64, pmax: f64) -> R
         ..Loads::default()
     };
     let sys = super::solve::system(mesh, rest, sff, material, boundary, loads)?;
-    // On the symmetric state each point's mirror image is its reflection in the plane through
-    // the axis, so half the change of their distance is the change of its distance from that
-    // plane.
     Ok(Pullout {
         sys,
-        measure: Box::new(move |x| [x[a.idx()].y - r, r - x[b.idx()].x, r - x[c.idx()].x]),
+        gauges: PulloutGauges { a, b, c, r },
         label: format!("open cylinder {}×{}, octant {nq}×{nh}", 4 * nq, 2 * nh),
         faces,
     })
@@ -486,7 +505,7 @@ fn pullout_shell(sff: SffKind, (nq, nh): (usize, usize), h: f64, pmax: f64) -> R
 fn pullout(sff: SffKind, level: usize) -> Result<Outcome> {
     let Pullout {
         mut sys,
-        measure,
+        gauges,
         label,
         faces,
     } = pullout_shell(sff, pullout_octant_mesh(level), 0.094, 40_000.0)?;
@@ -499,7 +518,7 @@ fn pullout(sff: SffKind, level: usize) -> Result<Outcome> {
     });
     // (λ, w_A, −u_B, −u_C) along the path.
     let point = |k: &Config, l: f64| {
-        let [wa, ub, uc] = measure(&k.x);
+        let [wa, ub, uc] = gauges.measure(&k.x);
         [l, wa, ub, uc]
     };
     let mut path = vec![point(&cfg, 0.0)];
@@ -783,7 +802,7 @@ mod tests {
                 let p = pmax * f.powi(3);
                 let Pullout {
                     mut sys,
-                    measure,
+                    gauges,
                     label,
                     faces,
                 } = pullout_shell(
@@ -796,7 +815,7 @@ mod tests {
                 let start = std::time::Instant::now();
                 let stopped = ramp(&mut sys, &mut cfg, &lambdas, 0.1, |sys, l, k| {
                     let en = sys.energy_at(&k.x, &k.phi)?;
-                    let [wa, ub, uc] = measure(&k.x);
+                    let [wa, ub, uc] = gauges.measure(&k.x);
                     println!(
                         "{:.4} | {p:.0} | {label} | {faces} | {l} | {wa:.4} | {ub:.4} | {uc:.4} | {:.4} | {:.1}",
                         h * f,

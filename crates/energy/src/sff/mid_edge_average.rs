@@ -52,6 +52,9 @@ fn project(p: &Vector3<f64>, v: &Vector3<f64>) -> Vector3<f64> {
     v - p * p.dot(v)
 }
 
+/// Per mirror edge: (plane normal p, unit n_e, |P n_f|, I − n_e n_eᵀ).
+type MirrorEdge = (Vector3<f64>, Vector3<f64>, f64, Matrix3<f64>);
+
 /// Per interior edge: (unit n_e, |n_f + n_g|, unit n_g, |c_g|).
 type InteriorEdge = (Vector3<f64>, f64, Vector3<f64>, f64);
 
@@ -226,8 +229,7 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
             jcg: [Matrix3<f64>; 3],
         }
         let mut interior: [Option<Interior>; 3] = [None, None, None];
-        // Mirror edges: (plane normal p, n_e, |P n_f|, I − n_e n_eᵀ).
-        let mut mirrored: [Option<(Vector3<f64>, Vector3<f64>, f64, Matrix3<f64>)>; 3] = [None; 3];
+        let mut mirrored: [Option<MirrorEdge>; 3] = [None; 3];
         for e in 0..3 {
             if s.flap[e] {
                 let gi = neighbour_blocks(e);
