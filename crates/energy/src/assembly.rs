@@ -326,15 +326,18 @@ impl Assembler {
         // batched across faces where `batch` covers it.
         let batched = want.hessian.is_none() && model.material.model == MaterialModel::StVK;
         match model.sff {
-            SffKind::MidEdgeAverage if batched => self.evaluate_faces_batched(
-                batch::Form::MidEdgeAverage,
-                model,
-                x,
-                rest,
-                damping,
-                want.gradient,
-                parallel,
-            )?,
+            // The mid-edge batch has no mirror edges (model.md §1.4): their faces need the
+            // per-face kernel, and its batched gradient pass has no fallback per face.
+            SffKind::MidEdgeAverage if batched && !self.stencils.has_mirror_edges() => self
+                .evaluate_faces_batched(
+                    batch::Form::MidEdgeAverage,
+                    model,
+                    x,
+                    rest,
+                    damping,
+                    want.gradient,
+                    parallel,
+                )?,
             SffKind::EdgeDirector(variant) if batched => self.evaluate_faces_batched(
                 batch::Form::EdgeDirector(variant, phi),
                 model,
@@ -724,6 +727,15 @@ impl Assembler {
         x_ref: &[Vector3<f64>],
     ) -> Result<(), EnergyError> {
         self.stencils.set_clamped_edges(edges, x_ref)
+    }
+
+    /// Makes `edges` mirror edges on symmetry planes with the given normals (model.md §1.4);
+    /// see [`Stencils::set_mirror_edges`]. Read by the edge-director forms only. Same errors.
+    pub fn set_mirror_edges(
+        &mut self,
+        edges: &[(thinshell_mesh::EdgeId, Vector3<f64>)],
+    ) -> Result<(), EnergyError> {
+        self.stencils.set_mirror_edges(edges)
     }
 
     /// Kelvin–Voigt damping forms of the configuration (`x_prev` m, `phi_prev` rad or empty)

@@ -114,7 +114,7 @@ pub use sff::{
     DIRECTOR_DOFS, DirectorVariant, EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind,
 };
 pub use shell::ShellModel;
-pub use stencil::{EdgeAngles, FaceStencil, edge_signs};
+pub use stencil::{EdgeAngles, EdgeClamp, FaceStencil, edge_signs};
 pub use stencils::{Stencils, fitted_free_edges};
 
 // The linear-algebra crates of the public types (nalgebra vectors and forms, faer sparse

@@ -95,6 +95,24 @@ impl RestState {
         Ok(rest)
     }
 
+    /// [`RestState::from_mesh`] for a shell cut by symmetry planes: `mirror_edges` (boundary
+    /// edge, plane normal) enter b̄ as they enter the energy (model.md §1.4), so that the rest
+    /// shape is stress-free with the mirror edges' directors in their planes. Only the
+    /// edge-director forms read mirror edges. Errors as [`RestState::from_mesh`] and
+    /// [`crate::Stencils::set_mirror_edges`].
+    pub fn from_mesh_with_mirrors(
+        mesh: &Mesh,
+        x: &[Vector3<f64>],
+        sff: SffKind,
+        mirror_edges: &[(thinshell_mesh::EdgeId, Vector3<f64>)],
+    ) -> Result<RestState, EnergyError> {
+        let mut stencils = Stencils::new(mesh);
+        stencils.set_mirror_edges(mirror_edges)?;
+        let rest = forms_with(&stencils, x, &[], sff)?;
+        rest.validate(mesh)?;
+        Ok(rest)
+    }
+
     /// [`RestState::from_mesh`] with `model`'s second fundamental form: the form is named once,
     /// in the model.
     pub fn for_model(

@@ -15,6 +15,18 @@ pub struct EdgeAngles {
     pub sigma: [f64; 3],
 }
 
+/// A boundary edge whose director is prescribed instead of free or fitted (edge-director
+/// forms only).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EdgeClamp {
+    /// A clamp (model.md §1.3): the unit director (dimensionless), fixed in space.
+    Held(Vector3<f64>),
+    /// A mirror edge on a symmetry plane (model.md §1.4) with this unit plane normal
+    /// (dimensionless): the director is the unit vector in the plane perpendicular to the edge,
+    /// the director the mirrored shell would share with this one. It follows the edge.
+    Mirror(Vector3<f64>),
+}
+
 /// One face's stencil. `x[0..3]`: face vertices in stored order; `x[3 + e]`: flap vertex across
 /// local edge e (the edge opposite local vertex e), or on a free edge (`!flap[e]`) the vertex
 /// of the free-edge fit when `ghost[e]` (read only by [`crate::EdgeDirector`], model.md §1.2),
@@ -30,10 +42,11 @@ pub struct FaceStencil {
     /// vertex; its edge angle is then not an unknown. All false: free edges keep a free
     /// director angle (the previous, first-order treatment).
     pub ghost: [bool; 3],
-    /// `clamp[e]` (only where `!flap[e]`): the prescribed unit director (dimensionless, fixed in
-    /// space) of clamped edge e, model.md §1.3; takes precedence over `ghost[e]`, whose outer
-    /// vertex then still serves the fit of the face's other free edges.
-    pub clamp: [Option<Vector3<f64>>; 3],
+    /// `clamp[e]` (only where `!flap[e]`): how the director of boundary edge e is prescribed,
+    /// held fixed in space (model.md §1.3) or mirrored across a symmetry plane (§1.4); takes
+    /// precedence over `ghost[e]`, whose outer vertex then still serves the fit of the face's
+    /// other free edges.
+    pub clamp: [Option<EdgeClamp>; 3],
     /// Edge angles and orientation signs of the face's three edges.
     pub angles: EdgeAngles,
 }

@@ -3,7 +3,7 @@
 
 use crate::EnergyError;
 use crate::sff::{fit_quality, fitted_edge_angle};
-use crate::stencil::{EdgeAngles, FaceStencil, edge_signs};
+use crate::stencil::{EdgeAngles, EdgeClamp, FaceStencil, edge_signs};
 use nalgebra::Vector3;
 use thinshell_mesh::{EdgeId, FaceId, Mesh, VertexId};
 
@@ -26,6 +26,8 @@ pub struct Stencils {
     ghost: Vec<[bool; 3]>,
     /// `clamp[f][e]`: the prescribed unit director of clamped edge e of f (model.md §1.3).
     clamp: Vec<[Option<Vector3<f64>>; 3]>,
+    /// `mirror[f][e]`: the unit normal of the symmetry plane of mirror edge e of f (§1.4).
+    mirror: Vec<[Option<Vector3<f64>>; 3]>,
     /// Edge of each local edge (opposite local vertex e).
     edges: Vec<[EdgeId; 3]>,
     /// σ per local edge ([`edge_signs`]).
@@ -71,6 +73,7 @@ impl Stencils {
             .collect();
         Stencils {
             clamp: vec![[None; 3]; vertices.len()],
+            mirror: vec![[None; 3]; vertices.len()],
             vertices,
             flap,
             ghost,
@@ -147,6 +150,55 @@ impl Stencils {
         Ok(())
     }
 
+    /// Makes the boundary edges of `edges` mirror edges (model.md §1.4), each on the symmetry
+    /// plane with the given normal (any length; normalised here): the director of such an edge
+    /// lies in the plane, perpendicular to the edge, as the shell mirrored across the plane
+    /// would share it. Their vertices must be held on the plane by the caller (a coordinate
+    /// pin), and their edge angles are not unknowns (like a clamp's). The mid-edge average
+    /// reads them too (its edge normal there is the face normal projected into the plane).
+    /// Replaces earlier mirror
+    /// edges; takes precedence over a clamp of the same edge. Errors on an edge out of range,
+    /// an interior edge, or a zero or non-finite normal.
+    pub fn set_mirror_edges(
+        &mut self,
+        edges: &[(EdgeId, Vector3<f64>)],
+    ) -> Result<(), EnergyError> {
+        let n_edges = self.n_edges;
+        let mut normal: Vec<Option<Vector3<f64>>> = vec![None; n_edges];
+        for &(e, p) in edges {
+            let slot = normal
+                .get_mut(e.idx())
+                .ok_or(EnergyError::InvalidEdge { edge: e, n_edges })?;
+            let len = p.norm();
+            if !(len > 0.0 && len.is_finite()) {
+                return Err(EnergyError::InvalidParameter {
+                    name: "symmetry plane normal",
+                    value: len,
+                    reason: "must be non-zero and finite",
+                });
+            }
+            *slot = Some(p / len);
+        }
+        let mut mirror = vec![[None; 3]; self.n_faces()];
+        let mut on_boundary = vec![false; n_edges];
+        for (f, slot) in mirror.iter_mut().enumerate() {
+            for e in (0..3).filter(|&e| !self.flap[f][e]) {
+                let id = self.edges[f][e].idx();
+                on_boundary[id] = true;
+                slot[e] = normal[id];
+            }
+        }
+        if let Some(&(edge, _)) = edges.iter().find(|(e, _)| !on_boundary[e.idx()]) {
+            return Err(EnergyError::InvalidParameter {
+                name: "mirror edge",
+                value: edge.idx() as f64,
+                reason: "must be a boundary edge (a symmetry plane cuts the shell along its boundary)",
+            });
+        }
+        self.mirror = mirror;
+        Ok(())
+    }
+
     /// Which free edges of face `f` use the free-edge fit (model.md §1.2): their director is
     /// extrapolated from the quadratic through the six stencil vertices, and their edge angle
     /// is not an unknown. The outer vertex of such an edge is the mesh vertex near the face
@@ -172,10 +224,18 @@ impl Stencils {
         out
     }
 
-    /// Whether a free edge of face `f` takes its edge-director from the free-edge fit or a
-    /// clamp (model.md §1.2–1.3) rather than from its edge angle.
+    /// Whether a free edge of face `f` takes its edge-director from the free-edge fit, a clamp
+    /// or a mirror (model.md §1.2–1.4) rather than from its edge angle.
     pub(crate) fn has_boundary_director(&self, f: usize) -> bool {
-        (0..3).any(|e| !self.flap[f][e] && (self.ghost[f][e] || self.clamp[f][e].is_some()))
+        (0..3).any(|e| {
+            !self.flap[f][e]
+                && (self.ghost[f][e] || self.clamp[f][e].is_some() || self.mirror[f][e].is_some())
+        })
+    }
+
+    /// Whether any edge is a mirror edge ([`Stencils::set_mirror_edges`]).
+    pub(crate) fn has_mirror_edges(&self) -> bool {
+        self.mirror.iter().any(|m| m.iter().any(Option::is_some))
     }
 
     /// The edges of face `f` in local-edge order.
@@ -253,7 +313,10 @@ impl Stencils {
             ],
             flap: self.flap[f],
             ghost: self.ghost[f],
-            clamp: self.clamp[f],
+            clamp: std::array::from_fn(|e| {
+                let mirror = self.mirror[f][e].map(EdgeClamp::Mirror);
+                mirror.or(self.clamp[f][e].map(EdgeClamp::Held))
+            }),
             angles,
         }
     }

@@ -131,9 +131,36 @@ fn fitted_stencil_strategy() -> impl Strategy<Value = FaceStencil> {
                 ghost: std::array::from_fn(|e| !s.flap[e] && coin[e] > 0),
                 clamp: std::array::from_fn(|e| {
                     (!s.flap[e] && clamp[e] == 0).then(|| {
-                        Rotation3::from_axis_angle(&Unit::new_normalize(t), tilt[e][0])
-                            * Rotation3::from_axis_angle(&Unit::new_normalize(u), tilt[e][1])
-                            * n
+                        EdgeClamp::Held(
+                            Rotation3::from_axis_angle(&Unit::new_normalize(t), tilt[e][0])
+                                * Rotation3::from_axis_angle(&Unit::new_normalize(u), tilt[e][1])
+                                * n,
+                        )
+                    })
+                }),
+                ..s
+            }
+        })
+}
+
+/// Stencils of [`stencil_strategy`] whose free edges are mirror edges (model.md §1.4, each with
+/// probability 1/2, the others fitted): the symmetry plane contains the edge and its director
+/// c = p × ê is the face normal turned about the edge by up to 0.6 rad.
+fn mirror_stencil_strategy() -> impl Strategy<Value = FaceStencil> {
+    (
+        stencil_strategy(),
+        prop::array::uniform3(any::<bool>()),
+        prop::array::uniform3(-0.6f64..0.6),
+    )
+        .prop_map(|(s, coin, tilt)| {
+            let n = (s.x[1] - s.x[0]).cross(&(s.x[2] - s.x[0])).normalize();
+            FaceStencil {
+                ghost: std::array::from_fn(|e| !s.flap[e]),
+                clamp: std::array::from_fn(|e| {
+                    (!s.flap[e] && coin[e]).then(|| {
+                        let edge = Unit::new_normalize(s.x[(e + 2) % 3] - s.x[(e + 1) % 3]);
+                        let m = Rotation3::from_axis_angle(&edge, tilt[e]) * n;
+                        EdgeClamp::Mirror(edge.cross(&m).normalize())
                     })
                 }),
                 ..s
@@ -286,6 +313,29 @@ proptest! {
         w in prop::array::uniform3(-1.0f64..1.0),
     ) {
         check_derivatives(&s, &a, &form, w)?;
+    }
+
+    /// The same with mirror edges (model.md §1.4) on random free edges: the director follows
+    /// the edge, so its derivatives reach the edge's vertices.
+    #[test]
+    fn mirror_edge_derivatives_match_fd(
+        s in mirror_stencil_strategy(),
+        a in angles_strategy(),
+        form in variant_strategy(),
+        w in prop::array::uniform3(-1.0f64..1.0),
+    ) {
+        check_derivatives(&s, &a, &form, w)?;
+    }
+
+    /// Bending kernel with mirror edges against FD of the energy.
+    #[test]
+    fn mirror_edge_kernel_matches_fd(
+        s in mirror_stencil_strategy(),
+        a in angles_strategy(),
+        form in variant_strategy(),
+        r in rest_strategy(),
+    ) {
+        check_kernel(&s, &a, &form, &r)?;
     }
 
     /// Bending kernel: gradient and exact Hessian against FD of the energy; Gauss–Newton and
@@ -975,7 +1025,7 @@ fn clamped_edge_moment_is_the_prescribed_director_angle() {
         let edge = x[(i + 2) % 3] - x[(i + 1) % 3];
         let nc = Rotation3::from_axis_angle(&Unit::new_normalize(edge), beta) * n;
         let mut clamp = [None; 3];
-        clamp[i] = Some(nc);
+        clamp[i] = Some(EdgeClamp::Held(nc));
         let mut flap = [true; 3];
         flap[i] = false;
         let s = FaceStencil {
@@ -999,4 +1049,78 @@ fn clamped_edge_moment_is_the_prescribed_director_angle() {
             assert!((b - b_free).abs().max() <= 1e-12, "{b} vs {b_free}");
         }
     }
+}
+
+/// A mirror edge (model.md §1.4) is the interior edge to the face's mirror image: b of a face
+/// with boundary edge i on a plane through the edge equals, at φ = 0, b of the same face whose
+/// flap across edge i is its own vertex i reflected in the plane (the neighbour face is then
+/// the mirror image), for either variant, to round-off (1e-12 of |b|); and it differs from
+/// the free (fitted) edge.
+#[test]
+fn mirror_edge_is_the_interior_edge_to_the_mirror_image() {
+    let mut rng = SplitMix64::new(11);
+    let mut differs = 0;
+    for _ in 0..100 {
+        let x: [Vector3<f64>; 6] = std::array::from_fn(|v| {
+            let base = [
+                Vector3::new(0.0, 0.0, 0.0),
+                Vector3::new(1.0, 0.0, 0.0),
+                Vector3::new(0.4, 0.9, 0.0),
+                Vector3::new(1.0, 1.0, 0.2),
+                Vector3::new(-0.6, 0.5, 0.1),
+                Vector3::new(0.5, -0.7, -0.1),
+            ];
+            base[v] + rng.vector3(0.1)
+        });
+        let i = (rng.uniform(0.0, 3.0) as usize).min(2);
+        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+        let n = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
+        let edge = Unit::new_normalize(x[k] - x[j]);
+        // A plane through the edge at up to ±1 rad from the plane perpendicular to the face.
+        let m = Rotation3::from_axis_angle(&edge, rng.uniform(-1.0, 1.0)) * n;
+        let p = edge.cross(&m).normalize();
+        let mut clamp = [None; 3];
+        clamp[i] = Some(EdgeClamp::Mirror(p));
+        let mut flap = [true; 3];
+        flap[i] = false;
+        let mirror = FaceStencil {
+            x,
+            flap,
+            ghost: [false; 3],
+            clamp,
+            angles: EdgeAngles::default(),
+        };
+        let mut xs = x;
+        xs[3 + i] = x[i] - p * (2.0 * (x[i] - x[j]).dot(&p));
+        let image = FaceStencil {
+            x: xs,
+            flap: [true; 3],
+            clamp: [None; 3],
+            ..mirror
+        };
+        let mut ghost = [false; 3];
+        ghost[i] = true;
+        let free = FaceStencil {
+            clamp: [None; 3],
+            ghost,
+            ..mirror
+        };
+        for variant in [DirectorVariant::Tan, DirectorVariant::Sin] {
+            let form = EdgeDirector { variant };
+            let (b, b_image) = (form.b(&mirror), form.b(&image));
+            let scale = b_image.abs().max();
+            assert!(
+                (b - b_image).abs().max() <= 1e-12 * scale,
+                "{b} vs {b_image}"
+            );
+            if (form.b(&free) - b).abs().max() > 1e-3 * scale {
+                differs += 1;
+            }
+        }
+    }
+    assert!(
+        differs > 150,
+        "the free edge gave the mirror's b in {} of 200",
+        200 - differs
+    );
 }

@@ -74,8 +74,68 @@ fn damping_of(s: &FaceStencil) -> FaceDamping {
     }
 }
 
+/// Stencils of [`stencil_strategy`] whose free edges are mirror edges (model.md §1.4, each with
+/// probability 1/2) on a plane through the edge at up to 1 rad from the plane perpendicular to
+/// the face.
+fn mirror_stencil_strategy() -> impl Strategy<Value = FaceStencil> {
+    (
+        stencil_strategy(),
+        prop::array::uniform3(any::<bool>()),
+        prop::array::uniform3(-1.0f64..1.0),
+    )
+        .prop_map(|(s, coin, tilt)| {
+            let n = (s.x[1] - s.x[0]).cross(&(s.x[2] - s.x[0])).normalize();
+            FaceStencil {
+                clamp: std::array::from_fn(|e| {
+                    (!s.flap[e] && coin[e]).then(|| {
+                        let edge =
+                            nalgebra::Unit::new_normalize(s.x[(e + 2) % 3] - s.x[(e + 1) % 3]);
+                        let m = nalgebra::Rotation3::from_axis_angle(&edge, tilt[e]) * n;
+                        EdgeClamp::Mirror(edge.cross(&m).normalize())
+                    })
+                }),
+                ..s
+            }
+        })
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(cases_or(48)))]
+
+    /// With mirror edges (model.md §1.4): Jacobian and contracted Hessian of b against central
+    /// differences, and the bending gradient of the reverse-mode path against the forward one
+    /// and FD; the sin edge-director form at φ = 0 is this b (as without mirrors).
+    #[test]
+    fn mirror_edges_match_fd(s in mirror_stencil_strategy(), r in rest_strategy(), w in prop::array::uniform3(-1.0f64..1.0)) {
+        let w = Vector3::from(w);
+        let mut h = SMatrix::<f64, 18, 18>::zeros();
+        let d = MidEdgeAverage.b_derivatives(&s, Some((&w, &mut h)));
+        let x0 = flat(&s);
+        let jfd = fd_jacobian(|v| b_vec(&unflat(&s, v)), &x0, FD_H);
+        let jscale = jfd.iter().flatten().fold(1e-3f64, |m, v| m.max(v.abs()));
+        for k in 0..3 {
+            let row: Vec<f64> = (0..18).map(|c| d.jacobian[(k, c)]).collect();
+            prop_assert!(rel_err_scaled(&row, &jfd[k], jscale) < TOL, "row {k}");
+        }
+        let hfd = fd_jacobian(|v| {
+            let dd = MidEdgeAverage.b_derivatives(&unflat(&s, v), None);
+            (dd.jacobian.transpose() * w).iter().copied().collect()
+        }, &x0, FD_H);
+        let hfd: Vec<f64> = hfd.into_iter().flatten().collect();
+        let han: Vec<f64> = (0..18).flat_map(|r| (0..18).map(move |c| (r, c))).map(|(r, c)| h[(r, c)]).collect();
+        prop_assert!(rel_err_scaled(&han, &hfd, 1e-3) < TOL);
+        prop_assert!((MidEdgeAverage.b(&s) - d.b).abs().max() < 1e-14);
+        let t = Terms { stretch: false, bend: true, damping: false };
+        let out = eval(&s, &r, None, t, Some(HessianMode::Exact));
+        let g = fd_gradient(|v| eval(&unflat(&s, v), &r, None, t, None).energy.total(), &x0, FD_H);
+        let floor = 1e-2 * out.energy.total().abs();
+        prop_assert!(rel_err_scaled(out.gradient.as_slice(), &g, floor) < TOL);
+        let g_only = eval(&s, &r, None, t, None);
+        prop_assert!(rel_err_scaled(g_only.gradient.as_slice(), out.gradient.as_slice(), floor) < 1e-10);
+        let sin = EdgeDirector { variant: DirectorVariant::Sin };
+        let (bs, bm) = (sin.b_with_angles(&s, &EdgeAngles::default()), MidEdgeAverage.b(&s));
+        prop_assert!((bs - bm).abs().max() <= 1e-13 * bm.abs().max().max(1e-3), "{bs} vs {bm}");
+    }
 
     /// Jacobian of b and contracted Hessian Σ w_k ∇²b_k vs central differences, all boundary masks.
     #[test]

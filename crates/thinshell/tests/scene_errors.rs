@@ -277,3 +277,30 @@ fn overrides_apply_and_are_validated() {
 fn tempdir() -> std::path::PathBuf {
     temp_dir("scene-test")
 }
+
+/// `[[boundary.symmetry]]`: a bad axis or tolerance is refused when the scene is read, a plane
+/// without boundary edges when the simulation is built (naming the plane), and a plane along
+/// the mesh's side makes its boundary edges mirror edges.
+#[test]
+fn symmetry_planes_are_checked() {
+    let with = |plane: &str| format!("{OK}\n[[boundary.symmetry]]\n{plane}\n");
+    let e = err(&with("axis = \"w\""));
+    assert!(e.contains("`boundary.symmetry[0].axis`"), "{e}");
+    let e = err(&with("axis = \"x\"\ntolerance = -1.0"));
+    assert!(e.contains("`boundary.symmetry[0].tolerance`"), "{e}");
+    let e = err(&with("axis = \"x\"\nvalue = nan"));
+    assert!(e.contains("`boundary.symmetry[0].value`"), "{e}");
+    let dir = Path::new(".");
+    let off = Scene::from_toml(&with("axis = \"x\"\nvalue = 0.5"), "s.toml", dir).unwrap();
+    let e = thinshell::sim::Simulation::build(&off).err().unwrap();
+    assert!(
+        e.to_string().contains("x = 0.5 holds no boundary edge"),
+        "{e}"
+    );
+    let side = Scene::from_toml(&with("axis = \"x\""), "s.toml", dir).unwrap();
+    let sim = thinshell::sim::Simulation::build(&side).unwrap();
+    let mirror = &sim.system().boundary().mirror_edges;
+    // The seed square's side x = 0 has 7 intervals.
+    assert_eq!(mirror.len(), 7);
+    assert!(mirror.iter().all(|&(_, axis)| axis == 0));
+}

@@ -15,7 +15,8 @@
 //! On a free edge with a fit (`stencil.ghost[i]`, model.md §1.2) θ_i/2 is replaced by
 //! atan(II_i^fit / (2 d_i)), II_i^fit the second moment of the quadratic through the six stencil
 //! points ([`boundary::fitted_edge_angle`]); on a clamped edge (`stencil.clamp[i]`, §1.3) by the
-//! angle from the face normal to the clamp's director about the edge. Their derivatives come
+//! angle from the face normal to the clamp's director about the edge, on a mirror edge (§1.4)
+//! likewise with the director in the symmetry plane across the edge. Their derivatives come
 //! from dual numbers over the positions relative to x_0 (first order for gradients; for
 //! Hessians the fit in two levels, see [`boundary::fitted_edge_angle_hessian`]), φ_i chained
 //! by hand.
@@ -32,7 +33,7 @@
 use super::normals::{add_cross_hess, cross_normal, normalize_jac, skew};
 use super::{SecondFundamentalForm, SffDerivatives};
 use crate::material::dual::{Dual1, DualN, Scalar};
-use crate::stencil::{EdgeAngles, FaceStencil};
+use crate::stencil::{EdgeAngles, EdgeClamp, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
 mod boundary;
@@ -249,10 +250,10 @@ fn dihedral_derivatives(p: [&Vector3<f64>; 4], hess: bool) -> (f64, PVec, Option
     (theta, g, Some(h))
 }
 
-/// The prescribed director of clamped boundary edge i, if any.
+/// How the director of boundary edge i is prescribed, if it is: held or mirrored.
 #[inline]
-fn clamp_of(s: &FaceStencil, i: usize) -> Option<[f64; 3]> {
-    s.clamp[i].filter(|_| !s.flap[i]).map(|n| [n.x, n.y, n.z])
+fn clamp_of(s: &FaceStencil, i: usize) -> Option<EdgeClamp> {
+    s.clamp[i].filter(|_| !s.flap[i])
 }
 
 /// II_i of a boundary edge (m), its gradient over the 19 local dofs (18 stencil positions, then
@@ -263,10 +264,12 @@ struct BoundaryMoment {
     h: Option<SMatrix<f64, 19, 19>>,
 }
 
-/// (d_i, β_i) of fitted free edge or clamped edge i, see [`boundary::fitted_edge_angle`].
+/// (d_i, β_i) of fitted free edge, clamped or mirror edge i, see [`boundary::fitted_edge_angle`],
+/// [`boundary::clamped_edge_angle`] and [`boundary::mirrored_edge_angle`].
 fn boundary_angle<T: Scalar>(s: &FaceStencil, i: usize, p: &[[T; 3]; 6]) -> (T, T) {
     match clamp_of(s, i) {
-        Some(nc) => boundary::clamped_edge_angle(p, i, nc),
+        Some(EdgeClamp::Held(n)) => boundary::clamped_edge_angle(p, i, [n.x, n.y, n.z]),
+        Some(EdgeClamp::Mirror(n)) => boundary::mirrored_edge_angle(p, i, [n.x, n.y, n.z]),
         None => boundary::fitted_edge_angle(p, i),
     }
 }
@@ -342,10 +345,10 @@ fn boundary_angle_derivatives<const N: usize>(
 }
 
 impl EdgeDirector {
-    /// II_i (m) of fitted free edge or clamped edge i with its gradient and (if `hess`) Hessian
-    /// over the 18 stencil positions and φ_i: II_i = 2 d_i f(α_i), α_i = β_i + σ_i φ_i, β_i
-    /// from the fit (free edge) or the angle from the face normal to the clamp's director
-    /// (clamp). d and β come from dual numbers over x_1 … x_5 relative to x_0 (first order
+    /// II_i (m) of fitted free edge, clamped or mirror edge i with its gradient and (if `hess`)
+    /// Hessian over the 18 stencil positions and φ_i: II_i = 2 d_i f(α_i), α_i = β_i + σ_i φ_i,
+    /// β_i from the fit (free edge) or the angle from the face normal to the prescribed director
+    /// (clamp, mirror). d and β come from dual numbers over x_1 … x_5 relative to x_0 (first order
     /// without `hess`); φ_i enters through α only and is chained here:
     /// ∇II = 2 f ∇d + 2 d f′ ∇β, ∇²II = 2 f ∇²d + 2 f′ (∇d ∇βᵀ + ∇β ∇dᵀ) + 2 d f″ ∇β ∇βᵀ +
     /// 2 d f′ ∇²β, ∂II/∂φ = 2 d f′ σ, ∂²II/∂φ∂x = σ (2 f′ ∇d + 2 d f″ ∇β), ∂²II/∂φ² = 2 d f″ σ².

@@ -13,10 +13,12 @@
 
 use super::normals::{add_cross_hess, cross_normal, normalize_hess, normalize_jac};
 use super::{SecondFundamentalForm, SffDerivatives};
-use crate::stencil::FaceStencil;
+use crate::stencil::{EdgeClamp, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
-/// Normalised average of the two unit face normals per interior edge; face normal on a boundary edge.
+/// Normalised average of the two unit face normals per interior edge; face normal on a boundary
+/// edge, except on a mirror edge (model.md §1.4): there the average with the mirror image, the
+/// face normal projected into the symmetry plane, normalised.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct MidEdgeAverage;
 
@@ -34,6 +36,24 @@ fn edge_weights(w: &Vector3<f64>, e: usize) -> (f64, f64) {
         (a + w[k] * COEF[k][e].0, b + w[k] * COEF[k][e].1)
     })
 }
+
+/// The unit normal p of the symmetry plane of boundary edge e when it is a mirror edge.
+#[inline]
+fn mirror_of(s: &FaceStencil, e: usize) -> Option<Vector3<f64>> {
+    match s.clamp[e] {
+        Some(EdgeClamp::Mirror(p)) if !s.flap[e] => Some(p),
+        _ => None,
+    }
+}
+
+/// (I − p pᵀ) v: `v` projected into the plane with unit normal `p`.
+#[inline]
+fn project(p: &Vector3<f64>, v: &Vector3<f64>) -> Vector3<f64> {
+    v - p * p.dot(v)
+}
+
+/// Per mirror edge: (plane normal p, unit n_e, |P n_f|, I − n_e n_eᵀ).
+type MirrorEdge = (Vector3<f64>, Vector3<f64>, f64, Matrix3<f64>);
 
 /// Per interior edge: (unit n_e, |n_f + n_g|, unit n_g, |c_g|).
 type InteriorEdge = (Vector3<f64>, f64, Vector3<f64>, f64);
@@ -81,6 +101,9 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
                 let cg = (x[i1] - x[i0]).cross(&(x[i2] - x[i0]));
                 let sum = nf + cg * (1.0 / cg.norm());
                 sum * (1.0 / sum.norm())
+            } else if let Some(p) = mirror_of(s, e) {
+                let sp = project(&p, &nf);
+                sp * (1.0 / sp.norm())
             } else {
                 nf
             };
@@ -109,8 +132,16 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
         let nf = cf * (1.0 / lf);
         // Interior edges: (s = n_f + n_g, |s|, n_g, |c_g|).
         let mut inner: [Option<InteriorEdge>; 3] = [None; 3];
+        // Mirror edges: (plane normal p, |P n_f|).
+        let mut mirrored: [Option<(Vector3<f64>, f64)>; 3] = [None; 3];
         let mut n = [nf; 3];
         for e in 0..3 {
+            if let Some(p) = mirror_of(s, e) {
+                let sp = project(&p, &nf);
+                let ls = sp.norm();
+                n[e] = sp * (1.0 / ls);
+                mirrored[e] = Some((p, ls));
+            }
             if s.flap[e] {
                 let gi = neighbour_blocks(e);
                 let cg = (x[gi[1]] - x[gi[0]]).cross(&(x[gi[2]] - x[gi[0]]));
@@ -147,7 +178,11 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
             add(&mut g, 1, &(n[e] * ca));
             add(&mut g, 2, &(n[e] * cb));
             match inner[e] {
-                None => mu_f += p,
+                None => match mirrored[e] {
+                    // n_e = N(P n_f): pulled back through the normalisation, then P.
+                    Some((pl, ls)) => mu_f += project(&pl, &pull(&n[e], ls, &p)),
+                    None => mu_f += p,
+                },
                 Some((m, ls, ng, lg)) => {
                     let mu_s = pull(&m, ls, &p);
                     mu_f += mu_s;
@@ -194,6 +229,7 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
             jcg: [Matrix3<f64>; 3],
         }
         let mut interior: [Option<Interior>; 3] = [None, None, None];
+        let mut mirrored: [Option<MirrorEdge>; 3] = [None; 3];
         for e in 0..3 {
             if s.flap[e] {
                 let gi = neighbour_blocks(e);
@@ -217,6 +253,15 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
                     g_p: pg * lg,
                     jcg,
                 });
+            } else if let Some(p) = mirror_of(s, e) {
+                let proj = Matrix3::identity() - p * p.transpose();
+                let (sm, ps, ls) = normalize_jac(&(proj * nf));
+                n[e] = sm;
+                for b in 0..3 {
+                    js[e][b] = proj * jnf[b];
+                    jn[e][b] = ps * js[e][b];
+                }
+                mirrored[e] = Some((p, sm, ls, ps * ls));
             } else {
                 jn[e][..3].copy_from_slice(&jnf);
             }
@@ -269,7 +314,17 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
                     }
                 }
                 match &interior[e] {
-                    None => mu_f += p,
+                    None => match mirrored[e] {
+                        // n_e = N(s), s = P n_f: the normalisation's Hessian on s's
+                        // Jacobian, and the adjoint of n_f through P.
+                        Some((pl, sm, ls, sp)) => {
+                            let hs = normalize_hess(&sm, ls, &p);
+                            let jse = [js[e][0], js[e][1], js[e][2]];
+                            add_jt_m_j(h, &face_idx, &jse, &hs);
+                            mu_f += project(&pl, &(sp * p / ls));
+                        }
+                        None => mu_f += p,
+                    },
                     Some(it) => {
                         // n_e = N(s), s = n_f + n_g.
                         let hs = normalize_hess(&it.s_m, it.s_len, &p);

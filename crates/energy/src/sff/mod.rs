@@ -80,7 +80,7 @@ pub enum SffKind {
     /// Edge directors (model.md §1.1): one extra unknown per edge, the angle (rad) of the
     /// edge's normal director about the edge; consistent under refinement on any mesh. On free
     /// edges the director is extrapolated from the interior and on clamped edges held (model.md
-    /// §1.2–1.3; no unknown there), which keeps the bending energy second order up to the
+    /// §1.2–1.3; no unknown there) and on mirror edges in their symmetry plane (§1.4), which keeps the bending energy second order up to the
     /// boundary.
     /// Default: `EdgeDirector(DirectorVariant::Tan)`.
     EdgeDirector(DirectorVariant),

@@ -22,10 +22,10 @@ use thinshell_energy::{
     Assembler, DampingState, DofMap, EnergyError, EnergyTerms, EvalOutput, HessianMode, RestState,
     ShellModel,
 };
-use thinshell_mesh::{EdgeId, Mesh, VertexId};
+use thinshell_mesh::{Mesh, VertexId};
 
 use crate::linear::RegularizationParams;
-use crate::{Ordering, SolverError, SparseCholesky};
+use crate::{Boundary, Ordering, SolverError, SparseCholesky};
 
 /// Largest correction (rad) taken with a reused factorisation; larger ones refactorise first.
 const MAX_CHORD_STEP: f64 = 0.05;
@@ -89,23 +89,27 @@ pub(crate) struct AngleRelaxation {
 }
 
 impl AngleRelaxation {
-    /// The angle-only problem of `model` on `mesh` with the angles of `clamped_edges` fixed and
-    /// their directors held as at `clamp_reference` (model.md §1.3).
+    /// The angle-only problem of `model` on `mesh` with the angles of `boundary`'s clamped and
+    /// mirror edges fixed, the clamped directors held as at `clamp_reference` (model.md §1.3)
+    /// and the mirror edges' in their planes (§1.4).
     pub(crate) fn new(
         mesh: &Mesh,
         model: &ShellModel,
-        clamped_edges: &[EdgeId],
+        boundary: &Boundary,
         clamp_reference: &[Vector3<f64>],
     ) -> Result<AngleRelaxation, SolverError> {
+        let clamped_edges = &boundary.clamped_edges;
         let n = mesh.n_vertices();
         let all_vertices = (0..n).map(VertexId::new);
         // Fitted free edges have no angle unknown (model.md §1.2).
         let fitted = thinshell_energy::fitted_free_edges(mesh);
-        let fixed = clamped_edges.iter().chain(&fitted).copied();
+        let mirrored = boundary.mirror_edges.iter().map(|m| m.0);
+        let fixed = clamped_edges.iter().chain(&fitted).copied().chain(mirrored);
         let dofs = DofMap::with_pinned_vertices(n, all_vertices)
             .and_then(|d| d.with_edges(mesh.n_edges(), fixed))?;
         let mut assembler = Assembler::for_model(mesh, &dofs, model)?;
         assembler.clamp_edges(clamped_edges, clamp_reference)?;
+        assembler.set_mirror_edges(&boundary.mirror_normals())?;
         let hessian = assembler.hessian_template();
         let cholesky = SparseCholesky::new(hessian.symbolic(), Ordering::Amd, None, Par::Seq)?;
         let n3 = 3 * n;

@@ -42,6 +42,17 @@ pub struct Boundary {
     /// ends of a clamp that covers only part of a boundary loop this also holds the next
     /// boundary vertex beyond each end. See [`Boundary::held_coordinates`].
     pub clamped_edges: Vec<EdgeId>,
+    /// Mirror edges `(edge, axis)`: boundary edges on a symmetry plane normal to axis 0, 1, 2
+    /// (x, y, z), for a model of a symmetric shell cut along its symmetry planes under loads
+    /// with the same symmetry (a load on a plane carries the share of the modelled part, e.g.
+    /// half of a point force on one plane). Their vertices keep that coordinate (as
+    /// [`Boundary::pinned_coordinates`]), and the bending form sees the mirrored shell across
+    /// the edge (model.md §1.4) instead of a free edge: with edge directors the edge's director
+    /// lies in the plane, perpendicular to the edge (no angle unknown there); the mid-edge
+    /// average's edge normal is the face normal projected into the plane. The rest forms of
+    /// such a model come from `RestState::from_mesh_with_mirrors` ([`Boundary::mirror_normals`]).
+    /// [`Boundary::symmetry_plane`] selects the edges.
+    pub mirror_edges: Vec<(EdgeId, usize)>,
     /// Vertices moved along a prescribed path.
     pub prescribed: Vec<Prescribed>,
 }
@@ -56,6 +67,25 @@ impl Boundary {
         second_row: bool,
     ) -> Result<Vec<(VertexId, usize)>, SolverError> {
         let mut held: Vec<(VertexId, usize)> = self.pinned_coordinates.clone();
+        for &(e, axis) in &self.mirror_edges {
+            let edge = mesh
+                .topology()
+                .edges()
+                .get(e.idx())
+                .ok_or(SolverError::InvalidSetting {
+                    name: "mirror_edges",
+                    value: e.idx() as f64,
+                    requirement: "edge id out of range",
+                })?;
+            if axis > 2 {
+                return Err(SolverError::InvalidSetting {
+                    name: "mirror_edges axis",
+                    value: axis as f64,
+                    requirement: "0, 1 or 2 (x, y, z)",
+                });
+            }
+            held.extend(edge.vertices.map(|v| (v, axis)));
+        }
         let mut whole: Vec<VertexId> = self.pinned_vertices.clone();
         whole.extend(self.prescribed.iter().map(|p| p.vertex));
         let topo = mesh.topology();
@@ -183,6 +213,65 @@ impl Boundary {
             (b, (b_free + 2) % 3),
             (c, k),
         ])
+    }
+
+    /// The boundary edges of `mesh` on the plane where coordinate `axis` (0, 1, 2 = x, y, z)
+    /// equals `value` (m): both vertices within `tolerance` (m) of it, paired with `axis` for
+    /// [`Boundary::mirror_edges`]. Errors on an axis other than 0, 1, 2, a non-finite value, a
+    /// negative or non-finite tolerance, or a plane that holds no boundary edge.
+    pub fn symmetry_plane(
+        mesh: &Mesh,
+        axis: usize,
+        value: f64,
+        tolerance: f64,
+    ) -> Result<Vec<(EdgeId, usize)>, SolverError> {
+        if axis > 2 {
+            return Err(SolverError::InvalidSetting {
+                name: "symmetry plane axis",
+                value: axis as f64,
+                requirement: "0, 1 or 2 (x, y, z)",
+            });
+        }
+        if !value.is_finite() {
+            return Err(SolverError::InvalidSetting {
+                name: "symmetry plane value",
+                value,
+                requirement: "finite",
+            });
+        }
+        if !(tolerance >= 0.0 && tolerance.is_finite()) {
+            return Err(SolverError::InvalidSetting {
+                name: "symmetry plane tolerance",
+                value: tolerance,
+                requirement: ">= 0 and finite",
+            });
+        }
+        let topo = mesh.topology();
+        let p = mesh.positions();
+        let on = |v: VertexId| (p[v.idx()][axis] - value).abs() <= tolerance;
+        let edges: Vec<(EdgeId, usize)> = topo
+            .boundary_edges()
+            .iter()
+            .filter(|&&e| topo.edge(e).vertices.iter().all(|&v| on(v)))
+            .map(|&e| (e, axis))
+            .collect();
+        if edges.is_empty() {
+            return Err(SolverError::InvalidSetting {
+                name: "symmetry plane value",
+                value,
+                requirement: "a plane that holds boundary edges of the mesh",
+            });
+        }
+        Ok(edges)
+    }
+
+    /// The mirror edges with their planes' unit normals, as the energy's stencils and
+    /// `RestState::from_mesh_with_mirrors` take them.
+    pub fn mirror_normals(&self) -> Vec<(EdgeId, Vector3<f64>)> {
+        self.mirror_edges
+            .iter()
+            .map(|&(e, axis)| (e, Vector3::ith(axis.min(2), 1.0)))
+            .collect()
     }
 
     /// The dof map of the free coordinates.

@@ -144,6 +144,7 @@ impl ShellSystem {
         if self.has_edge_unknowns() {
             assembler.clamp_edges(&self.boundary.clamped_edges, self.clamp_reference())?;
         }
+        assembler.set_mirror_edges(&self.boundary.mirror_normals())?;
         Ok(assembler)
     }
 
@@ -179,9 +180,16 @@ impl ShellSystem {
         let directors = ShellSystem::has_edge_unknowns_for(&model);
         let mut dofs = boundary.dof_map(&mesh, !directors)?;
         if directors {
-            // Fitted free edges have no angle unknown (model.md §1.2).
+            // Fitted free edges have no angle unknown (model.md §1.2), nor do mirror edges
+            // (their director lies in the plane, §1.4).
             let fitted = thinshell_energy::fitted_free_edges(&mesh);
-            let fixed = boundary.clamped_edges.iter().chain(&fitted).copied();
+            let mirrored = boundary.mirror_edges.iter().map(|m| m.0);
+            let fixed = boundary
+                .clamped_edges
+                .iter()
+                .chain(&fitted)
+                .copied()
+                .chain(mirrored);
             dofs = dofs.with_edges(mesh.n_edges(), fixed)?;
         }
         let mass = lumped_mass(&mesh, &rest, &model.material)?;
@@ -191,6 +199,8 @@ impl ShellSystem {
             // The clamp holds the directors of the clamped edges (model.md §1.3).
             assembler.clamp_edges(&boundary.clamped_edges, mesh.positions())?;
         }
+        // Every bending form sees the mirrored shell across a mirror edge (§1.4).
+        assembler.set_mirror_edges(&boundary.mirror_normals())?;
         let angle_scale = mean_edge_length(&mesh);
         Ok(ShellSystem {
             mesh,
@@ -532,12 +542,8 @@ impl ShellSystem {
         if self.model.terms.damping {
             // The cached angle problem includes damping; the elastic minimiser needs its own.
             let model = self.elastic_model();
-            let mut problem = AngleRelaxation::new(
-                &self.mesh,
-                &model,
-                &self.boundary.clamped_edges,
-                self.clamp_reference(),
-            )?;
+            let mut problem =
+                AngleRelaxation::new(&self.mesh, &model, &self.boundary, self.clamp_reference())?;
             problem.relax(&model, &self.rest, x, &mut phi, None, &settings)?;
         } else {
             self.relax_edge_angles(x, &mut phi, None, &settings, None)?;
@@ -736,7 +742,7 @@ impl ShellSystem {
             _ => Box::new(AngleRelaxation::new(
                 &self.mesh,
                 &self.model,
-                &self.boundary.clamped_edges,
+                &self.boundary,
                 self.clamp_reference(),
             )?),
         };

@@ -1,4 +1,5 @@
-//! The `[boundary]` section: its spec (pins, clamps, prescribed motion, each on a region), its
+//! The `[boundary]` section: its spec (pins, clamps, prescribed motion, each on a region;
+//! symmetry planes), its
 //! validation and the solver's [`Boundary`] it builds (`docs/scenes.md`).
 
 use std::collections::BTreeSet;
@@ -8,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use thinshell_mesh::{Mesh, VertexId};
 use thinshell_solver::{Boundary, Prescribed};
 
-use super::problem::{Check, Problem, finite_all, problem, v3};
+use super::problem::{Check, Problem, finite, finite_all, problem, v3};
 use super::region::RegionSpec;
 
 /// Boundary conditions.
@@ -24,6 +25,25 @@ pub struct BoundarySpec {
     /// Vertices moved with a prescribed velocity.
     #[serde(default)]
     pub prescribed: Vec<PrescribedSpec>,
+    /// Symmetry planes: the boundary edges on each become mirror edges.
+    #[serde(default)]
+    pub symmetry: Vec<SymmetrySpec>,
+}
+
+/// A symmetry plane `axis = value` cutting the modelled shell: its boundary edges on the plane
+/// become mirror edges (model.md §1.4; `Boundary::mirror_edges`).
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SymmetrySpec {
+    /// The plane's normal axis: "x", "y" or "z".
+    pub axis: String,
+    /// The plane's coordinate along the axis, m (default 0).
+    #[serde(default)]
+    pub value: f64,
+    /// How far a vertex may lie from the plane and count as on it, m (default 1e-9 × the
+    /// mesh's bounding-box diagonal).
+    #[serde(default)]
+    pub tolerance: Option<f64>,
 }
 
 /// Pins the vertices of a region.
@@ -82,6 +102,23 @@ pub fn validate(b: &BoundarySpec) -> Check {
         super::region::validate(&format!("boundary.prescribed[{i}].region"), &p.region)?;
         finite_all(&format!("boundary.prescribed[{i}].velocity"), &p.velocity)?;
     }
+    for (i, p) in b.symmetry.iter().enumerate() {
+        if !["x", "y", "z"].contains(&p.axis.as_str()) {
+            return Err(problem(
+                format!("boundary.symmetry[{i}].axis"),
+                format!("must be \"x\", \"y\" or \"z\", got \"{}\"", p.axis),
+            ));
+        }
+        finite(&format!("boundary.symmetry[{i}].value"), p.value)?;
+        if let Some(t) = p.tolerance
+            && !(t >= 0.0 && t.is_finite())
+        {
+            return Err(problem(
+                format!("boundary.symmetry[{i}].tolerance"),
+                format!("must be >= 0 and finite, got {t}"),
+            ));
+        }
+    }
     Ok(())
 }
 
@@ -127,6 +164,27 @@ pub fn build(
         if boundary.clamped_edges.len() == before {
             return Err(problem(key, "contains no boundary edge of the mesh"));
         }
+    }
+    for (i, plane) in spec.symmetry.iter().enumerate() {
+        let axis = "xyz".find(plane.axis.as_str()).ok_or_else(|| {
+            problem(
+                format!("boundary.symmetry[{i}].axis"),
+                "must be \"x\", \"y\" or \"z\"",
+            )
+        })?;
+        let tolerance = plane
+            .tolerance
+            .unwrap_or(1e-9 * mesh.bounding_box().diagonal());
+        let edges = Boundary::symmetry_plane(mesh, axis, plane.value, tolerance).map_err(|_| {
+            problem(
+                format!("boundary.symmetry[{i}]"),
+                format!(
+                    "the plane {} = {} holds no boundary edge of the mesh (within {tolerance:e} m)",
+                    plane.axis, plane.value
+                ),
+            )
+        })?;
+        boundary.mirror_edges.extend(edges);
     }
     for (i, p) in spec.prescribed.iter().enumerate() {
         let key = format!("boundary.prescribed[{i}].region");

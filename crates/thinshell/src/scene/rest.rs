@@ -63,9 +63,10 @@ pub fn build(
     mesh: &Mesh,
     x_ref: &[Vector3<f64>],
     sff: SffKind,
+    mirror_edges: &[(thinshell_mesh::EdgeId, Vector3<f64>)],
 ) -> Result<RestState, EnergyError> {
     match spec.from {
-        RestSource::Mesh => RestState::from_mesh(mesh, x_ref, sff),
+        RestSource::Mesh => RestState::from_mesh_with_mirrors(mesh, x_ref, sff, mirror_edges),
         RestSource::Planar => {
             let a = spec.a_xy.as_ref().map_or(Matrix2::identity(), m2);
             let b = spec.b_xy.as_ref().map_or(Matrix2::zeros(), m2);

@@ -3,7 +3,8 @@
 //! flap vertex or, on a free edge, a nearby mesh vertex chosen once by [`crate::Stencils`] —
 //! gives the second moments II_i of the three edges; a free edge uses its II_i in place of the
 //! director angle it no longer has. Clamped edges (§1.3): the director is a prescribed unit
-//! vector, the tilt its angle from the face normal about the edge.
+//! vector, the tilt its angle from the face normal about the edge. Mirror edges (§1.4): the
+//! same with the director in the symmetry plane, perpendicular to the edge.
 //!
 //! Written once over [`Scalar`], evaluated in f64 for values and in dual numbers (first order
 //! for gradients, second order for Hessians) over the 15 coordinates of x_1 … x_5 relative to
@@ -209,10 +210,31 @@ pub(crate) fn fitted_edge_angle_hessian(
 /// the face within 90° of the clamp (n·nc > 0), as any clamp that holds. Uses the positions
 /// only through differences, as [`fitted_edge_angle`].
 pub(crate) fn clamped_edge_angle<T: Scalar>(x: &[V<T>; 6], i: usize, nc: [f64; 3]) -> (T, T) {
+    director_edge_angle(x, i, |_| nc.map(T::cst))
+}
+
+/// (d_i, β_i) of mirror edge i on the symmetry plane with unit normal `p` (model.md §1.4): the
+/// clamp of [`clamped_edge_angle`] with the director c = p × e, which lies in the plane and is
+/// perpendicular to the edge e = x_{i+2} − x_{i+1} (the mirrored shell's face across the edge
+/// has the mirrored normal, and c bisects the two). t is unchanged by the scale and sign of c,
+/// so c need not be normalised or turned towards the face: t is the tangent of the angle from
+/// n to whichever of ±c lies within 90° of it, and moves with the edge. Depends on the face's
+/// vertices only, through differences.
+pub(crate) fn mirrored_edge_angle<T: Scalar>(x: &[V<T>; 6], i: usize, p: [f64; 3]) -> (T, T) {
+    director_edge_angle(x, i, |e| cross(&p.map(T::cst), e))
+}
+
+/// (d_i, atan(t)) with t = ((n × c)·ê) / (n·c) for the director direction c = `director(e)`
+/// (any positive multiple of the unit director; e = x_{i+2} − x_{i+1}).
+fn director_edge_angle<T: Scalar>(
+    x: &[V<T>; 6],
+    i: usize,
+    director: impl Fn(&V<T>) -> V<T>,
+) -> (T, T) {
     let (j, k) = ((i + 1) % 3, (i + 2) % 3);
     let n = cross(&sub(&x[1], &x[0]), &sub(&x[2], &x[0]));
     let e = sub(&x[k], &x[j]);
-    let nc = nc.map(T::cst);
+    let nc = director(&e);
     let len_e = dot(&e, &e).sqrt();
     let d = dot(&n, &n).sqrt() * len_e.recip();
     let t = dot(&cross(&n, &nc), &e) * (dot(&n, &nc) * len_e).recip();
