@@ -6,9 +6,9 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Matrix2, Vector3};
 use thinshell_energy::{
-    DirectorVariant, EdgeAngles, EdgeDirector, EnergyConstants, FaceDamping, FaceEval, FaceRest,
-    FaceStencil, HessianMode, Layer, Material, MaterialModel, MidEdgeAverage, Terms, Want,
-    eval_face, eval_face_energy, first_fundamental_form,
+    DirectorVariant, EdgeAngles, EdgeClamp, EdgeDirector, EnergyConstants, FaceDamping, FaceEval,
+    FaceRest, FaceStencil, HessianMode, Layer, Material, MaterialModel, MidEdgeAverage, Terms,
+    Want, eval_face, eval_face_energy, first_fundamental_form,
 };
 
 /// An interior face of a gently curved sheet with its three flaps.
@@ -183,7 +183,7 @@ fn bench(c: &mut Criterion) {
     free.ghost[1] = true;
     let mut clamped = s;
     clamped.flap[1] = false;
-    clamped.clamp[1] = Some(Vector3::new(-0.2, 0.1, 1.0).normalize());
+    clamped.clamp[1] = Some(EdgeClamp::Held(Vector3::new(-0.2, 0.1, 1.0).normalize()));
     let gradient_only = Want {
         gradient: true,
         hessian: None,
