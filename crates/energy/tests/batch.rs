@@ -274,6 +274,7 @@ fn director_passes(
                 .unwrap();
         }
         let mut asm = Assembler::for_model(&c.mesh, &dofs, model).unwrap();
+        asm.set_batched_director_gradient(true);
         asm.clamp_edges(clamped, c.mesh.positions()).unwrap();
         asm.evaluate_with_angles(model, &c.x, phi, &c.rest, damping, EvalOutput::default())
             .unwrap();
@@ -341,14 +342,9 @@ fn director_passes(
             scalar.f_max = scalar.f_max.max(ii.abs() * edge / (2.0 * area2));
         }
         for (slot, v) in stencils.vertices(f).iter().enumerate() {
-            // Without edge unknowns (bending off) the assembler's pattern keeps the flap
-            // slots only, not a free-edge fit's outer vertex: mirrored here.
-            let present = if phi.is_empty() {
-                stencils.slot_present(f, slot)
-            } else {
-                stencils.slot_present_director(f, slot)
-            };
-            if present {
+            // With or without edge unknowns, a free-edge fit's outer vertex is read (its b
+            // enters the damping even with bending off).
+            if stencils.slot_present_director(f, slot) {
                 for a in 0..3 {
                     scalar.g[3 * v.idx() + a] += out.gradient[3 * slot + a];
                 }
@@ -534,6 +530,7 @@ fn folded_flat_hinge_goes_back_to_the_per_face_kernel() {
             .unwrap();
         let phi = vec![0.0; mesh.n_edges()];
         let mut asm = Assembler::for_model(&mesh, &dofs, &model).unwrap();
+        asm.set_batched_director_gradient(true);
         asm.evaluate_with_angles(&model, &x, &phi, &rest, None, EvalOutput::default())
             .unwrap();
         let stencils = Stencils::new(&mesh);
@@ -649,6 +646,7 @@ fn mirror_edges_take_the_per_face_route() {
         };
         let n = dofs.n_coordinates();
         let mut asm = Assembler::for_model(&c.mesh, &dofs, &model).unwrap();
+        asm.set_batched_director_gradient(true);
         let plain = asm
             .evaluate_with_angles(&model, &c.x, &phi, &c.rest, None, EvalOutput::default())
             .unwrap()

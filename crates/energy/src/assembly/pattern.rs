@@ -73,12 +73,15 @@ pub(super) struct Pattern {
 
 impl Pattern {
     /// Builds the pattern for stencils with `n_slots` vertex slots (3: face only, 6: with
-    /// flaps) and, with `edge_slots`, the three edge-angle slots of every face.
+    /// flaps) and, with `edge_slots`, the three edge-angle slots of every face. With
+    /// `fit_vertices` (or `edge_slots`) the outer vertex of a free-edge fit counts as present,
+    /// as the edge-director forms read it.
     pub fn new(
         stencils: &Stencils,
         dofs: &DofMap,
         n_slots: usize,
         edge_slots: bool,
+        fit_vertices: bool,
     ) -> Result<Pattern, EnergyError> {
         let n_faces = stencils.n_faces();
         let n_vertices = dofs.n_vertices();
@@ -94,7 +97,7 @@ impl Pattern {
         };
         let present = |f: usize, s: usize| {
             s >= n_slots
-                || if edge_slots {
+                || if edge_slots || fit_vertices {
                     stencils.slot_present_director(f, s)
                 } else {
                     stencils.slot_present(f, s)
