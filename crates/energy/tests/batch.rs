@@ -372,6 +372,49 @@ fn gradient_errors(a: &[f64], b: &[f64], n_pos: usize) -> (f64, f64) {
     (err(&a[..n_pos], &b[..n_pos]), err(&a[n_pos..], &b[n_pos..]))
 }
 
+/// The director passes (batched, then the scalar reference) on the random sheet `case(seed, n,
+/// amplitude)` with the terms `terms_of(terms)`, the tan or sin variant, edge angles uniform in
+/// ±`angle` (stream `salt`) and every third boundary edge clamped.
+fn random_director_passes(
+    seed: u64,
+    n: usize,
+    terms: u8,
+    tan: bool,
+    angle: f64,
+    amplitude: f64,
+    salt: u64,
+) -> (Case, DirectorVariant, DirectorPasses, DirectorPasses) {
+    let c = case(seed, n, amplitude);
+    let variant = if tan {
+        DirectorVariant::Tan
+    } else {
+        DirectorVariant::Sin
+    };
+    let model = ShellModel {
+        material: Material::paper(),
+        terms: terms_of(terms),
+        sff: SffKind::EdgeDirector(variant),
+    };
+    let mut rng = SplitMix64::new(seed ^ salt);
+    let phi: Vec<f64> = if model.has_edge_unknowns() {
+        (0..c.mesh.n_edges())
+            .map(|_| angle * rng.signed())
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let clamped: Vec<_> = c
+        .mesh
+        .topology()
+        .boundary_edges()
+        .iter()
+        .copied()
+        .step_by(3)
+        .collect();
+    let (b, r) = director_passes(&c, &model, &phi, &clamped, 1);
+    (c, variant, b, r)
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(cases_or(12)))]
 
@@ -386,22 +429,7 @@ proptest! {
         angle in 0.0f64..0.3,
         amplitude in 0.0f64..0.05,
     ) {
-        let c = case(seed, n, amplitude);
-        let variant = if tan { DirectorVariant::Tan } else { DirectorVariant::Sin };
-        let model = ShellModel {
-            material: Material::paper(),
-            terms: terms_of(terms),
-            sff: SffKind::EdgeDirector(variant),
-        };
-        let mut rng = SplitMix64::new(seed ^ 0xD1);
-        let phi: Vec<f64> = if model.has_edge_unknowns() {
-            (0..c.mesh.n_edges()).map(|_| angle * rng.signed()).collect()
-        } else {
-            Vec::new()
-        };
-        // Every third boundary edge clamped.
-        let clamped: Vec<_> = c.mesh.topology().boundary_edges().iter().copied().step_by(3).collect();
-        let (b, r) = director_passes(&c, &model, &phi, &clamped, 1);
+        let (_, variant, b, r) = random_director_passes(seed, n, terms, tan, angle, amplitude, 0xD1);
         let err = energy_error(&b.e, &r.e);
         prop_assert!(err <= TOL, "{variant:?}: {err:e}");
     }
@@ -422,21 +450,7 @@ proptest! {
         angle in 0.0f64..0.3,
         amplitude in 0.0f64..0.05,
     ) {
-        let c = case(seed, n, amplitude);
-        let variant = if tan { DirectorVariant::Tan } else { DirectorVariant::Sin };
-        let model = ShellModel {
-            material: Material::paper(),
-            terms: terms_of(terms),
-            sff: SffKind::EdgeDirector(variant),
-        };
-        let mut rng = SplitMix64::new(seed ^ 0xD2);
-        let phi: Vec<f64> = if model.has_edge_unknowns() {
-            (0..c.mesh.n_edges()).map(|_| angle * rng.signed()).collect()
-        } else {
-            Vec::new()
-        };
-        let clamped: Vec<_> = c.mesh.topology().boundary_edges().iter().copied().step_by(3).collect();
-        let (b, r) = director_passes(&c, &model, &phi, &clamped, 1);
+        let (c, variant, b, r) = random_director_passes(seed, n, terms, tan, angle, amplitude, 0xD2);
         let tol = TOL * r.f_max.max(1.0);
         let err = energy_error(&b.eg, &r.eg);
         prop_assert!(err <= tol, "{variant:?} energies: {err:e}, f_max {}", r.f_max);

@@ -99,6 +99,40 @@ fn mirror_stencil_strategy() -> impl Strategy<Value = FaceStencil> {
         })
 }
 
+/// The mid-edge b's Jacobian and contracted Hessian Σ w_k ∇²b_k against central differences
+/// (the Hessian as FD of the contracted gradient wᵀJ), its symmetry, and b against `b()`.
+fn check_b_derivatives(s: &FaceStencil, w: [f64; 3]) -> Result<(), TestCaseError> {
+    let w = Vector3::from(w);
+    let mut h = SMatrix::<f64, 18, 18>::zeros();
+    let d = MidEdgeAverage.b_derivatives(s, Some((&w, &mut h)));
+    let x0 = flat(s);
+    let jfd = fd_jacobian(|v| b_vec(&unflat(s, v)), &x0, FD_H);
+    // Scale: the whole Jacobian (a row can vanish identically, e.g. b12 on symmetric stencils).
+    // With all edges on the boundary b ≡ 0: floor 1e-3 (positions are O(1), FD noise ~1e-11).
+    let jscale = jfd.iter().flatten().fold(1e-3f64, |m, v| m.max(v.abs()));
+    for k in 0..3 {
+        let row: Vec<f64> = (0..18).map(|c| d.jacobian[(k, c)]).collect();
+        prop_assert!(rel_err_scaled(&row, &jfd[k], jscale) < TOL, "row {k}");
+    }
+    let hfd = fd_jacobian(
+        |v| {
+            let dd = MidEdgeAverage.b_derivatives(&unflat(s, v), None);
+            (dd.jacobian.transpose() * w).iter().copied().collect()
+        },
+        &x0,
+        FD_H,
+    );
+    let hfd: Vec<f64> = hfd.into_iter().flatten().collect();
+    let han: Vec<f64> = (0..18)
+        .flat_map(|r| (0..18).map(move |c| (r, c)))
+        .map(|(r, c)| h[(r, c)])
+        .collect();
+    prop_assert!(rel_err_scaled(&han, &hfd, 1e-3) < TOL);
+    prop_assert!((h - h.transpose()).abs().max() <= 1e-12 * h.abs().max().max(1.0));
+    prop_assert!((MidEdgeAverage.b(s) - d.b).abs().max() < 1e-14);
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(cases_or(48)))]
 
@@ -107,24 +141,8 @@ proptest! {
     /// and FD; the sin edge-director form at φ = 0 is this b (as without mirrors).
     #[test]
     fn mirror_edges_match_fd(s in mirror_stencil_strategy(), r in rest_strategy(), w in prop::array::uniform3(-1.0f64..1.0)) {
-        let w = Vector3::from(w);
-        let mut h = SMatrix::<f64, 18, 18>::zeros();
-        let d = MidEdgeAverage.b_derivatives(&s, Some((&w, &mut h)));
+        check_b_derivatives(&s, w)?;
         let x0 = flat(&s);
-        let jfd = fd_jacobian(|v| b_vec(&unflat(&s, v)), &x0, FD_H);
-        let jscale = jfd.iter().flatten().fold(1e-3f64, |m, v| m.max(v.abs()));
-        for k in 0..3 {
-            let row: Vec<f64> = (0..18).map(|c| d.jacobian[(k, c)]).collect();
-            prop_assert!(rel_err_scaled(&row, &jfd[k], jscale) < TOL, "row {k}");
-        }
-        let hfd = fd_jacobian(|v| {
-            let dd = MidEdgeAverage.b_derivatives(&unflat(&s, v), None);
-            (dd.jacobian.transpose() * w).iter().copied().collect()
-        }, &x0, FD_H);
-        let hfd: Vec<f64> = hfd.into_iter().flatten().collect();
-        let han: Vec<f64> = (0..18).flat_map(|r| (0..18).map(move |c| (r, c))).map(|(r, c)| h[(r, c)]).collect();
-        prop_assert!(rel_err_scaled(&han, &hfd, 1e-3) < TOL);
-        prop_assert!((MidEdgeAverage.b(&s) - d.b).abs().max() < 1e-14);
         let t = Terms { stretch: false, bend: true, damping: false };
         let out = eval(&s, &r, None, t, Some(HessianMode::Exact));
         let g = fd_gradient(|v| eval(&unflat(&s, v), &r, None, t, None).energy.total(), &x0, FD_H);
@@ -140,28 +158,7 @@ proptest! {
     /// Jacobian of b and contracted Hessian Σ w_k ∇²b_k vs central differences, all boundary masks.
     #[test]
     fn b_derivatives_match_fd(s in stencil_strategy(), w in prop::array::uniform3(-1.0f64..1.0)) {
-        let w = Vector3::from(w);
-        let mut h = SMatrix::<f64, 18, 18>::zeros();
-        let d = MidEdgeAverage.b_derivatives(&s, Some((&w, &mut h)));
-        let x0 = flat(&s);
-        let jfd = fd_jacobian(|v| b_vec(&unflat(&s, v)), &x0, FD_H);
-        // Scale: the whole Jacobian (a row can vanish identically, e.g. b12 on symmetric stencils).
-        // With all edges on the boundary b ≡ 0: floor 1e-3 (positions are O(1), FD noise ~1e-11).
-        let jscale = jfd.iter().flatten().fold(1e-3f64, |m, v| m.max(v.abs()));
-        for k in 0..3 {
-            let row: Vec<f64> = (0..18).map(|c| d.jacobian[(k, c)]).collect();
-            prop_assert!(rel_err_scaled(&row, &jfd[k], jscale) < TOL, "row {k}");
-        }
-        // Hessian: FD of the contracted gradient wᵀJ.
-        let hfd = fd_jacobian(|v| {
-            let dd = MidEdgeAverage.b_derivatives(&unflat(&s, v), None);
-            (dd.jacobian.transpose() * w).iter().copied().collect()
-        }, &x0, FD_H);
-        let hfd: Vec<f64> = hfd.into_iter().flatten().collect();
-        let han: Vec<f64> = (0..18).flat_map(|r| (0..18).map(move |c| (r, c))).map(|(r, c)| h[(r, c)]).collect();
-        prop_assert!(rel_err_scaled(&han, &hfd, 1e-3) < TOL);
-        prop_assert!((h - h.transpose()).abs().max() <= 1e-12 * h.abs().max().max(1.0));
-        prop_assert!((MidEdgeAverage.b(&s) - d.b).abs().max() < 1e-14);
+        check_b_derivatives(&s, w)?;
     }
 
     /// eval_face gradient and exact Hessian vs FD for each term alone and all together.
