@@ -28,6 +28,8 @@ pub struct Stencils {
     clamp: Vec<[Option<Vector3<f64>>; 3]>,
     /// `mirror[f][e]`: the unit normal of the symmetry plane of mirror edge e of f (§1.4).
     mirror: Vec<[Option<Vector3<f64>>; 3]>,
+    /// Whether any `mirror` entry is set (read on every evaluation: not a scan of every face).
+    any_mirror: bool,
     /// Edge of each local edge (opposite local vertex e).
     edges: Vec<[EdgeId; 3]>,
     /// σ per local edge ([`edge_signs`]).
@@ -74,6 +76,7 @@ impl Stencils {
         Stencils {
             clamp: vec![[None; 3]; vertices.len()],
             mirror: vec![[None; 3]; vertices.len()],
+            any_mirror: false,
             vertices,
             flap,
             ghost,
@@ -195,6 +198,7 @@ impl Stencils {
                 reason: "must be a boundary edge (a symmetry plane cuts the shell along its boundary)",
             });
         }
+        self.any_mirror = mirror.iter().any(|m| m.iter().any(Option::is_some));
         self.mirror = mirror;
         Ok(())
     }
@@ -235,7 +239,7 @@ impl Stencils {
 
     /// Whether any edge is a mirror edge ([`Stencils::set_mirror_edges`]).
     pub(crate) fn has_mirror_edges(&self) -> bool {
-        self.mirror.iter().any(|m| m.iter().any(Option::is_some))
+        self.any_mirror
     }
 
     /// The edges of face `f` in local-edge order.
