@@ -97,8 +97,8 @@ impl RestState {
 
     /// [`RestState::from_mesh`] for a shell cut by symmetry planes: `mirror_edges` (boundary
     /// edge, plane normal) enter b̄ as they enter the energy (model.md §1.4), so that the rest
-    /// shape is stress-free with the mirror edges' directors in their planes. Only the
-    /// edge-director forms read mirror edges. Errors as [`RestState::from_mesh`] and
+    /// shape is stress-free with the mirror edges' directors (edge-director forms) or edge
+    /// normals (mid-edge average) in their planes. Errors as [`RestState::from_mesh`] and
     /// [`crate::Stencils::set_mirror_edges`].
     pub fn from_mesh_with_mirrors(
         mesh: &Mesh,

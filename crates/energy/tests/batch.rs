@@ -28,6 +28,25 @@ struct Case {
     x: Vec<Vector3<f64>>,
 }
 
+impl Case {
+    /// Face f's rest forms.
+    fn face_rest(&self, f: usize) -> FaceRest {
+        FaceRest {
+            a_bar: self.rest.a_bar[f],
+            b_bar: self.rest.b_bar[f],
+        }
+    }
+
+    /// Face f's previous forms for the damping terms.
+    fn face_damping(&self, f: usize) -> FaceDamping {
+        FaceDamping {
+            a_prev: self.damping.a_prev[f],
+            b_prev: self.damping.b_prev[f],
+            dt: self.damping.dt,
+        }
+    }
+}
+
 /// An irregular sheet bent into a bump (rest), with random previous and current positions.
 fn case(seed: u64, n: usize, amplitude: f64) -> Case {
     let flat = generators::irregular_rectangle(1.0, 0.8, n, seed).unwrap();
@@ -74,15 +93,8 @@ fn scalar(c: &Case, model: &ShellModel) -> (Vec<EnergyTerms>, Vec<EnergyTerms>, 
     let mut out = FaceEval::<18>::default();
     for f in 0..c.mesh.n_faces() {
         let s = stencils.stencil(f, &c.x);
-        let rest = FaceRest {
-            a_bar: c.rest.a_bar[f],
-            b_bar: c.rest.b_bar[f],
-        };
-        let damping = FaceDamping {
-            a_prev: c.damping.a_prev[f],
-            b_prev: c.damping.b_prev[f],
-            dt: c.damping.dt,
-        };
+        let rest = c.face_rest(f);
+        let damping = c.face_damping(f);
         let d = model.terms.damping.then_some(&damping);
         energies.push(eval_face_energy(
             &MidEdgeAverage,
@@ -312,15 +324,8 @@ fn director_passes(
     };
     let mut out = FaceEval::<DIRECTOR_DOFS>::default();
     for f in 0..c.mesh.n_faces() {
-        let rest = FaceRest {
-            a_bar: c.rest.a_bar[f],
-            b_bar: c.rest.b_bar[f],
-        };
-        let face_damping = FaceDamping {
-            a_prev: c.damping.a_prev[f],
-            b_prev: c.damping.b_prev[f],
-            dt: c.damping.dt,
-        };
+        let rest = c.face_rest(f);
+        let face_damping = c.face_damping(f);
         let d = model.terms.damping.then_some(&face_damping);
         let s = if phi.is_empty() {
             stencils.stencil(f, &c.x)
@@ -686,10 +691,7 @@ fn mirror_edges_take_the_per_face_route() {
         let constants = EnergyConstants::new(&model.material);
         let scalar: f64 = (0..c.mesh.n_faces())
             .map(|f| {
-                let rest = FaceRest {
-                    a_bar: c.rest.a_bar[f],
-                    b_bar: c.rest.b_bar[f],
-                };
+                let rest = c.face_rest(f);
                 let s = stencils.stencil(f, &c.x);
                 match sff.director() {
                     Some(form) => eval_face_energy(

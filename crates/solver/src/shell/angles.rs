@@ -98,17 +98,12 @@ impl AngleRelaxation {
         boundary: &Boundary,
         clamp_reference: &[Vector3<f64>],
     ) -> Result<AngleRelaxation, SolverError> {
-        let clamped_edges = &boundary.clamped_edges;
         let n = mesh.n_vertices();
         let all_vertices = (0..n).map(VertexId::new);
-        // Fitted free edges have no angle unknown (model.md §1.2).
-        let fitted = thinshell_energy::fitted_free_edges(mesh);
-        let mirrored = boundary.mirror_edges.iter().map(|m| m.0);
-        let fixed = clamped_edges.iter().chain(&fitted).copied().chain(mirrored);
         let dofs = DofMap::with_pinned_vertices(n, all_vertices)
-            .and_then(|d| d.with_edges(mesh.n_edges(), fixed))?;
+            .and_then(|d| d.with_edges(mesh.n_edges(), boundary.fixed_angle_edges(mesh)))?;
         let mut assembler = Assembler::for_model(mesh, &dofs, model)?;
-        assembler.clamp_edges(clamped_edges, clamp_reference)?;
+        assembler.clamp_edges(&boundary.clamped_edges, clamp_reference)?;
         assembler.set_mirror_edges(&boundary.mirror_normals())?;
         let hessian = assembler.hessian_template();
         let cholesky = SparseCholesky::new(hessian.symbolic(), Ordering::Amd, None, Par::Seq)?;

@@ -77,13 +77,7 @@ impl Boundary {
                     value: e.idx() as f64,
                     requirement: "edge id out of range",
                 })?;
-            if axis > 2 {
-                return Err(SolverError::InvalidSetting {
-                    name: "mirror_edges axis",
-                    value: axis as f64,
-                    requirement: "0, 1 or 2 (x, y, z)",
-                });
-            }
+            check_axis("mirror_edges axis", axis)?;
             held.extend(edge.vertices.map(|v| (v, axis)));
         }
         let mut whole: Vec<VertexId> = self.pinned_vertices.clone();
@@ -225,13 +219,7 @@ impl Boundary {
         value: f64,
         tolerance: f64,
     ) -> Result<Vec<(EdgeId, usize)>, SolverError> {
-        if axis > 2 {
-            return Err(SolverError::InvalidSetting {
-                name: "symmetry plane axis",
-                value: axis as f64,
-                requirement: "0, 1 or 2 (x, y, z)",
-            });
-        }
+        check_axis("symmetry plane axis", axis)?;
         if !value.is_finite() {
             return Err(SolverError::InvalidSetting {
                 name: "symmetry plane value",
@@ -263,6 +251,20 @@ impl Boundary {
             });
         }
         Ok(edges)
+    }
+
+    /// The edges without an angle unknown in an edge-director model: the clamped edges
+    /// (director held, model.md §1.3), the fitted free edges (director from the fit, §1.2) and
+    /// the mirror edges (director in the plane, §1.4).
+    pub fn fixed_angle_edges(&self, mesh: &Mesh) -> Vec<EdgeId> {
+        let fitted = thinshell_energy::fitted_free_edges(mesh);
+        let mirrored = self.mirror_edges.iter().map(|m| m.0);
+        self.clamped_edges
+            .iter()
+            .chain(&fitted)
+            .copied()
+            .chain(mirrored)
+            .collect()
     }
 
     /// The mirror edges with their planes' unit normals, as the energy's stencils and
@@ -302,4 +304,16 @@ impl Boundary {
         }
         Ok(())
     }
+}
+
+/// An error unless `axis` is 0, 1 or 2 (x, y, z).
+fn check_axis(name: &'static str, axis: usize) -> Result<(), SolverError> {
+    if axis > 2 {
+        return Err(SolverError::InvalidSetting {
+            name,
+            value: axis as f64,
+            requirement: "0, 1 or 2 (x, y, z)",
+        });
+    }
+    Ok(())
 }

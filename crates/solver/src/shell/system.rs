@@ -180,17 +180,7 @@ impl ShellSystem {
         let directors = ShellSystem::has_edge_unknowns_for(&model);
         let mut dofs = boundary.dof_map(&mesh, !directors)?;
         if directors {
-            // Fitted free edges have no angle unknown (model.md §1.2), nor do mirror edges
-            // (their director lies in the plane, §1.4).
-            let fitted = thinshell_energy::fitted_free_edges(&mesh);
-            let mirrored = boundary.mirror_edges.iter().map(|m| m.0);
-            let fixed = boundary
-                .clamped_edges
-                .iter()
-                .chain(&fitted)
-                .copied()
-                .chain(mirrored);
-            dofs = dofs.with_edges(mesh.n_edges(), fixed)?;
+            dofs = dofs.with_edges(mesh.n_edges(), boundary.fixed_angle_edges(&mesh))?;
         }
         let mass = lumped_mass(&mesh, &rest, &model.material)?;
         let f_ext = loads.forces(&mass)?;
