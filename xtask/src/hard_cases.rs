@@ -541,10 +541,15 @@ fn cones(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
                         let sin_error = cone.sin_error(&state.x);
                         (
                             format!(
-                                "{} iterations ({} continuation stages), stable {:?}, E/E_round \
-                                 - 1 = {:+.2e}, sin error {:.2} %, {wall:.1} s",
+                                "{} iterations ({} continuation stages{}), stable {:?}, \
+                                 E/E_round - 1 = {:+.2e}, sin error {:.2} %, {wall:.1} s",
                                 n.iterations,
                                 r.continuation_stages,
+                                if r.continuation_checked {
+                                    ", checked"
+                                } else {
+                                    ""
+                                },
                                 r.stable,
                                 e / e_round - 1.0,
                                 100.0 * sin_error
@@ -552,6 +557,7 @@ fn cones(rows: &mut Vec<Value>, form: SffKind) -> Result<()> {
                             json!({
                                 "newton_iterations": n.iterations,
                                 "continuation_stages": r.continuation_stages,
+                                "continuation_checked": r.continuation_checked,
                                 "stable": r.stable, "energy": e, "round_cone_energy": e_round,
                                 "sin_error": sin_error, "wall_s": wall,
                             }),
@@ -656,11 +662,19 @@ fn past_critical(rows: &mut Vec<Value>) -> Result<()> {
                     .fold(0.0f64, |m, (x, x0)| m.max((x - x0).norm()));
                 (
                     format!(
-                        "{} iterations, stable {:?}, largest displacement {w:.3e} m, {wall:.1} s",
-                        n.iterations, r.stable
+                        "{} iterations{}, stable {:?}, largest displacement {w:.3e} m, {wall:.1} s",
+                        n.iterations,
+                        if r.continuation_checked {
+                            " (checked by continuation)"
+                        } else {
+                            ""
+                        },
+                        r.stable
                     ),
                     json!({
                         "newton_iterations": n.iterations, "stable": r.stable,
+                        "continuation_checked": r.continuation_checked,
+                        "continuation_stages": r.continuation_stages,
                         "extrapolated_steps": n.extrapolated_steps,
                         "displacement": w, "wall_s": wall, "faces": faces,
                     }),

@@ -193,17 +193,15 @@ impl Assembler {
             stencils,
             pattern,
             has_hessian: false,
-            batched_director_gradient: false,
+            batched_director_gradient: true,
         })
     }
 
-    /// Opt in to the batched energy + gradient of the edge-director forms (four faces per SIMD
-    /// lane set; about 5× fewer instructions per face than the per-face kernel, the same values
-    /// to round-off). Off by default: a gradient that differs from the per-face kernel's in
-    /// the last bits changes the course of Newton solves that cross strongly indefinite regions
-    /// (a flat annulus grown into a cone reaches a stable but higher-energy minimum instead of
-    /// failing over to the rest-state continuation that finds the right one), and the default
-    /// static solve does not yet detect such starts by itself. The energy-only pass is batched
+    /// Whether energy + gradient evaluations of the edge-director forms run batched (four faces
+    /// per SIMD lane set; about 5× fewer instructions per face than the per-face kernel, the
+    /// same values to round-off; faces with fitted, clamped or mirror edges still take the
+    /// per-face kernel). On by default; off routes every face through the per-face kernel,
+    /// the reference the batched pass is tested against. The energy-only pass is batched
     /// either way.
     pub fn set_batched_director_gradient(&mut self, on: bool) {
         self.batched_director_gradient = on;

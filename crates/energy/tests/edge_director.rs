@@ -168,6 +168,15 @@ fn mirror_stencil_strategy() -> impl Strategy<Value = FaceStencil> {
         })
 }
 
+/// Whether the face's b stays below 100 (1/m; the stencils are about 1 m across): a random
+/// fitted free edge can put α = β + φ next to tan's pole (b ≈ 600 in a saved case), where the
+/// central differences' truncation error (∝ FD_H²·|b‴|) exceeds the tolerance although the
+/// derivatives are right (in that case the Hessian error falls 100× per 10× smaller step:
+/// 1.2e-2, 1.2e-4, 1.2e-6, 1.3e-8 at steps 1e-4 … 1e-7).
+fn far_from_pole(form: &EdgeDirector, s: &FaceStencil, a: &EdgeAngles) -> bool {
+    form.b_with_angles(s, a).abs().max() < 100.0
+}
+
 /// Body of the derivative tests: Jacobian of b and Σ w_k ∇²b_k against central differences.
 fn check_derivatives(
     s: &FaceStencil,
@@ -176,6 +185,7 @@ fn check_derivatives(
     w: [f64; 3],
 ) -> Result<(), TestCaseError> {
     let (s, a) = (*s, *a);
+    prop_assume!(far_from_pole(form, &s, &a));
     let w = Vector3::from(w);
     let mut h = SMatrix::<f64, N, N>::zeros();
     let d = form.derivatives(&s, &a, Some((&w, &mut h)));
@@ -235,6 +245,7 @@ fn check_kernel(
     r: &FaceRest,
 ) -> Result<(), TestCaseError> {
     let (s, a, r, form) = (*s, *a, *r, *form);
+    prop_assume!(far_from_pole(&form, &s, &a));
     let out = bend(&form, &s, &a, &r, Some(HessianMode::Exact));
     let x0 = flat(&s, &a);
     let energy = |v: &[f64]| {

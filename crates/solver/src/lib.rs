@@ -141,4 +141,5 @@ pub use shell::{
     AngleReport, AngleSettings, Boundary, Contact, ContactError, ContactRunState, ContactSettings,
     ContactStats, ExplicitEuler, ImplicitEuler, Integrator, Loads, ModalSettings, Modes,
     NewtonCache, Obstacle, Prescribed, ShellPath, ShellSystem, State, Static, StepKind, StepReport,
+    WANDERING_STEPS,
 };

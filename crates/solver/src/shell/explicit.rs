@@ -135,6 +135,7 @@ impl Integrator for ExplicitEuler {
             stable: None,
             contact: system.contact_stats(&state.x),
             continuation_stages: 0,
+            continuation_checked: false,
             stability: None,
         })
     }

@@ -221,6 +221,7 @@ impl Integrator for ImplicitEuler {
                         stable: None,
                         contact: system.contact_stats(&state.x),
                         continuation_stages: 0,
+                        continuation_checked: false,
                         stability: None,
                     });
                 }

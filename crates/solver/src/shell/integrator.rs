@@ -44,10 +44,16 @@ pub struct StepReport {
     /// Static steps: that smallest eigenvalue and its mode ([`crate::Stability`]); `None` as
     /// for `stable`.
     pub stability: Option<crate::Stability>,
-    /// Static steps: sub-steps of the rest-state continuation that solved the step after the
-    /// one-shot solve failed ([`crate::Static::continuation`]); 0 when the one-shot solve
-    /// succeeded, and for dynamic steps.
+    /// Static steps: sub-steps of the rest-state continuation ([`crate::Static::continuation`])
+    /// whose result the step returns: after the one-shot solve failed, or when the check of
+    /// a wandering one-shot solve (`continuation_checked`) found a better equilibrium; 0 when
+    /// the one-shot solve's result is returned, and for dynamic steps.
     pub continuation_stages: usize,
+    /// Static steps: whether the one-shot solve succeeded only after many steps without the
+    /// exact Hessian ([`crate::WANDERING_STEPS`]), so that the rest-state continuation was run
+    /// as well and the better of the two equilibria kept (stable over unstable, then the lower
+    /// static potential). `false` for dynamic steps.
+    pub continuation_checked: bool,
 }
 
 /// What kind of step an [`Integrator`] takes: callers that treat equilibrium and dynamic steps
