@@ -122,14 +122,13 @@ pub(crate) static SPECS: [Spec; 4] = [
             traced path. Error as for the slit plate (largest deviation over the path / largest \
             reference value of the series): near the jump it mostly measures where the snap \
             happens. On these octant meshes the jump is a steep rise of −u_B without a limit \
-            point of the load; −u_B passes 3.86 (midway through the reference's jump) at \
-            P/Pmax = 0.530, 0.524, 0.520 with the default form on the three meshes (sin form \
-            0.520, 0.519, 0.518; mid-edge average 0.538 on all three), so the default form's \
-            error falls from 7.2 % to 1.1 % as the rise moves into the reference's 0.5 … 0.525. \
+            point of the load; the notes give the load at which −u_B passes 3.86 (midway through \
+            the reference's jump): as it moves into the reference's 0.5 … 0.525 under \
+            refinement, the default form's error falls. \
             On the full model (64×24 … 128×48, the previous form of this case) the snap lay \
             between P/Pmax = 0.56 and 0.58, 0.54 and 0.56, 0.52 and 0.54 and the default form \
             missed by 10.1 % on 64×24; the octant's 56×42 has the full model's 224×84 resolution. \
-            The mid-edge average converges to a stiffer path (its error 7.65, 7.52, 7.50 %: \
+            The mid-edge average converges to a stiffer path (its rows: \
             the form is inconsistent on alternating-diagonal grids bent across the grid, \
             docs/accuracy.md). Meshes: octant 32×24, 44×33, 56×42 (quarter circle × half \
             length, alternating diagonals; the full model's 128×48, 176×66, 224×84); \
@@ -575,8 +574,29 @@ fn pullout(sff: SffKind, level: usize) -> Result<Outcome> {
         quantities,
         converged: failure.is_none() && wa.len() == PULL_LEVELS.len(),
         curves,
-        note: failure.map(|e| format!("arc length stopped after {} points: {e}", path.len() - 1)),
+        note: Some(pullout_note(&path, failure)),
     })
+}
+
+/// Midway through the reference's jump of −u_B (3.65 at P/Pmax = 0.5 → 4.06 at 0.525).
+const PULL_UB_MID_JUMP: f64 = 3.86;
+
+/// Where this path's −u_B passes [`PULL_UB_MID_JUMP`] (the load, linearly interpolated between
+/// path points), and why the path stopped if it did.
+fn pullout_note(path: &[[f64; 4]], failure: Option<String>) -> String {
+    let passes = path.windows(2).find_map(|w| {
+        let (p, q) = (w[0], w[1]);
+        (p[2] < PULL_UB_MID_JUMP && q[2] >= PULL_UB_MID_JUMP)
+            .then(|| p[0] + (PULL_UB_MID_JUMP - p[2]) / (q[2] - p[2]) * (q[0] - p[0]))
+    });
+    let mut note = match passes {
+        Some(l) => format!("−u_B passes {PULL_UB_MID_JUMP} at P/Pmax = {l:.3}"),
+        None => format!("−u_B does not reach {PULL_UB_MID_JUMP}"),
+    };
+    if let Some(e) = failure {
+        note += &format!("; arc length stopped after {} points: {e}", path.len() - 1);
+    }
+    note
 }
 
 /// Arc-length steps of the pull-out at most.
