@@ -197,23 +197,24 @@ impl Integrator for Static {
             Ok(r) => {
                 let wandered = self.continuation && wandered(&r);
                 let mut kept = self.settle(system, &mut x, &mut phi, r)?;
-                if wandered && !self.at_zero_potential(system, &x, &phi, &start_x, &start_phi)? {
+                if wandered && !self.at_zero_potential(system, &x, &phi, &start_x, &start_phi) {
                     continuation_checked = true;
                     let (mut cx, mut cphi) = (start_x, start_phi);
                     if let Some((stages, checked)) =
                         self.continue_and_settle(system, &mut cx, &mut cphi)
                     {
                         let one_shot_iterations = kept.0.iterations;
-                        let is_better = better(
-                            (
-                                checked.1.as_ref().map(|s| s.stable),
-                                self.potential(system, &cx, &cphi)?,
+                        // A potential that cannot be evaluated keeps the one-shot result.
+                        let is_better = match (
+                            self.potential(system, &cx, &cphi),
+                            self.potential(system, &x, &phi),
+                        ) {
+                            (Some(pc), Some(pk)) => better(
+                                (checked.1.as_ref().map(|s| s.stable), pc),
+                                (kept.1.as_ref().map(|s| s.stable), pk),
                             ),
-                            (
-                                kept.1.as_ref().map(|s| s.stable),
-                                self.potential(system, &x, &phi)?,
-                            ),
-                        );
+                            _ => false,
+                        };
                         let extra = checked.0.iterations;
                         if is_better {
                             (x, phi) = (cx, cphi);
@@ -378,25 +379,28 @@ impl Static {
         phi: &[f64],
         start_x: &[Vector3<f64>],
         start_phi: &[f64],
-    ) -> Result<bool, SolverError> {
+    ) -> bool {
         if system.pressure() != 0.0 || system.external_forces().iter().any(|&f| f != 0.0) {
-            return Ok(false);
+            return false;
         }
-        let end = self.potential(system, x, phi)?;
-        let start = self.potential(system, start_x, start_phi)?;
-        Ok(end <= 1e-10 * start)
+        match (
+            self.potential(system, x, phi),
+            self.potential(system, start_x, start_phi),
+        ) {
+            (Some(end), Some(start)) => end <= 1e-10 * start,
+            _ => false,
+        }
     }
 
     /// The static potential `E − F_extᵀx − p·V` (J) at `x`, `phi`: what two equilibria of the
-    /// same problem are compared by.
-    fn potential(
-        &self,
-        system: &mut ShellSystem,
-        x: &[Vector3<f64>],
-        phi: &[f64],
-    ) -> Result<f64, SolverError> {
+    /// same problem are compared by. `None` where it is not finite or cannot be evaluated (a
+    /// start inside an obstacle).
+    fn potential(&self, system: &mut ShellSystem, x: &[Vector3<f64>], phi: &[f64]) -> Option<f64> {
         let u = system.gather(x, phi);
-        self.objective(system, x, phi).value(&u)
+        self.objective(system, x, phi)
+            .value(&u)
+            .ok()
+            .filter(|v| v.is_finite())
     }
 }
 
