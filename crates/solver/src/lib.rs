@@ -126,7 +126,7 @@ pub use linear::{FactorStats, RegularizationKind, RegularizationParams, SparseCh
 pub use newton::{
     Convergence, HessianPolicy, IterationHessian, IterativeFallback, KeptFactor, LinearSolver,
     NewtonReport, NewtonSettings, NewtonTimings, NewtonWorkspace, RegularizationEvent, Stability,
-    newton_solve,
+    WANDERING_STEPS, newton_solve,
 };
 pub use objective::{IterationUpdate, Objective};
 pub use ordering::Ordering;
@@ -141,5 +141,4 @@ pub use shell::{
     AngleReport, AngleSettings, Boundary, Contact, ContactError, ContactRunState, ContactSettings,
     ContactStats, ExplicitEuler, ImplicitEuler, Integrator, Loads, ModalSettings, Modes,
     NewtonCache, Obstacle, Prescribed, ShellPath, ShellSystem, State, Static, StepKind, StepReport,
-    WANDERING_STEPS,
 };

@@ -39,6 +39,18 @@ fn cone(h: f64) {
         100.0 * cone.out_of_round(&state.x),
     );
     assert_eq!(report.stable, Some(true));
+    // Unloaded: the static potential the wandering check compares is the elastic energy.
+    let potential = report.potential.unwrap();
+    assert!(
+        (potential - e).abs() <= 1e-12 * e,
+        "{potential} against {e}"
+    );
+    let mut worse = round.clone();
+    worse.potential = Some(potential * 1.01);
+    assert!(report.is_better_equilibrium_than(&worse));
+    worse.stable = Some(false);
+    worse.potential = Some(0.5 * potential);
+    assert!(report.is_better_equilibrium_than(&worse));
     assert!(sin_error < 0.01, "{sin_error}");
     assert!(e <= e_round * (1.0 + 1e-6), "{e} > {e_round}");
 }

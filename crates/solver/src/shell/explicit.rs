@@ -136,6 +136,7 @@ impl Integrator for ExplicitEuler {
             contact: system.contact_stats(&state.x),
             continuation_stages: 0,
             continuation_checked: false,
+            potential: None,
             stability: None,
         })
     }

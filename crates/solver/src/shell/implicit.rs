@@ -222,6 +222,7 @@ impl Integrator for ImplicitEuler {
                         contact: system.contact_stats(&state.x),
                         continuation_stages: 0,
                         continuation_checked: false,
+                        potential: None,
                         stability: None,
                     });
                 }

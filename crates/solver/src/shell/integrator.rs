@@ -54,6 +54,23 @@ pub struct StepReport {
     /// as well and the better of the two equilibria kept (stable over unstable, then the lower
     /// static potential). `false` for dynamic steps.
     pub continuation_checked: bool,
+    /// Static steps: the static potential `E − F_extᵀx − p·V` (J) at the equilibrium, what
+    /// two equilibria of one problem are compared by ([`StepReport::is_better_equilibrium_than`]);
+    /// `None` for dynamic steps.
+    pub potential: Option<f64>,
+}
+
+impl StepReport {
+    /// Whether this static step's equilibrium is a better answer than `other`'s, of the same
+    /// problem: a stable one beats an unstable one, otherwise the lower
+    /// [`potential`](Self::potential) wins (ties, and reports without a potential, keep
+    /// `other`). The rule [`crate::Static`]'s wandering check keeps its result by.
+    pub fn is_better_equilibrium_than(&self, other: &StepReport) -> bool {
+        match (self.potential, other.potential) {
+            (Some(a), Some(b)) => super::statics::better((self.stable, a), (other.stable, b)),
+            _ => false,
+        }
+    }
 }
 
 /// What kind of step an [`Integrator`] takes: callers that treat equilibrium and dynamic steps

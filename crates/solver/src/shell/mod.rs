@@ -34,5 +34,5 @@ pub use integrator::{Integrator, NewtonCache, StepKind, StepReport};
 pub use loads::Loads;
 pub use modes::{ModalSettings, Modes};
 pub use path::ShellPath;
-pub use statics::{Static, WANDERING_STEPS};
+pub use statics::Static;
 pub use system::{ShellSystem, State};

@@ -18,8 +18,7 @@ use super::objective::ShellObjective;
 use super::system::{ShellSystem, State};
 use crate::descent::double_while_falling;
 use crate::{
-    IterationHessian, NewtonReport, NewtonSettings, NewtonWorkspace, Objective, SolverError,
-    Stability, newton_solve,
+    NewtonReport, NewtonSettings, NewtonWorkspace, Objective, SolverError, Stability, newton_solve,
 };
 
 /// Static equilibrium: minimise `E(x) − F_extᵀx` over the free dofs.
@@ -39,7 +38,7 @@ pub struct Static {
     /// system's load factor, in sub-steps (`shell/homotopy.rs`). A far start (a flat sheet
     /// grown into a cone) otherwise ends at the iteration limit or in the basin of a
     /// higher-energy minimum. It solves the step when the one-shot solve fails, and checks a
-    /// one-shot solve that succeeded only after [`WANDERING_STEPS`] or more steps without the
+    /// one-shot solve that succeeded only after [`WANDERING_STEPS`](crate::WANDERING_STEPS) or more steps without the
     /// exact Hessian: the better equilibrium is kept ([`StepReport::continuation_checked`]).
     /// Off for callers with a continuation of their own (a scene's run loop continues from the
     /// previous step's rest forms instead).
@@ -195,7 +194,7 @@ impl Integrator for Static {
         let mut continuation_checked = false;
         let (report, stability) = match one_shot {
             Ok(r) => {
-                let wandered = self.continuation && wandered(&r);
+                let wandered = self.continuation && r.wandered();
                 let mut kept = self.settle(system, &mut x, &mut phi, r)?;
                 if wandered && !self.at_zero_potential(system, &x, &phi, &start_x, &start_phi) {
                     continuation_checked = true;
@@ -249,6 +248,7 @@ impl Integrator for Static {
             Err(e) => return Err(e),
         };
         let energies = system.energy_at(&x, &phi)?;
+        let potential = self.potential(system, &x, &phi);
         state.x = x;
         state.phi = phi;
         state.v.iter_mut().for_each(|v| *v = Vector3::zeros());
@@ -264,6 +264,7 @@ impl Integrator for Static {
             contact: system.contact_stats(&state.x),
             continuation_stages,
             continuation_checked,
+            potential,
         })
     }
 }
@@ -404,28 +405,10 @@ impl Static {
     }
 }
 
-/// Iterations of a successful one-shot solve that did not step with the exact Hessian (its
-/// Gauss–Newton, shifted or negative-curvature steps) from which the solve is checked by
-/// rest-state continuation ([`Static::continuation`]). A solve from inside the basin of its
-/// minimum needs none or a few; many mean it crossed strongly indefinite regions, where the
-/// minimum it reaches is decided by the path (for the thick cone of
-/// `solver/tests/conformal_cone.rs`, by round-off: 55 such steps into a stable minimum 50 %
-/// out of round with 22 % more energy than the round cone the continuation finds).
-pub const WANDERING_STEPS: usize = 10;
-
-/// Whether a successful one-shot solve took at least [`WANDERING_STEPS`] steps without the
-/// exact Hessian.
-fn wandered(report: &NewtonReport) -> bool {
-    report
-        .iterations
-        .saturating_sub(report.count(IterationHessian::Own))
-        >= WANDERING_STEPS
-}
-
 /// Whether equilibrium `a` (stable or not, or unknown; static potential in J) is a better
 /// answer than `b`: a stable one beats an unstable one; otherwise the lower potential wins
 /// (ties keep `b`).
-fn better(a: (Option<bool>, f64), b: (Option<bool>, f64)) -> bool {
+pub(crate) fn better(a: (Option<bool>, f64), b: (Option<bool>, f64)) -> bool {
     match (a.0, b.0) {
         (Some(true), Some(false)) => true,
         (Some(false), Some(true)) => false,
