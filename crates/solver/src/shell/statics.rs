@@ -199,30 +199,13 @@ impl Integrator for Static {
                 if wandered && !self.at_zero_potential(system, &x, &phi, &start_x, &start_phi) {
                     continuation_checked = true;
                     let (mut cx, mut cphi) = (start_x, start_phi);
-                    if let Some((stages, checked)) =
-                        self.continue_and_settle(system, &mut cx, &mut cphi)
-                    {
-                        let one_shot_iterations = kept.0.iterations;
-                        // A potential that cannot be evaluated keeps the one-shot result.
-                        let is_better = match (
-                            self.potential(system, &cx, &cphi),
-                            self.potential(system, &x, &phi),
-                        ) {
-                            (Some(pc), Some(pk)) => better(
-                                (checked.1.as_ref().map(|s| s.stable), pc),
-                                (kept.1.as_ref().map(|s| s.stable), pk),
-                            ),
-                            _ => false,
-                        };
-                        let extra = checked.0.iterations;
-                        if is_better {
-                            (x, phi) = (cx, cphi);
-                            continuation_stages = stages;
-                            kept = checked;
-                            kept.0.iterations += one_shot_iterations;
-                        } else {
-                            kept.0.iterations += extra;
-                        }
+                    if let Some(stages) = self.check_by_continuation(
+                        system,
+                        (&mut x, &mut phi),
+                        (&mut cx, &mut cphi),
+                        &mut kept,
+                    ) {
+                        continuation_stages = stages;
                     }
                     // The angles the system starts its next evaluation from are those of the
                     // result kept, not of the continuation's last solve.
@@ -305,6 +288,40 @@ impl Static {
         }
         self.newton.own_hessian = own;
         (retry, mode)
+    }
+
+    /// The wandering check: solves by continuation from the start `(cx, cphi)` and, when that
+    /// equilibrium is better ([`better`]) than the one-shot `(x, phi)` with report and
+    /// stability `kept`, moves it into `(x, phi)` and `kept` and returns its sub-steps. Either
+    /// way `kept`'s iteration count includes both solves.
+    fn check_by_continuation(
+        &mut self,
+        system: &mut ShellSystem,
+        (x, phi): (&mut Vec<Vector3<f64>>, &mut Vec<f64>),
+        (cx, cphi): (&mut Vec<Vector3<f64>>, &mut Vec<f64>),
+        kept: &mut (NewtonReport, Option<Stability>),
+    ) -> Option<usize> {
+        let (stages, mut checked) = self.continue_and_settle(system, cx, cphi)?;
+        // A potential that cannot be evaluated keeps the one-shot result.
+        let is_better = match (
+            self.potential(system, cx, cphi),
+            self.potential(system, x, phi),
+        ) {
+            (Some(pc), Some(pk)) => better(
+                (checked.1.as_ref().map(|s| s.stable), pc),
+                (kept.1.as_ref().map(|s| s.stable), pk),
+            ),
+            _ => false,
+        };
+        if !is_better {
+            kept.0.iterations += checked.0.iterations;
+            return None;
+        }
+        std::mem::swap(x, cx);
+        std::mem::swap(phi, cphi);
+        checked.0.iterations += kept.0.iterations;
+        *kept = checked;
+        Some(stages)
     }
 
     /// Rest-state continuation from the start `x`, `phi` ([`Static::continuation`]), then
