@@ -106,6 +106,7 @@ fn run<T: Send>(tasks: Vec<T>, concurrent: bool, f: impl Fn(T) + Sync + Send) {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use faer::dyn_stack::MemBuffer;
     use faer::{Mat, Side};

@@ -142,10 +142,11 @@ impl SparseCholesky {
                     && flops >= SPLIT_MIN_FLOPS
                     && sizes.iter().all(|&k| k > 0) =>
             {
-                // The split holds about the whole factor plus two dense separator blocks:
-                // refuse it before allocating.
+                // The split holds about the whole factor, a second copy of the separator block
+                // (each half stores one) and two dense separator blocks: refuse it before
+                // allocating.
                 let [_, _, sep] = sizes;
-                let estimate = factor_memory_estimate(factor_len + 2 * sep * sep, 0, 0);
+                let estimate = factor_memory_estimate(factor_len + 3 * sep * sep, 0, 0);
                 check_budget(symbolic.nrows(), estimate)?;
                 SplitFactor::new(pattern, perm, sizes, par)?
             }

@@ -35,8 +35,9 @@ pub const SPLIT_MIN_FLOPS: f64 = 2e8;
 /// computes `L_XX`, `L_SX` and `T_X = −L_SX L_SXᵀ` (lower) but never factorises anything in
 /// `S`. The Schur complement of the whole matrix, `(T_A + T_B) + H_SS` (summed entry by entry
 /// in that order), is factorised densely. `H` is positive definite exactly when `H_AA`, `H_BB`
-/// and that complement are. Every kernel runs on one thread (`Par::Seq`) and every sum has a
-/// fixed order, so the result does not depend on which thread ran what.
+/// and that complement are. Every kernel runs on one thread (`Par::Seq`), every sum has a
+/// fixed order and the separator's blocked Cholesky ([`cholesky_blocked`]) cuts its work into
+/// fixed tasks, so the result does not depend on which thread ran what.
 ///
 /// How a half stops at `S` (faer has no partial factorisation): in the half's symbolic
 /// analysis the separator's columns all lie in the last supernode (checked by [`Half::new`];
@@ -44,7 +45,9 @@ pub const SPLIT_MIN_FLOPS: f64 = 2e8;
 /// *tail*. The half's matrix holds zeros in the tail's columns, so faer's supernodal
 /// factorisation factorises every supernode before the tail, assembles the updates of all of
 /// them into the tail (`−Σ L Lᵀ`) and then stops at the tail's first pivot, which is `0 − Σ l²
-/// ≤ 0` (faer 0.24's dense LLᵀ checks a pivot before it writes anything). The half adds the
+/// ≤ 0` (faer 0.24's dense LLᵀ checks a pivot before it writes anything; the split's solutions
+/// are compared with the unsplit factorisation's in `tests/thread_independence.rs`, which
+/// would catch a faer that behaves otherwise). The half adds the
 /// tail's matrix entries itself, eliminates the tail's own columns of `X` densely and leaves
 /// `T_X` in the separator block, which it then overwrites with the identity: the half's
 /// stored factor is `[L_XX 0; L_SX I]`, so its supernodal solves give `−L_SX y_X` and take
