@@ -9,9 +9,10 @@
 //!
 //! Module layout: `error` (a failed factorisation), `symbolic` (diagonal offsets, ordering,
 //! faer's symbolic analysis, predicted flops), `regularise` (the shift's parameters and the retry
-//! loop), `split` (the two-thread factorisation at the top-level dissection); the type and its
-//! sequential engine are here.
+//! loop), `split` (the two-thread factorisation at the top-level dissection), `dense` (its
+//! separator's blocked dense Cholesky); the type and its sequential engine are here.
 
+mod dense;
 mod error;
 mod regularise;
 mod split;
@@ -109,13 +110,16 @@ impl SparseCholesky {
     /// flops on one thread). With [`Par::Rayon`] of any thread count, an [`Ordering::Metis`]
     /// ordering (chosen or picked by `Auto`) and predicted flops of at least
     /// [`SPLIT_MIN_FLOPS`], the factorisation is split at the top-level dissection
-    /// ([`is_split`](Self::is_split)): each half is factorised by faer on one thread, with the
-    /// product of its separator block, and the separator's Schur complement densely on one
-    /// thread; the two halves (and the halves of each solve) run concurrently (`rayon::join`)
-    /// when the pool has ≥ 2 threads, one after the other otherwise. The same floating-point
-    /// operations run in the same order either way, so factors and solutions are bit-identical
-    /// for any `Par::Rayon` thread count (they differ from [`Par::Seq`]'s in the last bits;
-    /// the split does about s³ more flops, s the separator's size; docs/performance.md).
+    /// ([`is_split`](Self::is_split)) when the halves' symbolic analyses allow it (almost
+    /// always; otherwise faer's unsplit factorisation, as with `Par::Seq`): each half
+    /// eliminates its own dofs with faer on one thread and leaves its update of the separator
+    /// block, and the separator's Schur complement is factorised densely by blocks; the two
+    /// halves (and the halves of each solve) run concurrently (`rayon::join`) and so do the
+    /// dense blocks' tasks when the pool has ≥ 2 threads, one after the other otherwise. The
+    /// same floating-point operations run in the same order either way, so factors and
+    /// solutions are bit-identical for any `Par::Rayon` thread count (they differ from
+    /// [`Par::Seq`]'s in the last bits; the split does the same flops as the unsplit
+    /// factorisation, `split_flops`; docs/performance.md).
     /// faer's own parallelism is not used: it only splits the dense kernels inside each
     /// supernode, which are too small on shell Hessians, and its parallel reductions depend on
     /// the thread count.
@@ -132,23 +136,29 @@ impl SparseCholesky {
         let flops = factor_flops(&symbolic);
         let factor_len = symbolic.len_val();
         let supernodal = matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_));
-        let (engine, estimate) = match split {
+        let split = match split {
             Some((perm, sizes))
                 if matches!(par, Par::Rayon(_))
                     && flops >= SPLIT_MIN_FLOPS
                     && sizes.iter().all(|&k| k > 0) =>
             {
-                // The split holds about the whole factor plus four dense separator blocks:
-                // refuse it before allocating.
+                // The split holds about the whole factor, a second copy of the separator block
+                // (each half stores one) and two dense separator blocks: refuse it before
+                // allocating.
                 let [_, _, sep] = sizes;
-                let estimate = factor_memory_estimate(factor_len + 4 * sep * sep, 0, 0);
+                let estimate = factor_memory_estimate(factor_len + 3 * sep * sep, 0, 0);
                 check_budget(symbolic.nrows(), estimate)?;
+                SplitFactor::new(pattern, perm, sizes, par)?
+            }
+            _ => None,
+        };
+        let (engine, estimate) = match split {
+            Some(f) => {
                 drop(symbolic);
-                let f = SplitFactor::new(pattern, perm, sizes, par)?;
                 let estimate = f.memory();
                 (Engine::Split(Box::new(f)), estimate)
             }
-            _ => {
+            None => {
                 let factor_req =
                     symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
                 let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
@@ -242,23 +252,15 @@ impl SparseCholesky {
         matches!(self.engine, Engine::Split(_))
     }
 
-    /// Predicted flops of the split factorisation's parts, `[half A, half B, dense]` (halves as
-    /// [`factor_flops`], each including its copy of the separator block and its Schur
-    /// product, s³/3; dense: the separator's Cholesky, s³/3), `None` when not split. With two
-    /// threads the halves run concurrently, so the critical path is `max(A, B) + dense`,
-    /// against [`FactorStats::flops`] on one thread.
+    /// Predicted flops of the split factorisation's parts, `[half A, half B, separator]`
+    /// (halves: the elimination of their own dofs, counted as [`factor_flops`] counts their
+    /// columns; separator: its dense Cholesky, s³/3), `None` when not split. With two threads
+    /// the halves run concurrently, so the critical path is `max(A, B) + separator`, against
+    /// [`FactorStats::flops`] (≈ A + B + separator) on one thread.
     pub fn split_flops(&self) -> Option<[f64; 3]> {
         match &self.engine {
             Engine::Whole { .. } => None,
-            Engine::Split(f) => {
-                let s = f.sizes[2] as f64;
-                let product = s * s * s / 3.0;
-                Some([
-                    factor_flops(&f.halves[0].symbolic) + product,
-                    factor_flops(&f.halves[1].symbolic) + product,
-                    product,
-                ])
-            }
+            Engine::Split(f) => Some(f.flops()),
         }
     }
 

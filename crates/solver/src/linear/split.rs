@@ -8,7 +8,7 @@ use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
 };
 use faer::perm::PermRef;
-use faer::reborrow::ReborrowMut;
+use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::supernodal::{SupernodalLltRef, SymbolicSupernodalCholesky};
 use faer::sparse::linalg::cholesky::{
@@ -18,35 +18,55 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMat, SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Accum, Conj, Mat, MatMut, Par, Side};
 
+use super::dense::{self, cholesky_blocked};
 use super::error::FactorError;
 use crate::SolverError;
 use crate::ordering::inverse_permutation;
 
 /// Factorisations below this many predicted flops are not split (whatever the thread count,
-/// so that the result does not depend on it): splitting costs two extra dense products of the
-/// top separator's size, a second factorisation of its block, and a thread hand-off.
+/// so that the result does not depend on it): splitting costs the scatter of the matrix into
+/// the halves, the dense assembly of the separator's Schur complement and thread hand-offs.
 pub const SPLIT_MIN_FLOPS: f64 = 2e8;
 
-/// The factorisation split at the top-level dissection (see [`SparseCholesky::new`]): with the
-/// permuted matrix split into halves `A`, `B` (uncoupled) and separator `S`, each half
-/// factorises `M_A = [H_AA H_AS; H_SA H_SS]` (resp. `M_B`) with faer, whose trailing block is
-/// `C_A C_Aᵀ = H_SS − L_SA L_SAᵀ`, and forms the lower triangle of `C_A C_Aᵀ` in its own
-/// buffer; the Schur complement of the whole matrix, `(C_A C_Aᵀ + C_B C_Bᵀ) − H_SS` (summed
-/// entry by entry in that order), is factorised densely. `H` is positive definite exactly when
-/// `M_A`, `M_B` and that complement are. Every kernel runs on one thread (`Par::Seq`) and
-/// every sum has a fixed order, so the result does not depend on which thread ran what.
+/// The factorisation split at the top-level dissection (see [`SparseCholesky::new`]).
+///
+/// With the permuted matrix split into halves `A`, `B` (uncoupled) and separator `S`, half `X`
+/// (`A` or `B`) eliminates its own dofs from `M_X = [H_XX H_XS; H_SX 0]` and stops there: it
+/// computes `L_XX`, `L_SX` and `T_X = −L_SX L_SXᵀ` (lower) but never factorises anything in
+/// `S`. The Schur complement of the whole matrix, `(T_A + T_B) + H_SS` (summed entry by entry
+/// in that order), is factorised densely. `H` is positive definite exactly when `H_AA`, `H_BB`
+/// and that complement are. Every kernel runs on one thread (`Par::Seq`), every sum has a
+/// fixed order and the separator's blocked Cholesky ([`cholesky_blocked`]) cuts its work into
+/// fixed tasks, so the result does not depend on which thread ran what.
+///
+/// How a half stops at `S` (faer has no partial factorisation): in the half's symbolic
+/// analysis the separator's columns all lie in the last supernode (checked by [`Half::new`];
+/// it also holds the last columns of the half, those whose pattern is the whole separator), the
+/// *tail*. The half's matrix holds zeros in the tail's columns, so faer's supernodal
+/// factorisation factorises every supernode before the tail, assembles the updates of all of
+/// them into the tail (`−Σ L Lᵀ`) and then stops at the tail's first pivot, which is `0 − Σ l²
+/// ≤ 0` (faer 0.24's dense LLᵀ checks a pivot before it writes anything; the split's solutions
+/// are compared with the unsplit factorisation's in `tests/thread_independence.rs`, which
+/// would catch a faer that behaves otherwise). The half adds the
+/// tail's matrix entries itself, eliminates the tail's own columns of `X` densely and leaves
+/// `T_X` in the separator block, which it then overwrites with the identity: the half's
+/// stored factor is `[L_XX 0; L_SX I]`, so its supernodal solves give `−L_SX y_X` and take
+/// `x_S` directly. This saves what the split used to cost on top of the unsplit
+/// factorisation: each half's Cholesky of its copy of the separator block and the product
+/// `C Cᵀ` that turned that factor back into `T_X` (2 s³/3 flops per half, s the separator's
+/// size).
 pub(super) struct SplitFactor {
     /// `perm[new] = old` of the whole ordering.
     perm: Vec<usize>,
     /// Dofs of A, B, S.
-    pub(super) sizes: [usize; 3],
-    pub(super) halves: [Half; 2],
+    sizes: [usize; 3],
+    halves: [Half; 2],
     /// Positions in `h`'s value array of the S × S lower entries and their (row, col) in S.
     s_entries: Vec<(usize, usize, usize)>,
-    /// Dense s × s: half A's product `C_A C_Aᵀ`, then the Schur complement, then its
-    /// Cholesky factor (lower).
+    /// Dense s × s: half A's `T_A`, then the Schur complement, then its Cholesky factor
+    /// (lower).
     schur: Mat<f64>,
-    /// Dense s × s: half B's product `C_B C_Bᵀ` (lower).
+    /// Dense s × s: half B's `T_B` (lower).
     product: Mat<f64>,
     schur_mem: MemBuffer,
     /// Permuted right-hand side / solution.
@@ -54,29 +74,48 @@ pub(super) struct SplitFactor {
     par: Par,
 }
 
-/// One half `M = [H_XX H_XS; H_SX H_SS]` of a [`SplitFactor`].
-pub(super) struct Half {
-    pub(super) symbolic: SymbolicCholesky<usize>,
+/// One half `M = [H_XX H_XS; H_SX 0]` of a [`SplitFactor`], partially factorised (its dofs
+/// only).
+struct Half {
+    symbolic: SymbolicCholesky<usize>,
+    /// `M` with zeros in the tail's columns (`tail..`).
     matrix: SparseColMat<usize, f64>,
-    /// (position in `h`'s value array, position in `matrix`'s).
+    /// (position in `h`'s value array, position in `matrix`'s), columns before the tail.
     scatter: Vec<(usize, usize)>,
+    /// (position in `h`'s value array, row, column in the tail block): the entries of the
+    /// tail's columns of `X` (those of `S × S` are added once, to the Schur complement).
+    tail_scatter: Vec<(usize, usize, usize)>,
+    /// First column of the tail, the last supernode (≤ the separator's first column).
+    tail: usize,
+    /// Offset of the tail's dense block (w × w, w = m − tail, column-major) in `l_values`.
+    tail_offset: usize,
     l_values: Vec<f64>,
     factor_mem: MemBuffer,
     solve_mem: MemBuffer,
-    /// The trailing s × s block of the factor, dense lower.
-    c: Mat<f64>,
+    /// Right-hand side / solution of `M`'s solves (m values).
     rhs: Vec<f64>,
-    tmp: Vec<f64>,
+    /// The separator's size s.
+    s: usize,
+}
+
+/// The supernodal structure of `symbolic` (`None`: simplicial).
+fn supernodal(symbolic: &SymbolicCholesky<usize>) -> Option<&SymbolicSupernodalCholesky<usize>> {
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Supernodal(s) => Some(s),
+        SymbolicCholeskyRaw::Simplicial(_) => None,
+    }
 }
 
 impl Half {
-    /// `range`: the half's dofs in the permuted numbering; the separator follows it.
+    /// `range`: the half's dofs in the permuted numbering; the separator follows it. `None`
+    /// when the half's symbolic analysis does not put the whole separator in its last
+    /// supernode (the split then does not apply).
     fn new(
         pattern: SymbolicSparseColMatRef<'_, usize>,
         inv: &[usize],
         range: std::ops::Range<usize>,
         sep_start: usize,
-    ) -> Result<Half, SolverError> {
+    ) -> Result<Option<Half>, SolverError> {
         let n = pattern.ncols();
         let nx = range.len();
         let s = n - sep_start;
@@ -109,7 +148,6 @@ impl Half {
             col_ptr[c + 1] += col_ptr[c];
         }
         let row_idx: Vec<usize> = entries.iter().map(|e| e.1).collect();
-        let scatter = entries.iter().enumerate().map(|(q, e)| (e.2, q)).collect();
         let structure = SymbolicSparseColMat::new_checked(m, m, col_ptr, None, row_idx);
         let params = CholeskySymbolicParams {
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
@@ -125,149 +163,190 @@ impl Half {
             params,
         )
         .map_err(|e| SolverError::Linear(format!("{e:?}")))?;
+        let Some(sn) = supernodal(&symbolic) else {
+            return Ok(None);
+        };
+        let last = sn.n_supernodes() - 1;
+        let tail = sn.supernode_begin()[last];
+        let first = m - s;
+        if tail > first {
+            return Ok(None);
+        }
+        let mut scatter = Vec::new();
+        let mut tail_scatter = Vec::new();
+        for (q, &(col, row, p)) in entries.iter().enumerate() {
+            if col < tail {
+                scatter.push((p, q));
+            } else if col < first {
+                tail_scatter.push((p, row - tail, col - tail));
+            }
+        }
         let factor_mem = MemBuffer::try_new(
-            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+            faer::sparse::linalg::cholesky::supernodal::factorize_supernodal_numeric_llt_scratch::<
+                usize,
+                f64,
+            >(sn, Par::Seq, Default::default()),
         )
         .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
         let solve_mem = MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq))
             .map_err(|_| SolverError::Linear("out of memory for solve scratch".into()))?;
+        let tail_offset = sn.col_ptr_for_val()[last];
         let nnz = structure.row_idx().len();
-        Ok(Half {
+        Ok(Some(Half {
             l_values: vec![0.0; symbolic.len_val()],
             symbolic,
             matrix: SparseColMat::new(structure, vec![0.0; nnz]),
             scatter,
+            tail_scatter,
+            tail,
+            tail_offset,
             factor_mem,
             solve_mem,
-            c: Mat::zeros(s, s),
             rhs: vec![0.0; m],
-            tmp: vec![0.0; s],
-        })
+            s,
+        }))
     }
 
-    fn supernodal(&self) -> Option<&SymbolicSupernodalCholesky<usize>> {
-        match self.symbolic.raw() {
-            SymbolicCholeskyRaw::Supernodal(s) => Some(s),
-            SymbolicCholeskyRaw::Simplicial(_) => None,
-        }
+    /// Predicted flops of the half ([`factor_flops`](super::factor_flops)'s count over the
+    /// half's own columns: the separator's are not factorised here).
+    fn flops(&self) -> f64 {
+        let Some(sn) = supernodal(&self.symbolic) else {
+            return 0.0;
+        };
+        let first = self.rhs.len() - self.s;
+        let (begin, end) = (sn.supernode_begin(), sn.supernode_end());
+        (0..sn.n_supernodes())
+            .map(|k| {
+                let below = sn.supernode(k).pattern().len();
+                (begin[k]..end[k].min(first))
+                    .map(|c| ((end[k] - c + below) as f64).powi(2))
+                    .sum::<f64>()
+            })
+            .sum()
     }
 
-    /// Factorises `M` (values from `h`), copies the trailing block into `c` and writes the lower
-    /// triangle of `c cᵀ` into `product`. Errors with the failing pivot in `M`'s numbering.
-    fn factorize(&mut self, h: &[f64], product: MatMut<'_, f64>) -> Result<(), usize> {
+    /// Eliminates the half's dofs from `M` (values from `h`) and writes the lower triangle of
+    /// `T_X = −L_SX L_SXᵀ` into `product` (see [`SplitFactor`]). Errors with the failing pivot
+    /// in `M`'s numbering.
+    fn factorize(&mut self, h: &[f64], product: &mut Mat<f64>) -> Result<(), usize> {
         let val = self.matrix.val_mut();
         for &(src, dst) in &self.scatter {
             val[dst] = h[src];
         }
-        let stack = MemStack::new(&mut self.factor_mem);
-        self.symbolic
-            .factorize_numeric_llt(
-                &mut self.l_values,
-                self.matrix.as_ref(),
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                stack,
-                Default::default(),
-            )
-            .map_err(|DenseLltError::NonPositivePivot { index }| index)?;
-        let Some(sn) = (match self.symbolic.raw() {
-            SymbolicCholeskyRaw::Supernodal(s) => Some(s),
-            SymbolicCholeskyRaw::Simplicial(_) => None,
-        }) else {
+        let Some(sn) = supernodal(&self.symbolic) else {
             return Err(0);
         };
-        let m = self.rhs.len();
-        let s = self.c.nrows();
-        let first = m - s;
-        self.c.as_mut().fill(0.0);
-        let (begin, end, ptr) = (
-            sn.supernode_begin(),
-            sn.supernode_end(),
-            sn.col_ptr_for_val(),
-        );
-        for k in 0..sn.n_supernodes() {
-            if end[k] <= first {
-                continue;
-            }
-            let width = end[k] - begin[k];
-            let pattern = sn.supernode(k).pattern();
-            let rows = width + pattern.len();
-            for col in begin[k].max(first)..end[k] {
-                let base = ptr[k] + (col - begin[k]) * rows;
-                for r in (col - begin[k])..width {
-                    self.c[(begin[k] + r - first, col - first)] = self.l_values[base + r];
-                }
-                for (q, &row) in pattern.iter().enumerate() {
-                    self.c[(row - first, col - first)] = self.l_values[base + width + q];
-                }
-            }
+        // faer's driver on M directly (M is already in its own order: no permuted copy).
+        match faer::sparse::linalg::cholesky::supernodal::factorize_supernodal_numeric_llt(
+            &mut self.l_values,
+            self.matrix.as_ref(),
+            Default::default(),
+            sn,
+            Par::Seq,
+            MemStack::new(&mut self.factor_mem),
+            Default::default(),
+        ) {
+            // The planned stop at the tail's first pivot (0 − Σ l², see `SplitFactor`).
+            Err(DenseLltError::NonPositivePivot { index }) if index == self.tail => {}
+            Err(DenseLltError::NonPositivePivot { index }) => return Err(index),
+            // Unreachable: that pivot cannot be positive.
+            Ok(_) => return Err(self.tail),
         }
+        let m = self.rhs.len();
+        let s = self.s;
+        let (w, k) = (m - self.tail, m - s - self.tail);
+        let tail = &mut self.l_values[self.tail_offset..self.tail_offset + w * w];
+        for &(src, i, j) in &self.tail_scatter {
+            tail[i + j * w] += h[src];
+        }
+        // The tail is w × w column-major: the separator block's column j, from its diagonal
+        // down, is `tail[separator(j)]`.
+        let separator = |j: usize| (k + j) * w + k + j..(k + j + 1) * w;
+        for j in 0..s {
+            product.col_as_slice_mut(j)[j..].copy_from_slice(&tail[separator(j)]);
+        }
+        // The tail's columns of X, densely: L11 L11ᵀ = W11, L21 = W21 L11⁻ᵀ, then
+        // T_X = W22 − L21 L21ᵀ.
+        let block = MatMut::from_column_major_slice_mut(tail, w, w);
+        let (mut w11, _, mut w21, _) = block.split_at_mut(k, k);
+        faer::linalg::cholesky::llt::factor::cholesky_in_place(
+            w11.rb_mut(),
+            Default::default(),
+            Par::Seq,
+            MemStack::new(&mut self.factor_mem),
+            Default::default(),
+        )
+        .map_err(|DenseLltError::NonPositivePivot { index }| self.tail + index)?;
+        solve_lower_triangular_in_place(w11.rb(), w21.rb_mut().transpose_mut(), Par::Seq);
         triangular::matmul(
-            product,
+            product.as_mut(),
             BlockStructure::TriangularLower,
-            Accum::Replace,
-            self.c.as_ref(),
-            BlockStructure::TriangularLower,
-            self.c.as_ref().transpose(),
-            BlockStructure::TriangularUpper,
-            1.0,
+            Accum::Add,
+            w21.rb(),
+            BlockStructure::Rectangular,
+            w21.rb().transpose(),
+            BlockStructure::Rectangular,
+            -1.0,
             Par::Seq,
         );
+        // The stored factor's separator block becomes the identity (see `SplitFactor`).
+        let tail = &mut self.l_values[self.tail_offset..self.tail_offset + w * w];
+        for j in 0..s {
+            let col = &mut tail[separator(j)];
+            col.fill(0.0);
+            col[0] = 1.0;
+        }
         Ok(())
     }
 
-    /// Forward substitution with `L_M` on `[b_X; 0]` (`b_X` already in `rhs`); leaves `y_X` in
-    /// `rhs` and returns `C·t = −L_SX y_X` in `tmp`.
+    /// Forward substitution with the stored factor `[L_XX 0; L_SX I]` on `[b_X; 0]` (`b_X`
+    /// already in `rhs`): leaves `y_X` and then `−L_SX y_X` in `rhs`.
     fn forward(&mut self) {
         let m = self.rhs.len();
-        let s = self.c.nrows();
-        let first = m - s;
-        self.rhs[first..].fill(0.0);
-        if let SymbolicCholeskyRaw::Supernodal(sn) = self.symbolic.raw() {
+        self.rhs[m - self.s..].fill(0.0);
+        if let Some(sn) = supernodal(&self.symbolic) {
             let l = SupernodalLltRef::new(sn, &self.l_values);
-            let stack = MemStack::new(&mut self.solve_mem);
             l.l_solve_with_conj(
                 Conj::No,
                 MatMut::from_column_major_slice_mut(&mut self.rhs, m, 1),
                 Par::Seq,
-                stack,
+                MemStack::new(&mut self.solve_mem),
             );
-        }
-        let t = &self.rhs[first..];
-        for i in 0..s {
-            self.tmp[i] = (0..=i).map(|j| self.c[(i, j)] * t[j]).sum();
         }
     }
 
-    /// Back substitution with `L_Mᵀ` on `[y_X; C_ᵀ x_S]`: leaves `x_X` in `rhs[..first]`.
+    /// Back substitution with the stored factor's transpose on `[y_X; x_S]`: leaves `x_X` in
+    /// `rhs[..m − s]`.
     fn backward(&mut self, x_s: &[f64]) {
         let m = self.rhs.len();
-        let s = self.c.nrows();
-        let first = m - s;
-        for j in 0..s {
-            self.rhs[first + j] = (j..s).map(|i| self.c[(i, j)] * x_s[i]).sum();
-        }
-        if let SymbolicCholeskyRaw::Supernodal(sn) = self.symbolic.raw() {
+        self.rhs[m - self.s..].copy_from_slice(x_s);
+        if let Some(sn) = supernodal(&self.symbolic) {
             let l = SupernodalLltRef::new(sn, &self.l_values);
-            let stack = MemStack::new(&mut self.solve_mem);
             l.l_transpose_solve_with_conj(
                 Conj::No,
                 MatMut::from_column_major_slice_mut(&mut self.rhs, m, 1),
                 Par::Seq,
-                stack,
+                MemStack::new(&mut self.solve_mem),
             );
         }
+    }
+
+    /// `−L_SX y_X` after [`forward`](Self::forward).
+    fn separator_part(&self) -> &[f64] {
+        &self.rhs[self.rhs.len() - self.s..]
     }
 }
 
 impl SplitFactor {
+    /// The split of `pattern` at the top-level dissection `perm` (`sizes`: dofs of A, B, S);
+    /// `None` when a half's symbolic analysis does not suit it ([`Half::new`]), a property of
+    /// the pattern alone, so the choice does not depend on the thread count.
     pub(super) fn new(
         pattern: SymbolicSparseColMatRef<'_, usize>,
         perm: Vec<usize>,
         sizes: [usize; 3],
         par: Par,
-    ) -> Result<SplitFactor, SolverError> {
+    ) -> Result<Option<SplitFactor>, SolverError> {
         let n = pattern.ncols();
         let [a, b, s] = sizes;
         let inv = inverse_permutation(&perm);
@@ -285,32 +364,31 @@ impl SplitFactor {
                 }
             }
         }
-        let halves = [
+        let (Some(h0), Some(h1)) = (
             Half::new(pattern, &inv, 0..a, sep)?,
             Half::new(pattern, &inv, a..sep, sep)?,
-        ];
-        if halves.iter().any(|h| h.supernodal().is_none()) {
-            return Err(SolverError::Linear("split factor is not supernodal".into()));
-        }
+        ) else {
+            return Ok(None);
+        };
         let schur_mem = MemBuffer::try_new(
             faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
-                s,
+                dense::BLOCK.min(s),
                 Par::Seq,
                 Default::default(),
             ),
         )
         .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
-        Ok(SplitFactor {
+        Ok(Some(SplitFactor {
             perm,
             sizes,
-            halves,
+            halves: [h0, h1],
             s_entries,
             schur: Mat::zeros(s, s),
             product: Mat::zeros(s, s),
             schur_mem,
             work: vec![0.0; n],
             par,
-        })
+        }))
     }
 
     /// Bytes held by the factors, the Schur complement and scratch.
@@ -319,9 +397,21 @@ impl SplitFactor {
         let halves: usize = self
             .halves
             .iter()
-            .map(|h| 8 * (h.l_values.len() + h.matrix.val().len() + s * s))
+            .map(|h| 8 * (h.l_values.len() + h.matrix.val().len()))
             .sum();
         (halves + 16 * s * s) as u64
+    }
+
+    /// Predicted flops `[half A, half B, separator]` (halves: their own columns, as
+    /// [`factor_flops`](super::factor_flops) counts them; separator: its dense Cholesky,
+    /// s³/3).
+    pub(super) fn flops(&self) -> [f64; 3] {
+        let s = self.sizes[2] as f64;
+        [
+            self.halves[0].flops(),
+            self.halves[1].flops(),
+            s * s * s / 3.0,
+        ]
     }
 
     /// Whether the halves run concurrently.
@@ -333,7 +423,7 @@ impl SplitFactor {
         let [a, b, s] = self.sizes;
         let concurrent = self.concurrent();
         let [h0, h1] = &mut self.halves;
-        let (pa, pb) = (self.schur.as_mut(), self.product.as_mut());
+        let (pa, pb) = (&mut self.schur, &mut self.product);
         let (r0, r1) = if concurrent {
             rayon::join(|| h0.factorize(h, pa), || h1.factorize(h, pb))
         } else {
@@ -343,29 +433,22 @@ impl SplitFactor {
             pivot: if p < a { p } else { p + b },
         })?;
         r1.map_err(|p| FactorError::NotPositiveDefinite { pivot: a + p })?;
-        // S = (C_A C_Aᵀ + C_B C_Bᵀ) − H_SS (lower triangle; H_SS's entries are distinct).
-        let mut schur = self.schur.as_mut();
+        // S = (T_A + T_B) + H_SS (lower triangle; H_SS's entries are distinct).
         for j in 0..s {
-            for i in j..s {
-                schur[(i, j)] += self.product[(i, j)];
+            let t_b = &self.product.col_as_slice(j)[j..];
+            for (t, u) in self.schur.col_as_slice_mut(j)[j..].iter_mut().zip(t_b) {
+                *t += u;
             }
         }
         for &(p, i, j) in &self.s_entries {
-            schur[(i, j)] -= h[p];
+            self.schur[(i, j)] += h[p];
         }
-        let stack = MemStack::new(&mut self.schur_mem);
-        faer::linalg::cholesky::llt::factor::cholesky_in_place(
-            schur,
-            Default::default(),
-            Par::Seq,
-            stack,
-            Default::default(),
-        )
-        .map_err(|DenseLltError::NonPositivePivot { index }| {
-            FactorError::NotPositiveDefinite {
+        let schur = self.schur.as_mut();
+        cholesky_blocked(schur, concurrent, MemStack::new(&mut self.schur_mem)).map_err(
+            |index| FactorError::NotPositiveDefinite {
                 pivot: a + b + index,
-            }
-        })?;
+            },
+        )?;
         Ok(())
     }
 
@@ -387,7 +470,11 @@ impl SplitFactor {
         }
         // y_S = L_S⁻¹ (b_S − L_SA y_A − L_SB y_B), then x_S = L_S⁻ᵀ y_S.
         let (_, x_s) = self.work.split_at_mut(sep);
-        for ((x, p), q) in x_s.iter_mut().zip(&h0.tmp).zip(&h1.tmp) {
+        for ((x, p), q) in x_s
+            .iter_mut()
+            .zip(h0.separator_part())
+            .zip(h1.separator_part())
+        {
             *x += p + q;
         }
         let mut xs = MatMut::from_column_major_slice_mut(x_s, s, 1);
