@@ -15,33 +15,39 @@ pub(super) const ENERGY: &str = "*Energy only*: StVK with the mid-edge average o
     itself and the gather of the stencil positions.";
 pub(super) const ENERGY_GRADIENT: &str = "*Energy + gradient*: batched four faces a lane for the \
     mid-edge average (`assembly/batch.rs`); about 115 of its instructions per face are the \
-    gradient's scatter of 18 entries per face, which stays scalar. The edge-director forms' \
-    gradient is still evaluated one face at a time.";
+    gradient's scatter of 18 entries per face, which stays scalar. The edge-director forms are \
+    batched too (faces with fitted, clamped or mirror edges take the per-face kernel).";
 pub(super) const FACTOR: &str = "*Factorisation*: the same METIS ordering as libshell's \
     CHOLMOD since issue #31 (the ordering row); what is left is the supernodal kernels' rate.";
 pub(super) const THREADS: &str = "*Two threads*: the split factorises the two halves of the \
-    top separator concurrently, then the separator densely; its predicted critical path is \
-    0.63 of the one-thread flops at 20 480 faces, so small factors gain little.";
+    top separator concurrently, each stopping at the separator, then the separator densely in \
+    fixed blocks; it does the unsplit factorisation's flops, and its predicted critical path is \
+    about 0.53 of them at 20 480 faces, so small factors gain little.";
 pub(super) const ORDERING: &str = "*Ordering flops*: the default is METIS's own nested \
     dissection (`METIS_NodeND` through the solver's checked `unsafe` wrapper since issue #31), \
     the ordering CHOLMOD uses; a residual difference is METIS's random stream and CHOLMOD's \
     postordering.";
 pub(super) const NEWTON: &str = "*Newton iteration ≥ 4× libshell on 2 threads*: 4× needs \
     ≤ 149 ms (issue #31's libshell: 594 ms) for assembly, factorisation and solve, and the \
-    two-thread factorisation alone takes about that (Factorisation table); closing it needs \
+    two-thread factorisation is about three quarters of that (Factorisation table); closing it needs \
     fewer flops (the ordering row), faster supernodal kernels, or skipped factorisations \
     (factor reuse, below: the default of implicit steps since issue #31, which this row, \
     one factorisation per iteration, does not count).";
 pub(super) const GROWTH: &str = "*Growth exponent*: nested dissection factorises a 2-D mesh \
     of n unknowns in O(n^1.5) flops, and the factorisation is most of an iteration from \
     20 480 faces up, so the slope rises with size; two threads pull it down (the split \
-    pays more on larger factors: speed-up 1.30 at 20 480, 1.68 at 81 920 faces).";
+    pays more on larger factors: the speed-up column of the Factorisation table).";
 pub(super) const DIRECTOR_FACE: &str = "*Director forms per face*: 21 dofs per face (the \
     three edge angles) against 18, and 45 vertex/edge block pairs gathered against 21; the \
     dihedral angle's Hessian is in closed form since issue #31 (Bridson's gradient \
     differentiated, instead of the chain rule through three normalised vectors); what \
     remains is the altitude's Hessian, the fitted/clamped edges' dual numbers and the larger \
-    gather.";
+    gather. Instructions per face (callgrind, `face_cost FORM egh`, 2026-12-03): 40 120 for tan \
+    against 28 979 for the average (1.38×), below the time ratio: each face writes 45 3×3 \
+    blocks (405 values, 249 of them used, since an edge angle's slot is padded to three \
+    coordinates) that the gather reads again, 2.1× the average's 189. Storing an edge slot's \
+    blocks at their real size (3×1, 1×1) in the per-face buffer and the gather is what \
+    would close it.";
 pub(super) const DIRECTOR_STEP: &str = "*Director forms per implicit step*: twice the \
     unknowns (one angle per edge) and about 2.2× the predicted factorisation flops with \
     METIS (1.44e10 against 6.38e9 at 20 480 faces), on top of the per-face cost.";
