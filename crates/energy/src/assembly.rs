@@ -537,14 +537,7 @@ impl Assembler {
         let vertex_slots = slots.min(6);
         let (grad_stride, hess_stride) = (self.pattern.grad_stride, self.pattern.hess_stride);
         let copy_gradient = want.gradient || want.hessian.is_some();
-        // Local dof of (slot, axis): positions 3s + a, edge angle 18 + e (axis 0).
-        let local = |s: usize, a: usize| -> Option<usize> {
-            if s < 6 {
-                Some(3 * s + a)
-            } else {
-                (a == 0).then_some(18 + s - 6)
-            }
-        };
+        let pair_offset = &self.pattern.pair_offset[..];
         let face = |fe: &mut FaceEval<N>, (f, ((grad, hess), energy)): FaceSlots<'_>| {
             let stencil = if with_angles {
                 stencils.stencil_at(f, x, phi)
@@ -575,26 +568,34 @@ impl Assembler {
                 finite &= all_finite(grad);
             }
             if want.hessian.is_some() {
-                // nalgebra is column-major: column 3 s2 + c holds rows 3 s1 .. 3 s1 + 3.
+                // Each slot pair's block at its real size (see `pattern`): nalgebra is
+                // column-major, so column 3 s2 + c of a vertex pair holds rows 3 s1 .. 3 s1 + 3;
+                // an edge slot s ≥ 6 is the single local dof 18 + s − 6. Every value is read
+                // from the same local entry (not its symmetric twin) as with padded blocks.
                 let h = fe.hessian.as_slice();
-                for s1 in 0..slots {
+                for s1 in 0..vertex_slots {
                     for s2 in 0..=s1 {
-                        let b = &mut hess[9 * pair(s1, s2)..9 * pair(s1, s2) + 9];
-                        if s1 < 6 {
-                            for c in 0..3 {
-                                let col = N * (3 * s2 + c) + 3 * s1;
-                                b[3 * c..3 * c + 3].copy_from_slice(&h[col..col + 3]);
-                            }
-                            continue;
-                        }
+                        let o = pair_offset[pair(s1, s2)];
+                        let b = &mut hess[o..o + 9];
                         for c in 0..3 {
-                            for a in 0..3 {
-                                b[3 * c + a] = match (local(s1, a), local(s2, c)) {
-                                    (Some(i), Some(j)) => h[N * j + i],
-                                    _ => 0.0,
-                                };
-                            }
+                            let col = N * (3 * s2 + c) + 3 * s1;
+                            b[3 * c..3 * c + 3].copy_from_slice(&h[col..col + 3]);
                         }
+                    }
+                }
+                for s1 in vertex_slots..slots {
+                    let i = 18 + s1 - 6;
+                    // Vertex–edge: a 1×3 block, entry c at c.
+                    for s2 in 0..vertex_slots {
+                        let o = pair_offset[pair(s1, s2)];
+                        let b = &mut hess[o..o + 3];
+                        for c in 0..3 {
+                            b[c] = h[N * (3 * s2 + c) + i];
+                        }
+                    }
+                    // Edge–edge: 1×1.
+                    for s2 in vertex_slots..=s1 {
+                        hess[pair_offset[pair(s1, s2)]] = h[N * (18 + s2 - 6) + i];
                     }
                 }
                 finite &= all_finite(hess);
@@ -669,18 +670,12 @@ impl Assembler {
             for (i, val) in vals.iter_mut().enumerate() {
                 let k = start + i;
                 let blk = p.nz_block[k] as usize;
-                // Row-major entry e = 3a + c; face blocks are stored column-major.
-                let e = p.nz_entry[k] as usize;
-                let e_col_major = 3 * (e % 3) + e / 3;
+                // Where this entry sits in a face block read untransposed / transposed.
+                let [off, off_t] = p.nz_src_offset[k].map(usize::from);
                 let mut s = 0.0;
                 for &src in &p.block_src[p.block_ptr[blk]..p.block_ptr[blk + 1]] {
                     let base = (src & !TRANSPOSED) as usize;
-                    let off = if src & TRANSPOSED != 0 {
-                        e
-                    } else {
-                        e_col_major
-                    };
-                    s += buf[base + off];
+                    s += buf[base + if src & TRANSPOSED != 0 { off_t } else { off }];
                 }
                 *val = s;
             }
@@ -697,20 +692,43 @@ impl Assembler {
         // entries; blocks write scattered positions, hence not the parallel path). Every entry
         // sums its sources in the same order from 0, so the bits are those of the loop above.
         for (blk, offsets) in p.block_offsets.iter().enumerate() {
-            // Row-major entries e = 3a + c; face blocks are stored column-major.
+            // Row-major entries e = 3a + c; face blocks are stored column-major, at the real
+            // size `rows × cols` of the block's nodes (entries beyond it have no dof).
             let mut acc = [0.0f64; 9];
-            for &src in &p.block_src[p.block_ptr[blk]..p.block_ptr[blk + 1]] {
-                let base = (src & !TRANSPOSED) as usize;
-                let b = &buf[base..base + 9];
-                if src & TRANSPOSED != 0 {
-                    for (a, v) in acc.iter_mut().zip(b) {
-                        *a += v;
-                    }
-                } else {
-                    for r in 0..3 {
-                        for c in 0..3 {
-                            acc[3 * r + c] += b[3 * c + r];
+            let sources = &p.block_src[p.block_ptr[blk]..p.block_ptr[blk + 1]];
+            match p.block_dims[blk] {
+                [3, 3] => {
+                    for &src in sources {
+                        let base = (src & !TRANSPOSED) as usize;
+                        let b = &buf[base..base + 9];
+                        if src & TRANSPOSED != 0 {
+                            for (a, v) in acc.iter_mut().zip(b) {
+                                *a += v;
+                            }
+                        } else {
+                            for r in 0..3 {
+                                for c in 0..3 {
+                                    acc[3 * r + c] += b[3 * c + r];
+                                }
+                            }
                         }
+                    }
+                }
+                // Blocks with an edge node are its row (edge nodes come after all vertices),
+                // stored as a single row: vertex–edge 1×3, edge–edge 1×1. A one-row block
+                // reads the same transposed or not (entry (0, c) at c), so the flag is moot.
+                [1, 3] => {
+                    for &src in sources {
+                        let base = (src & !TRANSPOSED) as usize;
+                        for (a, v) in acc[..3].iter_mut().zip(&buf[base..base + 3]) {
+                            *a += v;
+                        }
+                    }
+                }
+                _ => {
+                    debug_assert_eq!(p.block_dims[blk], [1, 1]);
+                    for &src in sources {
+                        acc[0] += buf[(src & !TRANSPOSED) as usize];
                     }
                 }
             }

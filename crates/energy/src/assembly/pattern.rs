@@ -1,11 +1,17 @@
 //! Construction of the Hessian sparsity pattern and of the gather maps (done once).
 //!
 //! Per-face buffers: the gradient buffer holds `3·n_slots` f64 per face (slot-major, x y z);
-//! the Hessian buffer one 3×3 block per unordered slot pair `s1 ≥ s2` (`9·n_pairs` f64 per
-//! face), at pair index `p = s1(s1+1)/2 + s2`, column-major like nalgebra (so that it is
-//! copied in runs of three): `B[3c + a] = H_local[3 s1 + a, 3 s2 + c]`. Global block entries
-//! are numbered row-major, `e = 3a + c`: a block read untransposed uses index `3c + a`, a
-//! transposed one `3a + c`.
+//! the Hessian buffer one block per unordered slot pair `s1 ≥ s2`, in pair order
+//! `p = s1(s1+1)/2 + s2`, each at its real size `d(s1) × d(s2)`, where a slot's dimension
+//! `d` is 3 for a vertex and 1 for an edge angle (whose node has only axis 0). Block `p`
+//! starts at [`Pattern::pair_offset`]`[p]` within the face's `hess_stride` f64: 9 per
+//! vertex–vertex pair (the mid-edge average's 21 pairs give 189), 3 per vertex–edge pair
+//! and 1 per edge–edge pair (the director forms' 45 pairs give 249 instead of 405 with
+//! padded 3×3 blocks; the padding was only written and skipped, but it cost memory traffic).
+//! Blocks are column-major like nalgebra (so that vertex blocks are copied in runs of
+//! three): `B[d(s1)·c + a] = H_local[(s1, a), (s2, c)]`. Global block entries are numbered
+//! row-major, `e = 3a + c`; [`Pattern::nz_src_offset`] and [`Pattern::block_dims`] say
+//! where such an entry sits in a face block read untransposed or transposed.
 //!
 //! A face's slot pair `(s1, s2)` over vertices `(v1, v2)` contributes to the global vertex
 //! block `(max, min)` of the lower triangle — transposed when `v1 < v2`. With vertex-major,
@@ -15,8 +21,12 @@
 //! Edge-director unknowns ride on the same machinery: with `edge_slots`, every face has three
 //! more slots, one per edge, and edge `e` is *node* `n_vertices + e`, a node whose only
 //! coordinate is axis 0 (axes 1 and 2 have no dof, like pinned coordinates, so their entries
-//! are never gathered). Edge nodes come after all vertices and their dofs after all position
-//! dofs, so the lower-triangle argument above holds unchanged.
+//! are never gathered and are not stored per face). Edge nodes come after all vertices and
+//! their dofs after all position dofs, so the lower-triangle argument above holds unchanged;
+//! it also means a mixed global block always has the edge as row node and the vertex as
+//! column node, so the shape of every face block feeding a global block (3×3, 1×3 — a
+//! vertex–edge pair always has the edge slot as `s1`, edge slots coming last — or 1×1)
+//! follows from the global block's two nodes alone.
 
 use crate::dofs::DofMap;
 use crate::error::EnergyError;
@@ -38,6 +48,12 @@ pub(super) const fn pair(s1: usize, s2: usize) -> usize {
     s1 * (s1 + 1) / 2 + s2
 }
 
+/// Offset of entry (row axis `a`, column axis `c`) in a column-major face block with `rows`
+/// rows (the row slot's dimension).
+const fn block_index(rows: usize, a: usize, c: usize) -> usize {
+    rows * c + a
+}
+
 /// Everything the assembler precomputes from (mesh topology, dofs, stencil size).
 pub(super) struct Pattern {
     /// Slots per face: vertex slots, then 3 edge slots when edge unknowns are present.
@@ -50,8 +66,12 @@ pub(super) struct Pattern {
     pub diagonal: Vec<usize>,
     /// f64 per face in the gradient buffer.
     pub grad_stride: usize,
-    /// f64 per face in the Hessian buffer.
+    /// f64 per face in the Hessian buffer: the sum of the pair block sizes.
     pub hess_stride: usize,
+    /// Per slot pair index ([`pair`]): start of its block within a face's Hessian buffer.
+    /// Blocks have their real size (9, 3 or 1 f64), so this is the one place that knows the
+    /// layout; the face copy and [`Pattern::block_src`] both take their offsets from here.
+    pub pair_offset: Vec<usize>,
     /// Per node (CSR): gradient-buffer offsets of the face slots that touch it.
     pub grad_ptr: Vec<usize>,
     /// See `grad_ptr`.
@@ -62,10 +82,14 @@ pub(super) struct Pattern {
     pub block_src: Vec<u32>,
     /// Value-array position of each of the 9 entries `3a + c` of a global block, or [`NONE`].
     pub block_offsets: Vec<[u32; 9]>,
+    /// Per global block: the dimensions `[rows, columns]` of its row and column nodes (3 for a
+    /// vertex, 1 for an edge), i.e. the shape of its face blocks read untransposed.
+    pub block_dims: Vec<[u8; 2]>,
     /// Per nonzero: its global block.
     pub nz_block: Vec<u32>,
-    /// Per nonzero: its entry `3a + c` in the block.
-    pub nz_entry: Vec<u8>,
+    /// Per nonzero: where its entry sits in a face block of its global block, `[read
+    /// untransposed, read transposed]` (so the per-nonzero gather needs no shape logic).
+    pub nz_src_offset: Vec<[u8; 2]>,
     /// Per face: global block (with [`TRANSPOSED`]) of the slot pairs among its three vertices,
     /// in pair order (0,0), (1,0), (1,1), (2,0), (2,1), (2,2).
     pub face_blocks: Vec<[u32; 6]>,
@@ -87,7 +111,18 @@ impl Pattern {
         let n_vertices = dofs.n_vertices();
         let n_nodes = n_vertices + if edge_slots { dofs.n_edges() } else { 0 };
         let slots = n_slots + if edge_slots { 3 } else { 0 };
-        let (grad_stride, hess_stride) = (3 * slots, 9 * n_pairs(slots));
+        // Coordinates per slot: an edge slot's node has axis 0 only.
+        let dim = |s: usize| if s < n_slots { 3 } else { 1 };
+        let mut pair_offset = vec![0; n_pairs(slots)];
+        let mut hess_stride = 0;
+        for s1 in 0..slots {
+            for s2 in 0..=s1 {
+                pair_offset[pair(s1, s2)] = hess_stride;
+                hess_stride += dim(s1) * dim(s2);
+            }
+        }
+        let grad_stride = 3 * slots;
+        let node_dim = |v: u32| if (v as usize) < n_vertices { 3 } else { 1 };
         let node = |f: usize, s: usize| -> u32 {
             if s < n_slots {
                 stencils.vertices(f)[s].0
@@ -128,7 +163,7 @@ impl Pattern {
                         continue;
                     }
                     let v2 = node(f, s2);
-                    let src = (f * hess_stride + 9 * pair(s1, s2)) as u32;
+                    let src = (f * hess_stride + pair_offset[pair(s1, s2)]) as u32;
                     let (r, c) = (v1.max(v2), v1.min(v2));
                     if v1 == v2 && s1 != s2 {
                         // The same vertex in two slots (e.g. a tetrahedron's flaps): B + Bᵀ.
@@ -205,13 +240,24 @@ impl Pattern {
         let nnz = row_idx.len();
         let symbolic = SymbolicSparseColMat::new_checked(n_free, n_free, col_ptr, None, row_idx);
 
+        // Untransposed, a face block of global block (row r, column c) is d(r) × d(c) and
+        // holds entry (a, c) at d(r)·c + a; transposed it is d(c) × d(r) with the entry at
+        // d(c)·a + c. Entries outside the node dimensions have no dof (NONE) and never occur.
+        let block_dims: Vec<[u8; 2]> = block_vertices
+            .iter()
+            .map(|&(c, r)| [node_dim(r), node_dim(c)])
+            .collect();
         let mut nz_block = vec![0u32; nnz];
-        let mut nz_entry = vec![0u8; nnz];
+        let mut nz_src_offset = vec![[0u8; 2]; nnz];
         for (b, offs) in block_offsets.iter().enumerate() {
+            let [rows, cols] = block_dims[b].map(usize::from);
             for (e, &o) in offs.iter().enumerate() {
                 if o != NONE {
+                    let (a, c) = (e / 3, e % 3);
+                    debug_assert!(a < rows && c < cols);
                     nz_block[o as usize] = b as u32;
-                    nz_entry[o as usize] = e as u8;
+                    nz_src_offset[o as usize] =
+                        [block_index(rows, a, c) as u8, block_index(cols, c, a) as u8];
                 }
             }
         }
@@ -251,13 +297,15 @@ impl Pattern {
             diagonal,
             grad_stride,
             hess_stride,
+            pair_offset,
             grad_ptr,
             grad_src,
             block_ptr,
             block_src,
             block_offsets,
+            block_dims,
             nz_block,
-            nz_entry,
+            nz_src_offset,
             face_blocks,
         })
     }
