@@ -38,16 +38,11 @@ pub(super) const GROWTH: &str = "*Growth exponent*: nested dissection factorises
     20 480 faces up, so the slope rises with size; two threads pull it down (the split \
     pays more on larger factors: the speed-up column of the Factorisation table).";
 pub(super) const DIRECTOR_FACE: &str = "*Director forms per face*: 21 dofs per face (the \
-    three edge angles) against 18, and 45 vertex/edge block pairs gathered against 21; the \
-    dihedral angle's Hessian is in closed form since issue #31 (Bridson's gradient \
-    differentiated, instead of the chain rule through three normalised vectors); what \
-    remains is the altitude's Hessian, the fitted/clamped edges' dual numbers and the larger \
-    gather. Instructions per face (callgrind, `face_cost FORM egh`, 2026-12-03): 40 120 for tan \
-    against 28 979 for the average (1.38×), below the time ratio: each face writes 45 3×3 \
-    blocks (405 values, 249 of them used, since an edge angle's slot is padded to three \
-    coordinates) that the gather reads again, 2.1× the average's 189. Storing an edge slot's \
-    blocks at their real size (3×1, 1×1) in the per-face buffer and the gather is what \
-    would close it.";
+    three edge angles) against 18, and 45 vertex/edge block pairs gathered against 21 (edge \
+    slots' blocks at their real size since issue #31: 249 f64 per face against the average's \
+    189); the dihedral angle's Hessian is in closed form; what remains is the altitude's \
+    Hessian and the fitted/clamped edges' dual numbers (callgrind `face_cost FORM egh`: 39 347 \
+    instructions per face for tan against 29 126 for the average on 2026-12-03).";
 pub(super) const DIRECTOR_STEP: &str = "*Director forms per implicit step*: twice the \
     unknowns (one angle per edge) and about 2.2× the predicted factorisation flops with \
     METIS (1.44e10 against 6.38e9 at 20 480 faces), on top of the per-face cost.";
