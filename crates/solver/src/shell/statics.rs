@@ -192,18 +192,21 @@ impl Integrator for Static {
         let (one_shot, hessian) = self.one_shot(system, &mut x, &mut phi, &start_x, &start_phi);
         let mut continuation_stages = 0;
         let mut continuation_checked = false;
-        let (report, stability) = match one_shot {
+        // The static potential of the result is computed once, where it is settled: the report
+        // carries it and the wandering check compares by it.
+        let ((report, stability), potential) = match one_shot {
             Ok(r) => {
                 let wandered = self.continuation && r.wandered();
                 let mut kept = self.settle(system, &mut x, &mut phi, r)?;
-                if wandered && !self.at_zero_potential(system, &x, &phi, &start_x, &start_phi) {
+                let mut potential = self.potential(system, &x, &phi);
+                if wandered && !self.at_zero_potential(system, potential, &start_x, &start_phi) {
                     continuation_checked = true;
                     let (mut cx, mut cphi) = (start_x, start_phi);
                     if let Some(stages) = self.check_by_continuation(
                         system,
                         (&mut x, &mut phi),
                         (&mut cx, &mut cphi),
-                        &mut kept,
+                        (&mut kept, &mut potential),
                     ) {
                         continuation_stages = stages;
                     }
@@ -211,7 +214,7 @@ impl Integrator for Static {
                     // result kept, not of the continuation's last solve.
                     system.keep_angles(&phi);
                 }
-                kept
+                (kept, potential)
             }
             Err(e) if self.continuation && retryable(&e) => {
                 x.copy_from_slice(&start_x);
@@ -226,12 +229,11 @@ impl Integrator for Static {
                 continuation_stages = stages;
                 // One count for the step: the failed one-shot solve's iterations too.
                 settled.0.iterations += e.newton_iterations();
-                settled
+                (settled, self.potential(system, &x, &phi))
             }
             Err(e) => return Err(e),
         };
         let energies = system.energy_at(&x, &phi)?;
-        let potential = self.potential(system, &x, &phi);
         state.x = x;
         state.phi = phi;
         state.v.iter_mut().for_each(|v| *v = Vector3::zeros());
@@ -292,21 +294,20 @@ impl Static {
 
     /// The wandering check: solves by continuation from the start `(cx, cphi)` and, when that
     /// equilibrium is better ([`better`]) than the one-shot `(x, phi)` with report and
-    /// stability `kept`, moves it into `(x, phi)` and `kept` and returns its sub-steps. Either
-    /// way `kept`'s iteration count includes both solves.
+    /// stability `kept` and static potential `kept_potential`, moves it into `(x, phi)`, `kept`
+    /// and `kept_potential` and returns its sub-steps. Either way `kept`'s iteration count
+    /// includes both solves.
     fn check_by_continuation(
         &mut self,
         system: &mut ShellSystem,
         (x, phi): (&mut Vec<Vector3<f64>>, &mut Vec<f64>),
         (cx, cphi): (&mut Vec<Vector3<f64>>, &mut Vec<f64>),
-        kept: &mut (NewtonReport, Option<Stability>),
+        (kept, kept_potential): (&mut (NewtonReport, Option<Stability>), &mut Option<f64>),
     ) -> Option<usize> {
         let (stages, mut checked) = self.continue_and_settle(system, cx, cphi)?;
+        let checked_potential = self.potential(system, cx, cphi);
         // A potential that cannot be evaluated keeps the one-shot result.
-        let is_better = match (
-            self.potential(system, cx, cphi),
-            self.potential(system, x, phi),
-        ) {
+        let is_better = match (checked_potential, *kept_potential) {
             (Some(pc), Some(pk)) => better(
                 (checked.1.as_ref().map(|s| s.stable), pc),
                 (kept.1.as_ref().map(|s| s.stable), pk),
@@ -321,6 +322,7 @@ impl Static {
         std::mem::swap(phi, cphi);
         checked.0.iterations += kept.0.iterations;
         *kept = checked;
+        *kept_potential = checked_potential;
         Some(stages)
     }
 
@@ -386,25 +388,21 @@ impl Static {
         Ok((report, stability))
     }
 
-    /// Whether, without loads, the equilibrium `x`, `phi` has a static potential of at most
-    /// 10⁻¹⁰ of the start's: the potential is then the elastic (and contact) energy, never
-    /// negative, so no other equilibrium is lower (a crumpled sheet flattened to its rest
-    /// shape) and the wandering check is skipped.
+    /// Whether, without loads, an equilibrium of static potential `end` has at most 10⁻¹⁰ of
+    /// the start's: the potential is then the elastic (and contact) energy, never negative, so
+    /// no other equilibrium is lower (a crumpled sheet flattened to its rest shape) and the
+    /// wandering check is skipped.
     fn at_zero_potential(
         &self,
         system: &mut ShellSystem,
-        x: &[Vector3<f64>],
-        phi: &[f64],
+        end: Option<f64>,
         start_x: &[Vector3<f64>],
         start_phi: &[f64],
     ) -> bool {
         if system.pressure() != 0.0 || system.external_forces().iter().any(|&f| f != 0.0) {
             return false;
         }
-        match (
-            self.potential(system, x, phi),
-            self.potential(system, start_x, start_phi),
-        ) {
+        match (end, self.potential(system, start_x, start_phi)) {
             (Some(end), Some(start)) => end <= 1e-10 * start,
             _ => false,
         }
