@@ -119,7 +119,7 @@ pub mod objective;
 pub mod ordering;
 pub mod path;
 pub mod progress;
-pub mod shell;
+pub mod integrate;
 
 pub use error::{PathFailure, SolverError};
 pub use linear::{FactorStats, RegularizationKind, RegularizationParams, SparseCholesky};
@@ -137,8 +137,7 @@ pub use progress::{CancelFlag, NewtonProgress, ProgressHook};
 #[cfg(doctest)]
 pub struct ReadmeDoctests;
 
-pub use shell::{
-    AngleReport, AngleSettings, Boundary, Contact, ContactError, ContactRunState, ContactSettings,
-    ContactStats, ExplicitEuler, ImplicitEuler, Integrator, Loads, ModalSettings, Modes,
-    NewtonCache, Obstacle, Prescribed, ShellPath, ShellSystem, State, Static, StepKind, StepReport,
+pub use integrate::{
+    ExplicitEuler, ImplicitEuler, Integrator, MAX_CONTINUATION_HALVINGS, Model, NewtonCache,
+    ObjectiveOptions, Origin, State, Static, StepControl, StepKind, StepObjective, StepReport,
 };

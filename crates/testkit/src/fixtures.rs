@@ -12,7 +12,8 @@ use nalgebra::{Matrix2, Vector2, Vector3};
 use thinshell_energy::{Material, MaterialModel, RestState, SffKind, ShellModel, Terms};
 use thinshell_growth::{FaceStimulus, Growth, Prescribed, Swelling};
 use thinshell_mesh::{Mesh, generators};
-use thinshell_solver::{Boundary, Loads, ShellSystem, State, Static};
+use thinshell_solver::{State, Static};
+use thinshell_system::{Boundary, Loads, ShellSystem};
 
 /// Unit-scale material for single-face kernel checks: h = 0.3, E = 1, ν = 0.3, ρ = 1, with the
 /// given viscosity η. Stretching, bending and damping are then of comparable size on O(1)

@@ -612,10 +612,9 @@ impl OutputWriter {
             }
             let contact_force = sim
                 .system()
-                .contact
-                .as_ref()
+                .contact()
                 .map(|c| c.forces(sim.positions()));
-            if let Some(c) = &sim.system().contact {
+            if let Some(c) = sim.system().contact() {
                 // Per-face smallest contact gap (m, capped at d̂) for `thinshell view`.
                 cell_scalars.push(("contact_gap", c.face_gaps(sim.positions())));
             }
