@@ -46,7 +46,10 @@ use thinshell::sim::{Simulation, SimulationBuilder};
 use thinshell_energy::{HessianMode, Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_growth::{FaceStimulus, Prescribed, Swelling};
 use thinshell_mesh::{VertexId, generators};
-use thinshell_solver::{HessianPolicy, ImplicitEuler, Integrator, NewtonReport, NewtonSettings, SolverError, State, Static};
+use thinshell_solver::{
+    HessianPolicy, ImplicitEuler, Integrator, NewtonReport, NewtonSettings, SolverError, State,
+    Static,
+};
 use thinshell_system::{Boundary, Loads, ShellSystem};
 
 /// Options of `cargo xtask hard-cases`.

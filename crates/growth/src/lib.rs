@@ -24,7 +24,8 @@
 //! use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
 //! use thinshell_growth::{FaceStimulus, Growth, Isotropic, Prescribed};
 //! use thinshell_mesh::generators;
-//! use thinshell_solver::{Boundary, ImplicitEuler, Integrator, Loads, ShellSystem, State};
+//! use thinshell_solver::{ImplicitEuler, Integrator, State};
+//! use thinshell_system::{Boundary, Loads, ShellSystem};
 //!
 //! let mesh = generators::icosphere(1.0, 2)?; // 162 vertices, 320 faces
 //! let sff = SffKind::MidEdgeAverage;
@@ -69,9 +70,7 @@ pub use diffusion::{Diffusion, DiffusionSettings, DiffusionSource, SourceKind, S
 pub use error::GrowthError;
 pub use field::{DirectedHeat, Prescribed, StimulusField, StimulusFn};
 pub use mass::mass_with_uptake;
-pub use model::{
-    Anisotropy, GrowthModel, Isotropic, NoGrowth, Profile, Swelling, apply_growth,
-};
+pub use model::{Anisotropy, GrowthModel, Isotropic, NoGrowth, Profile, Swelling, apply_growth};
 pub use region::Region;
 pub use stimulus::FaceStimulus;
 

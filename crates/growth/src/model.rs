@@ -353,4 +353,3 @@ impl GrowthModel for Swelling {
         }
     }
 }
-

@@ -3,7 +3,9 @@
 //! minimised to the new function's minimiser, with the new pattern re-analysed.
 
 use faer::sparse::{SparseColMat, Triplet};
-use thinshell_solver::{IterationUpdate, NewtonSettings, NewtonWorkspace, Objective, SolverError, newton_solve};
+use thinshell_solver::{
+    IterationUpdate, NewtonSettings, NewtonWorkspace, Objective, SolverError, newton_solve,
+};
 
 const N: usize = 6;
 /// Coupling stiffness of neighbouring unknowns once switched on.

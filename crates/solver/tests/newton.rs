@@ -4,7 +4,10 @@
 mod common;
 
 use common::{chain, chain_equilibrium_z, crumpled_start, rigid_lattice};
-use thinshell_solver::{Convergence, HessianPolicy, IterationHessian, NewtonSettings, NewtonWorkspace, Objective, Ordering, RegularizationParams, SolverError, newton_solve};
+use thinshell_solver::{
+    Convergence, HessianPolicy, IterationHessian, NewtonSettings, NewtonWorkspace, Objective,
+    Ordering, RegularizationParams, SolverError, newton_solve,
+};
 use thinshell_testkit::rng::Lcg64;
 
 const N: usize = 20;

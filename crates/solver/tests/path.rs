@@ -4,7 +4,9 @@
 //! snap-back. Every traced point must lie on the closed-form path within 1e-6.
 
 use faer::sparse::{SparseColMat, Triplet};
-use thinshell_solver::{LoadedObjective, Objective, PathControl, PathSettings, PathTracer, SolverError};
+use thinshell_solver::{
+    LoadedObjective, Objective, PathControl, PathSettings, PathTracer, SolverError,
+};
 
 /// Two bars from (±A, 0) to the apex (0, H − v), Green strain ε = (L² − L₀²)/(2L₀²), energy
 /// `EA·L₀·ε²` for the pair; a spring of stiffness K from the apex to the loaded point w; load

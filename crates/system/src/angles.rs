@@ -24,8 +24,8 @@ use thinshell_energy::{
 };
 use thinshell_mesh::{Mesh, VertexId};
 
-use thinshell_solver::linear::RegularizationParams;
 use crate::Boundary;
+use thinshell_solver::linear::RegularizationParams;
 use thinshell_solver::{Ordering, SolverError, SparseCholesky};
 
 /// Largest correction (rad) taken with a reused factorisation; larger ones refactorise first.

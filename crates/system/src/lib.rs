@@ -79,3 +79,8 @@ pub type StepReport =
 
 /// An integrator of a [`ShellSystem`] (boxed by callers that choose it at run time).
 pub type ShellIntegrator = dyn thinshell_solver::Integrator<ShellSystem> + Send;
+
+/// The README's example, compiled and run as a doctest so that it cannot go stale.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

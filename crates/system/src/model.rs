@@ -187,11 +187,7 @@ impl Model for ShellSystem {
         }
     }
 
-    fn problem_at(
-        &mut self,
-        x: &[Vector3<f64>],
-        phi: &[f64],
-    ) -> Result<ShellProblem, SolverError> {
+    fn problem_at(&mut self, x: &[Vector3<f64>], phi: &[f64]) -> Result<ShellProblem, SolverError> {
         let own = self
             .assembler
             .damping_state(x, phi, self.model.sff, 1.0)

@@ -32,7 +32,8 @@ use thinshell_solver::{IterationUpdate, Objective, SolverError};
 /// use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
 /// use thinshell_mesh::{Mesh, VertexId};
 /// use thinshell_solver::nalgebra::Vector3;
-/// use thinshell_solver::{Boundary, Loads, PathSettings, ShellPath, ShellSystem};
+/// use thinshell_solver::PathSettings;
+/// use thinshell_system::{Boundary, Loads, ShellPath, ShellSystem};
 ///
 /// // A strip 1 × 0.1 m, 20 × 2 cells, curved into a shallow arch z = a·(1 − (2x − 1)²),
 /// // a = 15 mm, h = 10 mm, E = 10 MPa.

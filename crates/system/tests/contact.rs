@@ -9,7 +9,10 @@ use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::VertexId;
 use thinshell_mesh::generators;
 use thinshell_solver::{ImplicitEuler, Integrator, State, Static};
-use thinshell_system::{Boundary, Contact, ContactSettings, Loads, Obstacle, ShellSystem, contact::first_edge_crossing_face};
+use thinshell_system::{
+    Boundary, Contact, ContactSettings, Loads, Obstacle, ShellSystem,
+    contact::first_edge_crossing_face,
+};
 use thinshell_testkit::contact::face_edge_indices;
 use thinshell_testkit::fd::{fd_gradient, rel_err_scaled};
 

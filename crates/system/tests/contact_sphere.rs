@@ -18,8 +18,8 @@
 use nalgebra::Vector3;
 use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::{VertexId, generators};
-use thinshell_system::loads::face_volume;
 use thinshell_solver::{ImplicitEuler, Integrator, State};
+use thinshell_system::loads::face_volume;
 use thinshell_system::{Boundary, ContactSettings, Loads, ShellSystem};
 use thinshell_testkit::contact::{brute_force_distance, face_edge_indices};
 

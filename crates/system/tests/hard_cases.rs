@@ -14,7 +14,10 @@ use nalgebra::{Matrix2, Vector3};
 use thinshell_energy::{HessianMode, Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_growth::{DirectedHeat, FaceStimulus, Growth, Isotropic, Prescribed, Region};
 use thinshell_mesh::{Mesh, generators};
-use thinshell_solver::{HessianPolicy, ImplicitEuler, Integrator, NewtonReport, NewtonSettings, RegularizationParams, SolverError, State, Static};
+use thinshell_solver::{
+    HessianPolicy, ImplicitEuler, Integrator, NewtonReport, NewtonSettings, RegularizationParams,
+    SolverError, State, Static,
+};
 use thinshell_system::{Boundary, Loads, ShellSystem, StepReport};
 use thinshell_testkit::fixtures::{self, SwellingStrip, damped_paper, planar_start};
 use thinshell_testkit::rng::Lcg64;

@@ -9,7 +9,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use nalgebra::Vector3;
 use thinshell_energy::SffKind;
-use thinshell_solver::{Integrator, IterationHessian, NewtonProgress, SolverError, State, Static, StepControl};
+use thinshell_solver::{
+    Integrator, IterationHessian, NewtonProgress, SolverError, State, Static, StepControl,
+};
 use thinshell_system::ShellSystem;
 use thinshell_testkit::fixtures::conformal_cone;
 

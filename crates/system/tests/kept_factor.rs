@@ -9,7 +9,9 @@ use std::sync::atomic::{AtomicBool, Ordering as AtomicOrdering};
 
 use thinshell_energy::SffKind;
 use thinshell_solver::linear::SPLIT_MIN_FLOPS;
-use thinshell_solver::{ImplicitEuler, Integrator, NewtonSettings, ProgressHook, SolverError, State, StepControl};
+use thinshell_solver::{
+    ImplicitEuler, Integrator, NewtonSettings, ProgressHook, SolverError, State, StepControl,
+};
 use thinshell_system::ShellSystem;
 use thinshell_testkit::fixtures::shrinking_sphere;
 

@@ -9,8 +9,8 @@
 
 use thinshell_energy::SffKind;
 use thinshell_mesh::VertexId;
-use thinshell_solver::nalgebra::Vector3;
 use thinshell_solver::PathSettings;
+use thinshell_solver::nalgebra::Vector3;
 use thinshell_system::{ContactSettings, Obstacle, ShellPath, ShellSystem};
 
 const RISE: f64 = 0.015;

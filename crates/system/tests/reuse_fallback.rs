@@ -6,7 +6,10 @@
 use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::generators;
 use thinshell_solver::nalgebra::Vector3;
-use thinshell_solver::{ImplicitEuler, Integrator, IterativeFallback, LinearSolver, NewtonSettings, SolverError, State, Static};
+use thinshell_solver::{
+    ImplicitEuler, Integrator, IterativeFallback, LinearSolver, NewtonSettings, SolverError, State,
+    Static,
+};
 use thinshell_system::{Boundary, Loads, ShellSystem};
 
 /// A paper sheet pinned on its boundary under gravity, and its weight (N).

@@ -610,10 +610,7 @@ impl OutputWriter {
                     g.stimulus().iter().map(|m| m.bottom).collect(),
                 ));
             }
-            let contact_force = sim
-                .system()
-                .contact()
-                .map(|c| c.forces(sim.positions()));
+            let contact_force = sim.system().contact().map(|c| c.forces(sim.positions()));
             if let Some(c) = sim.system().contact() {
                 // Per-face smallest contact gap (m, capped at d̂) for `thinshell view`.
                 cell_scalars.push(("contact_gap", c.face_gaps(sim.positions())));

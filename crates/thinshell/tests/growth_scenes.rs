@@ -40,7 +40,11 @@ fn uniform_heat_sets_the_rest_metric_once() {
             "ā = 0.9 a⁰ (model.md §5)"
         );
     }
-    assert_eq!(sim.system().rest().b_bar, g.initial().b_bar, "p = 0: b̄ = b⁰");
+    assert_eq!(
+        sim.system().rest().b_bar,
+        g.initial().b_bar,
+        "p = 0: b̄ = b⁰"
+    );
     // The sphere starts to shrink: mean radius below 1.
     let r: f64 =
         sim.positions().iter().map(|p| p.norm()).sum::<f64>() / sim.positions().len() as f64;

@@ -90,4 +90,3 @@ impl<M: Model> Integrator<M> for ExplicitEuler {
         })
     }
 }
-

@@ -182,9 +182,8 @@ impl<M: Model> Integrator<M> for ImplicitEuler {
         let mut dt = self.dt;
         let mut halvings = 0;
         loop {
-            let (result, hessian) = with_fallback_hessian(self, |this, start| {
-                this.try_step(model, state, dt, start)
-            });
+            let (result, hessian) =
+                with_fallback_hessian(self, |this, start| this.try_step(model, state, dt, start));
             match result {
                 Ok((next, report, energies)) => {
                     *state = next;

@@ -168,7 +168,8 @@ pub trait Model {
 
     /// The problem whose equilibrium positions `x` and extra unknowns `phi` are: their own rest
     /// state and no loads (the origin of a continuation from a far start).
-    fn problem_at(&mut self, x: &[Vector3<f64>], phi: &[f64]) -> Result<Self::Problem, SolverError>;
+    fn problem_at(&mut self, x: &[Vector3<f64>], phi: &[f64])
+    -> Result<Self::Problem, SolverError>;
 
     /// Sets the model's problem to the blend `(1 − s)·from + s·to` (s ∈ [0, 1]).
     fn set_problem_between(

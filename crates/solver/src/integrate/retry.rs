@@ -105,7 +105,11 @@ pub(crate) fn with_fallback_hessian<I: NewtonIntegrator, T>(
         (Err(e), Some(mode)) if retryable(e) => mode,
         _ => return (first, own),
     };
-    let from_last: Option<Vec<f64>> = first.as_ref().err().and_then(last_good).map(<[f64]>::to_vec);
+    let from_last: Option<Vec<f64>> = first
+        .as_ref()
+        .err()
+        .and_then(last_good)
+        .map(<[f64]>::to_vec);
     integrator.newton_settings().own_hessian = mode;
     let mut result = solve(integrator, from_last.as_deref());
     if result.is_err() && from_last.is_some() {

@@ -374,8 +374,7 @@ impl Static {
             }
             let mut u = model.gather(x, phi);
             let moved = {
-                let mut obj =
-                    model.static_objective(x, phi, self.options(self.newton.own_hessian));
+                let mut obj = model.static_objective(x, phi, self.options(self.newton.own_hessian));
                 descend_along(&mut obj, &mut u, &s.mode)?
             };
             if !moved {

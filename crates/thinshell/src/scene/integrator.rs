@@ -3,7 +3,10 @@
 
 use serde::{Deserialize, Serialize};
 use thinshell_energy::HessianMode;
-use thinshell_solver::{ExplicitEuler, HessianPolicy, ImplicitEuler, IterativeFallback, NewtonSettings, SolverError, Static};
+use thinshell_solver::{
+    ExplicitEuler, HessianPolicy, ImplicitEuler, IterativeFallback, NewtonSettings, SolverError,
+    Static,
+};
 use thinshell_system::ShellIntegrator;
 use thinshell_system::ShellSystem;
 

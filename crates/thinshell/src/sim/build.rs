@@ -292,7 +292,11 @@ impl SimulationBuilder {
     /// Any integrator with its own settings; `dt` (s) is the time a step advances the growth
     /// field and prescribed motion by, and must be the integrator's own step (static solves:
     /// the pseudo-time of a step, 1 s by convention).
-    pub fn integrator(mut self, integrator: impl thinshell_solver::Integrator<ShellSystem> + Send + 'static, dt: f64) -> Self {
+    pub fn integrator(
+        mut self,
+        integrator: impl thinshell_solver::Integrator<ShellSystem> + Send + 'static,
+        dt: f64,
+    ) -> Self {
         self.integrator = Some(Box::new(integrator));
         self.dt = dt;
         self

@@ -534,18 +534,17 @@ impl Simulation {
         }
         // A static step whose rest forms or loads changed is walked to from the last step's
         // problem if its one-shot solve fails (`Static`'s continuation).
-        let origin = (static_solve && (previous_rest.is_some() || lambda != lambda_prev)).then(|| {
-            Origin {
+        let origin =
+            (static_solve && (previous_rest.is_some() || lambda != lambda_prev)).then(|| Origin {
                 problem: ShellProblem {
                     rest: previous_rest,
                     load_factor: lambda_prev,
                 },
                 t: self.prescribed_time(lambda_prev),
-            }
-        });
-        let result =
-            self.integrator
-                .step_from(&mut self.system, &mut self.state, origin.as_ref());
+            });
+        let result = self
+            .integrator
+            .step_from(&mut self.system, &mut self.state, origin.as_ref());
         let report = match result {
             Ok(r) => r,
             Err(e) => {
