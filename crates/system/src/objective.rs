@@ -709,13 +709,14 @@ mod contact_tests {
     use crate::contact::ContactSettings;
     use crate::{Boundary, Loads};
     use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
+    use thinshell_mesh::generators;
 
     /// Two sheets 2.5 mm apart (gap between surfaces 1.5 mm < d̂ = 4 mm): the exact Hessian of
     /// the static potential, with the self-contact pairs' off-diagonal blocks in the widened
     /// pattern, against central differences of the gradient, every column.
     #[test]
     fn self_contact_hessian_is_exact_in_the_widened_pattern() {
-        let mesh = thinshell_testkit::fixtures::stacked_sheets(0.1, 4, 0.0025, 0.3);
+        let mesh = generators::stacked_sheets(0.1, 4, 0.0025, 0.3).unwrap();
         let sff = SffKind::MidEdgeAverage;
         let rest = RestState::from_mesh(&mesh, mesh.positions(), sff).unwrap();
         let model = ShellModel {
