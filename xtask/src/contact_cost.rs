@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use nalgebra::Vector3;
-use thinshell_energy::contact::candidate_pairs;
+use thinshell_contact::candidate_pairs;
 use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::{Mesh, generators};
 use thinshell_solver::{ImplicitEuler, Integrator, State};

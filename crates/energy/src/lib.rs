@@ -78,7 +78,6 @@
 //! ```
 
 pub mod assembly;
-pub mod contact;
 pub mod damping;
 pub mod dofs;
 pub mod error;

@@ -4,9 +4,9 @@
 //! [`ExplicitEuler`](thinshell_solver::ExplicitEuler)) step; its modal analysis ([`Modes`]) and
 //! path following ([`ShellPath`]).
 //!
-//! Module dependencies point one way (no circles): `boundary`, `loads`, `angles`,
-//! `contact_pattern`, `contact_stiffness`, `obstacle` → `contact` → `system` → `objective` →
-//! `model` (the solver's trait) → `shell_path`, `modes`.
+//! Module dependencies point one way (no circles): `boundary`, `loads`, `angles` → `system`
+//! (with the contact term of `thinshell-contact`) → `objective` → `model` (the solver's trait)
+//! → `shell_path`, `modes`.
 //!
 //! A paper sheet pinned on its boundary, one implicit step under gravity, then the static sag:
 //!
@@ -49,33 +49,28 @@
 
 pub mod angles;
 pub mod boundary;
-pub mod contact;
-mod contact_pattern;
-pub mod contact_stiffness;
 pub mod loads;
 mod model;
 pub mod modes;
 mod objective;
-pub mod obstacle;
 mod rigid;
 pub mod shell_path;
 pub mod system;
 
 pub use angles::{AngleReport, AngleSettings};
 pub use boundary::{Boundary, Prescribed};
-pub use contact::{
-    Contact, ContactError, ContactRunState, ContactSettings, ContactStats, Obstacle,
-};
 pub use loads::Loads;
 pub use model::ShellProblem;
 pub use modes::{ModalSettings, Modes};
 pub use shell_path::ShellPath;
 pub use system::ShellSystem;
+pub use thinshell_contact::{
+    Contact, ContactError, ContactRunState, ContactSettings, ContactStats, Obstacle,
+};
 
 /// What one step of a [`ShellSystem`] did: the solver's report with the shell's energy terms
 /// and contact statistics.
-pub type StepReport =
-    thinshell_solver::StepReport<thinshell_energy::EnergyTerms, contact::ContactStats>;
+pub type StepReport = thinshell_solver::StepReport<thinshell_energy::EnergyTerms, ContactStats>;
 
 /// An integrator of a [`ShellSystem`] (boxed by callers that choose it at run time).
 pub type ShellIntegrator = dyn thinshell_solver::Integrator<ShellSystem> + Send;

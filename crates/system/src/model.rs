@@ -6,10 +6,10 @@ use thinshell_energy::{EnergyTerms, EvalOutput, RestState};
 use thinshell_solver::{Model, ObjectiveOptions, SolverError, State, StepObjective};
 
 use crate::angles::AngleSettings;
-use crate::contact::ContactStats;
 use crate::loads::{add_pressure_gradient, unit_axis};
 use crate::objective::ShellObjective;
 use crate::system::ShellSystem;
+use thinshell_contact::ContactStats;
 
 /// The problem a static solve of a [`ShellSystem`] solves: its rest forms and load factor, what
 /// a continuation walks between ([`Static::continuation`](thinshell_solver::Static::continuation),

@@ -41,7 +41,7 @@ pub struct ShellObjective<'a> {
     gradient_test: bool,
     pub(crate) last_terms: EnergyTerms,
     /// Self-contact pairs of the last Hessian whose couplings were not in its pattern (added
-    /// block-diagonally, see [`Contact::add_hessian`](super::contact::Contact::add_hessian)).
+    /// block-diagonally, see [`Contact::add_hessian`](thinshell_contact::Contact::add_hessian)).
     pub(crate) approximated_pairs: usize,
     /// What [`Objective::hessian`] assembles ([`NewtonSettings::own_hessian`](thinshell_solver::NewtonSettings::own_hessian)).
     mode: HessianMode,
@@ -163,7 +163,7 @@ impl<'a> ShellObjective<'a> {
     /// keeps the κ of its start and can press a pair to within the CCD's minimum separation
     /// (`contact_indentation.rs`). Returns whether κ changed.
     ///
-    /// [`COLLAPSE_FRACTION`]: super::contact_stiffness::COLLAPSE_FRACTION
+    /// [`COLLAPSE_FRACTION`]: thinshell_contact::stiffness::COLLAPSE_FRACTION
     fn raise_contact_stiffness(&mut self, u: &[f64]) -> bool {
         let Some((a, kappa, d_hat)) = self
             .sys
@@ -182,7 +182,7 @@ impl<'a> ShellObjective<'a> {
             .as_ref()
             .map_or(f64::INFINITY, |c| c.min_gap(&x));
         let last = std::mem::replace(&mut self.iteration_gap, gap);
-        if !(gap < super::contact_stiffness::COLLAPSE_FRACTION * d_hat && gap < last) {
+        if !(gap < thinshell_contact::stiffness::COLLAPSE_FRACTION * d_hat && gap < last) {
             return false;
         }
         let balanced = self.balanced_contact_stiffness(&x);
@@ -469,7 +469,7 @@ impl Objective for ShellObjective<'_> {
         })
     }
 
-    /// With contact on: the CCD step limit ([`super::contact::Contact::max_step`]).
+    /// With contact on: the CCD step limit ([`thinshell_contact::Contact::max_step`]).
     fn max_step(&mut self, u: &[f64], du: &[f64]) -> Result<f64, SolverError> {
         let Some(c) = &self.sys.contact else {
             return Ok(1.0);
@@ -480,7 +480,7 @@ impl Objective for ShellObjective<'_> {
         let end: Vec<f64> = u.iter().zip(du).map(|(a, b)| a + b).collect();
         let mut x1 = x0.clone();
         self.sys.scatter(&end, &mut x1, &mut phi);
-        Ok(c.max_step(&x0, &x1)?)
+        c.max_step(&x0, &x1).map_err(SolverError::objective)
     }
 
     fn dof_coordinates(&self) -> Option<Vec<[f64; 3]>> {
@@ -706,8 +706,8 @@ mod tests {
 #[allow(clippy::unwrap_used)]
 mod contact_tests {
     use super::*;
-    use crate::contact::ContactSettings;
     use crate::{Boundary, Loads};
+    use thinshell_contact::ContactSettings;
     use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
     use thinshell_mesh::generators;
 

@@ -10,9 +10,9 @@ use thinshell_mesh::Mesh;
 
 use super::angles::{AngleRelaxation, AngleReport, AngleSettings};
 use super::boundary::Boundary;
-use super::contact::{Contact, ContactError, ContactRunState, ContactSettings, ContactStats};
-use super::contact_pattern::ContactPattern;
 use super::loads::{Loads, add_pressure_gradient, unit_axis};
+use thinshell_contact::pattern::ContactPattern;
+use thinshell_contact::{Contact, ContactError, ContactRunState, ContactSettings, ContactStats};
 use thinshell_solver::SolverError;
 
 /// A mesh with material, rest state, boundary conditions and loads, plus the assembler (pattern
@@ -256,8 +256,9 @@ impl ShellSystem {
         x0: &[Vector3<f64>],
     ) -> Result<(), SolverError> {
         let m = &self.model.material;
-        let mut contact = Contact::new(&self.mesh, m.thickness, m.young, settings)?;
-        contact.check(x0)?;
+        let mut contact = Contact::new(&self.mesh, m.thickness, m.young, settings)
+            .map_err(SolverError::objective)?;
+        contact.check(x0).map_err(SolverError::objective)?;
         if let Some(previous) = &self.contact {
             contact.keep_stiffness_of(previous);
         }
@@ -296,7 +297,7 @@ impl ShellSystem {
     /// stiffness that is not positive and finite, a coupling out of range.
     pub fn restore_contact_run_state(&mut self, s: &ContactRunState) -> Result<(), SolverError> {
         let n = self.mesh.n_vertices();
-        let bad = |what: String| SolverError::from(ContactError::Invalid(what));
+        let bad = |what: String| SolverError::objective(ContactError::Invalid(what));
         if !(s.stiffness > 0.0 && s.stiffness.is_finite()) {
             return Err(bad(format!("restored stiffness {}", s.stiffness)));
         }
@@ -630,7 +631,7 @@ impl ShellSystem {
 
     /// Makes the Hessian pattern cover every self-contact pair that can become active on the
     /// motion `x` → `x_end` (m; `None`: at `x`): kept when it already does, else rebuilt with
-    /// the reach [`PATTERN_REACH`](super::contact_pattern::PATTERN_REACH)·d̂ (model.md §7).
+    /// the reach [`PATTERN_REACH`](thinshell_contact::pattern::PATTERN_REACH)·d̂ (model.md §7).
     /// Returns whether it was rebuilt. Nothing to do without self-contact.
     pub(crate) fn refresh_contact_pattern(
         &mut self,
@@ -648,7 +649,7 @@ impl ShellSystem {
         {
             return false;
         }
-        let reach = (1.0 + super::contact_pattern::PATTERN_REACH) * c.activation;
+        let reach = (1.0 + thinshell_contact::pattern::PATTERN_REACH) * c.activation;
         let couplings = c.couplings(x, x_end, reach);
         self.contact_pattern = Some(ContactPattern::new(
             &self.assembler.hessian_template(),

@@ -5,14 +5,12 @@
 //! sphere) for no edge crossing a face.
 
 use nalgebra::Vector3;
+use thinshell_contact::term::first_edge_crossing_face;
 use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::VertexId;
 use thinshell_mesh::generators;
 use thinshell_solver::{ImplicitEuler, Integrator, State, Static};
-use thinshell_system::{
-    Boundary, Contact, ContactSettings, Loads, Obstacle, ShellSystem,
-    contact::first_edge_crossing_face,
-};
+use thinshell_system::{Boundary, Contact, ContactSettings, Loads, Obstacle, ShellSystem};
 use thinshell_testkit::contact::face_edge_indices;
 use thinshell_testkit::fd::{fd_gradient, rel_err_scaled};
 
@@ -449,7 +447,7 @@ fn adaptive_stiffness_carries_the_weight_at_half_the_activation_distance() {
     let c = sys.contact().unwrap();
     let p = x.len() as f64;
     let weight: f64 = sys.mass().iter().map(|m| m * 9.81).sum();
-    let slope = |g: f64| thinshell_energy::contact::barrier(g, d_hat).1.abs();
+    let slope = |g: f64| thinshell_contact::barrier(g, d_hat).1.abs();
     let expected = weight / (p * slope(0.5 * d_hat));
     let mean_slope = x.iter().map(|y| slope(y.z - 0.5 * h)).sum::<f64>() / p;
     eprintln!(
@@ -495,7 +493,7 @@ fn moving_an_obstacle_keeps_the_learned_adaptive_stiffness() {
     solver.solve(&mut sys, &mut x).unwrap();
     let learned = sys.contact_run_state().unwrap();
     let weight: f64 = sys.mass().iter().map(|m| m * 9.81).sum();
-    let slope = |g: f64| thinshell_energy::contact::barrier(g, d_hat).1.abs();
+    let slope = |g: f64| thinshell_contact::barrier(g, d_hat).1.abs();
     let p = x.len() as f64;
     let kappa0 = weight / (p * slope(0.5 * d_hat));
     assert!(learned.adaptive_initialised);

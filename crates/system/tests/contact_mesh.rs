@@ -8,7 +8,7 @@
 //! obstacle edge through a shell face. Also: the mesh's distance derivatives and its errors.
 
 use nalgebra::Vector3;
-use thinshell_energy::contact::{point_triangle_distance2, segment_crosses_triangle};
+use thinshell_contact::{point_triangle_distance2, segment_crosses_triangle};
 use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::generators;
 use thinshell_solver::{ImplicitEuler, Integrator, State};

@@ -3,7 +3,7 @@
 //! between non-adjacent primitives by brute force over all pairs.
 
 use nalgebra::Vector3;
-use thinshell_energy::contact::{edge_edge_distance2, point_triangle_distance2};
+use thinshell_contact::{edge_edge_distance2, point_triangle_distance2};
 use thinshell_mesh::Mesh;
 
 type V = Vector3<f64>;

@@ -1,5 +1,5 @@
 //! Exact intersection tests of triangles with f64 vertices, independent of the contact code's
-//! floating-point predicates (`thinshell_energy::contact::intersection`): orientation signs from
+//! floating-point predicates (`thinshell_contact::intersection`): orientation signs from
 //! a floating-point filter with a deliberately loose error bound, and from exact rational
 //! arithmetic (`num-rational`'s `BigRational`, which holds every finite f64 exactly) whenever
 //! the filter cannot decide. Closed sets: touching counts as intersecting, coplanar overlaps

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use thinshell::scene::Scene;
 use thinshell::sim::Simulation;
-use thinshell_system::contact::first_edge_crossing_face;
+use thinshell_contact::term::first_edge_crossing_face;
 use thinshell_testkit::fixtures::data_path;
 
 #[test]
@@ -187,7 +187,7 @@ fn contact_scene_resumes_bit_for_bit() {
 /// either through a face of the other — and the sheet is held up by the apex.
 #[test]
 fn sheet_on_pyramid_scene_reads_its_obj_and_stays_intersection_free() {
-    use thinshell_energy::contact::{point_triangle_distance2, segment_crosses_triangle};
+    use thinshell_contact::{point_triangle_distance2, segment_crosses_triangle};
     let scene = Scene::load(&data_path("scenes/sheet_on_pyramid.toml")).unwrap();
     let mut sim = Simulation::build(&scene).unwrap();
     let obj = thinshell_mesh::io::load_obj(data_path("meshes/pyramid.obj")).unwrap();

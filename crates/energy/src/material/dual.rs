@@ -6,11 +6,15 @@
 use nalgebra::{SMatrix, SVector};
 use std::ops::{Add, Mul, Sub};
 
-/// A scalar function of N variables with its gradient and Hessian.
+/// A scalar function of N variables with its gradient and Hessian (also used by the contact
+/// crate's distances, N = 12).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct DualN<const N: usize> {
+pub struct DualN<const N: usize> {
+    /// Value.
     pub v: f64,
+    /// Gradient in the N variables.
     pub g: SVector<f64, N>,
+    /// Hessian in the N variables (symmetric).
     pub h: SMatrix<f64, N, N>,
 }
 

@@ -8,7 +8,7 @@
 //! [`MaterialModel`] variant.
 
 mod bilayer;
-pub(crate) mod dual;
+pub mod dual;
 mod neo_hookean;
 mod stvk;
 

@@ -14,7 +14,7 @@
 //! which for P equal pairs pressed by a force f each along their normals is f / |b′(d̂/2)|: each
 //! pair would carry its load at half the activation distance.
 
-use thinshell_energy::contact::barrier;
+use crate::barrier;
 
 /// κ_min / (E·h): the smallest adaptive stiffness.
 pub const KAPPA_MIN_RELATIVE: f64 = 1e-6;
@@ -25,21 +25,21 @@ pub const COLLAPSE_FRACTION: f64 = 1e-2;
 
 /// The state of the adaptive stiffness of a contact term.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct AdaptiveStiffness {
+pub struct AdaptiveStiffness {
     /// κ_min (J/m²).
-    pub(crate) min: f64,
+    pub min: f64,
     /// κ_max (J/m²).
-    pub(crate) max: f64,
+    pub max: f64,
     /// Whether κ₀ has been set (at the first solve that starts with active pairs pressed
     /// together; before it κ = E·h).
-    pub(crate) initialised: bool,
+    pub initialised: bool,
     /// The smallest gap at the start of the previous solve (m).
-    pub(crate) last_gap: f64,
+    pub last_gap: f64,
 }
 
 impl AdaptiveStiffness {
     /// Bounds from the membrane stiffness `young_thickness` = E·h (N/m).
-    pub(crate) fn new(young_thickness: f64) -> AdaptiveStiffness {
+    pub fn new(young_thickness: f64) -> AdaptiveStiffness {
         AdaptiveStiffness {
             min: KAPPA_MIN_RELATIVE * young_thickness,
             max: KAPPA_MAX_RELATIVE * young_thickness,
@@ -50,7 +50,7 @@ impl AdaptiveStiffness {
 
     /// κ₀ from `pressing` = ∇E·N (N, for unit gap gradients) and `n2` = |N|², clamped to [κ_min, κ_max]; `None`
     /// when nothing presses the pairs together (then κ stays as it is).
-    pub(crate) fn initial(&self, pressing: f64, n2: f64, activation: f64) -> Option<f64> {
+    pub fn initial(&self, pressing: f64, n2: f64, activation: f64) -> Option<f64> {
         let slope = barrier(0.5 * activation, activation).1.abs();
         let k = pressing / (n2 * slope);
         (pressing > 0.0 && n2 > 0.0 && k.is_finite()).then(|| k.clamp(self.min, self.max))
@@ -58,7 +58,7 @@ impl AdaptiveStiffness {
 
     /// The stiffness after a solve started at smallest gap `gap` (m): doubled (up to κ_max)
     /// when the gap is below [`COLLAPSE_FRACTION`]·d̂ and smaller than at the previous start.
-    pub(crate) fn update(&mut self, kappa: f64, gap: f64, activation: f64) -> f64 {
+    pub fn update(&mut self, kappa: f64, gap: f64, activation: f64) -> f64 {
         let collapsing = gap < COLLAPSE_FRACTION * activation && gap < self.last_gap;
         self.last_gap = gap;
         if collapsing {

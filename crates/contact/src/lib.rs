@@ -1,4 +1,7 @@
-//! Contact maths (model.md §7): pure functions on the four points of a contact pair.
+//! Contact (model.md §7), every line of it: the maths of one pair, the candidates of a mesh, the
+//! contact term of a shell and its step limit, start checks and statistics.
+//!
+//! Pure functions on the four points of a contact pair:
 //!
 //! - [`distance`]: point–triangle and edge–edge squared distances classified by their closest
 //!   features ([`DistanceType`]), with exact gradients and Hessians;
@@ -10,6 +13,15 @@
 //! - [`intersection`]: segment–triangle and triangle–triangle intersection tests;
 //! - [`broad_phase`]: candidate pairs of a triangle mesh from a spatial hash of bounding boxes.
 //!
+//!
+//! The contact term of a shell built on them:
+//!
+//! - [`term`]: [`Contact`] — self-contact and obstacles as an IPC barrier energy with exact
+//!   gradient and Hessian, the collision-free step limit (CCD), the start check, statistics;
+//! - [`obstacle`]: rigid [`Obstacle`]s (planes, spheres, triangle meshes);
+//! - [`stiffness`]: the adaptive barrier stiffness κ;
+//! - [`pattern`]: the Hessian pattern widened by the couplings of nearby self-contact pairs.
+//!
 //! Units: positions and distances in m; the barrier in m² (an energy once multiplied by a
 //! stiffness in J/m²).
 
@@ -19,7 +31,11 @@ pub mod ccd;
 pub mod distance;
 pub mod intersection;
 pub mod mollifier;
+pub mod obstacle;
 pub mod pair;
+pub mod pattern;
+pub mod stiffness;
+pub mod term;
 
 pub use barrier::barrier;
 pub use broad_phase::{
@@ -33,4 +49,6 @@ pub use distance::{
 };
 pub use intersection::{segment_crosses_triangle, triangles_intersect};
 pub use mollifier::{mollifier, mollifier_threshold};
+pub use obstacle::Obstacle;
 pub use pair::{BarrierGeometry, PairBarrier, PairKind, pair_barrier, pair_energy, pair_gap};
+pub use term::{Contact, ContactError, ContactRunState, ContactSettings, ContactStats};

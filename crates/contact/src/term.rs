@@ -1,31 +1,30 @@
-//! Contact as an energy term of a [`ShellSystem`](super::ShellSystem) (model.md §7): IPC
+//! Contact as an energy term of a shell (`thinshell-system`'s `ShellSystem`, model.md §7): IPC
 //! barriers on the shell's own vertex–face and edge–edge pairs and on its vertices against
 //! rigid obstacles, and the step limit by continuous collision detection so that no Newton
 //! step lets a pair cross.
 //!
 //! The maths (distances, barrier, mollifier, CCD, broad phase) is in
-//! [`thinshell_energy::contact`]; this module gathers the pairs of a mesh and adds their energy,
+//! [`thinshell_contact`]; this module gathers the pairs of a mesh and adds their energy,
 //! gradient and Hessian to the shell objective.
 
 use std::sync::{Arc, Mutex};
 
-use faer::sparse::SparseColMat;
-use nalgebra::{Matrix3, Vector3};
-use thinshell_energy::DofMap;
-use thinshell_energy::contact::{
+use crate::{
     Aabb, BarrierGeometry, CandidatePairs, CcdSettings, CrossPairs, PairBarrier, PairKind,
     PairPoints, StaticMesh, additive_ccd, barrier, candidate_pairs, candidate_pairs_against,
     distance2_derivatives, edge_edge_distance2, filter_candidate_pairs, filter_cross_pairs,
     mollifier_threshold, overlapping_pairs, pair_barrier, pair_energy, pair_gap,
     point_triangle_distance2, segment_crosses_triangle,
 };
+use faer::sparse::SparseColMat;
+use nalgebra::{Matrix3, Vector3};
+use thinshell_energy::DofMap;
 use thinshell_energy::linalg::project_psd;
 use thinshell_mesh::Mesh;
 
-use super::contact_pattern::{PATTERN_REACH, entry};
-use super::contact_stiffness::AdaptiveStiffness;
-pub use super::obstacle::Obstacle;
-use thinshell_solver::SolverError;
+pub use crate::obstacle::Obstacle;
+use crate::pattern::{PATTERN_REACH, entry};
+use crate::stiffness::AdaptiveStiffness;
 
 type V = Vector3<f64>;
 
@@ -41,7 +40,7 @@ pub struct ContactSettings {
     /// κ (J/m² = N/m): a fixed barrier stiffness. Default (`None`): adaptive, starting at E·h
     /// (the membrane stiffness) and set at the first solve that starts with pairs pressed
     /// together, then doubled while gaps collapse (`contact_stiffness.rs`, model.md §7);
-    /// [`ShellSystem::set_contact`](super::ShellSystem::set_contact) with an unchanged d̂
+    /// `ShellSystem::set_contact` with an unchanged d̂
     /// keeps the κ the replaced term learned.
     pub stiffness: Option<f64>,
     /// Whether gaps are measured between the shell's faces (distance minus h between two
@@ -62,7 +61,7 @@ impl Default for ContactSettings {
 }
 
 /// What a contact term learns as a run goes, for checkpoints: with it a restored run continues
-/// bit for bit ([`ShellSystem::contact_run_state`](super::ShellSystem::contact_run_state)).
+/// bit for bit (`ShellSystem::contact_run_state`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ContactRunState {
     /// κ (J/m²).
@@ -90,12 +89,6 @@ pub enum ContactError {
     Intersecting(String),
 }
 
-impl From<ContactError> for SolverError {
-    fn from(e: ContactError) -> Self {
-        SolverError::Objective(Box::new(e))
-    }
-}
-
 /// The resolved contact term of a mesh.
 #[derive(Clone, Debug)]
 pub struct Contact {
@@ -109,7 +102,7 @@ pub struct Contact {
     /// κ (J/m²): fixed, or the current value of the adaptive stiffness.
     pub stiffness: f64,
     /// The adaptive stiffness's state (`None`: κ fixed by the settings).
-    pub(crate) adaptive: Option<AdaptiveStiffness>,
+    pub adaptive: Option<AdaptiveStiffness>,
     /// Offset of self pairs (m): h, or 0.
     offset_self: f64,
     /// Offset against obstacles (m): h/2, or 0.
@@ -228,7 +221,7 @@ pub struct ContactStats {
     pub energy: f64,
     /// Self pairs of the last Newton Hessian whose vertex couplings were outside its pattern
     /// and so entered as per-vertex diagonal blocks only (0: that Hessian was exact; see
-    /// [`Contact::add_hessian`]). Filled in by [`ShellSystem::contact_stats`](super::ShellSystem::contact_stats);
+    /// [`Contact::add_hessian`]). Filled in by `ShellSystem::contact_stats`;
     /// 0 from [`Contact::stats`].
     pub approximated_pairs: usize,
     /// Rebuilds of the self-contact Hessian pattern (new symbolic factorisations) since contact
@@ -312,7 +305,7 @@ impl Contact {
     /// the active pairs at d̂/2, and the raises within and between solves keep adapting it as
     /// the pairs change), so moving an obstacle leaves it meaningful; a new d̂ or offset changes
     /// the gaps the barrier acts at, and κ restarts at E·h.
-    pub(crate) fn keep_stiffness_of(&mut self, previous: &Contact) {
+    pub fn keep_stiffness_of(&mut self, previous: &Contact) {
         let same_geometry = self.activation == previous.activation
             && self.offset_self == previous.offset_self
             && self.offset_obstacle == previous.offset_obstacle;
@@ -950,7 +943,7 @@ impl Contact {
     /// Σ_k ∇g_k over the active pairs at `x` (full coordinates, vertex-major; unit normals of
     /// obstacle pairs, ∇d of self pairs) and the number of active pairs: the directions along
     /// which the barrier pushes, for the adaptive stiffness.
-    pub(crate) fn gap_gradient_sum(&self, x: &[V]) -> (Vec<f64>, usize) {
+    pub fn gap_gradient_sum(&self, x: &[V]) -> (Vec<f64>, usize) {
         let mut n = vec![0.0; 3 * x.len()];
         let mut active = 0;
         let all = self.candidates(x);
@@ -1047,7 +1040,7 @@ impl Contact {
     /// at the ends and M the largest displacement of its vertices (it changes by at most 2M·t
     /// from either end; see [`Contact::near_pairs`]). The box test alone also couples the
     /// in-plane neighbours of every vertex, which are an edge length apart.
-    pub(crate) fn couplings(&self, x: &[V], x_end: Option<&[V]>, reach: f64) -> Vec<[usize; 2]> {
+    pub fn couplings(&self, x: &[V], x_end: Option<&[V]>, reach: f64) -> Vec<[usize; 2]> {
         if !self.self_contact {
             return Vec::new();
         }

@@ -4,7 +4,7 @@
 #![allow(dead_code)]
 
 use nalgebra::Vector3;
-use thinshell_energy::contact::PairPoints;
+use thinshell_contact::PairPoints;
 
 pub type V = Vector3<f64>;
 

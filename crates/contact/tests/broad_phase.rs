@@ -4,7 +4,7 @@
 //! the inflation, and never a pair that shares a vertex.
 
 use nalgebra::Vector3;
-use thinshell_energy::contact::*;
+use thinshell_contact::*;
 use thinshell_mesh::generators;
 use thinshell_testkit::rng::SplitMix64;
 

@@ -3,14 +3,14 @@
 //! vertex–face and edge–edge steps (head-on, parallel, coplanar, touching exactly at t = 1,
 //! near-misses at a few ulps to a few ξ, far from the origin), the distance stays above ξ/2
 //! over [0, toi] — certified by a Lipschitz branch and bound on a classification-free distance
-//! (`contact_common`). The false-positive rate (toi < 1 although the distance never reaches ξ
+//! (`common`). The false-positive rate (toi < 1 although the distance never reaches ξ
 //! over the whole step) is printed; run with `--nocapture` to see it.
 
-mod contact_common;
+mod common;
 
-use contact_common::{Verdict, first_contact};
+use common::{Verdict, first_contact};
 use nalgebra::Vector3;
-use thinshell_energy::contact::*;
+use thinshell_contact::*;
 use thinshell_testkit::rng::SplitMix64;
 
 type V = Vector3<f64>;

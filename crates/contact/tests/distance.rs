@@ -5,12 +5,12 @@
 //! FD: central differences with h = 1e-6 on O(1) coordinates; tolerance 1e-6 relative to the
 //! largest entry (truncation O(h²), round-off O(ε/h) ≈ 1e-10 relative).
 
-mod contact_common;
+mod common;
 
-use contact_common::{ref_edge_edge, ref_point_triangle};
+use common::{ref_edge_edge, ref_point_triangle};
 use nalgebra::{SMatrix, Vector3};
 use proptest::prelude::*;
-use thinshell_energy::contact::*;
+use thinshell_contact::*;
 use thinshell_testkit::fd::{fd_gradient, fd_jacobian, rel_err_scaled};
 use thinshell_testkit::strategies::cases_or;
 

@@ -4,7 +4,7 @@
 //! The pattern is a property of the current neighbourhoods, which change as the shell moves: it
 //! is built from the pairs within [`PATTERN_REACH`]·d̂ of their gap threshold over the
 //! first part of a solve (start and predicted positions), and rebuilt — a new symbolic
-//! factorisation, see [`NewtonCache`](super::NewtonCache) — only when a pair that can become
+//! factorisation, see the solver's `NewtonCache` — only when a pair that can become
 //! active is not covered. The slack of the reach keeps rebuilds to one every few steps while a
 //! shell slides along itself.
 
@@ -13,25 +13,25 @@ use thinshell_energy::DofMap;
 
 /// Reach of a built pattern beyond the activation threshold, in units of d̂: a pair is
 /// coupled when its (swept) gap is below `(1 + PATTERN_REACH)·d̂`.
-pub(crate) const PATTERN_REACH: f64 = 2.0;
+pub const PATTERN_REACH: f64 = 2.0;
 
 /// The assembler's pattern plus contact couplings, with the map from the assembler's values.
 #[derive(Clone, Debug)]
-pub(crate) struct ContactPattern {
+pub struct ContactPattern {
     symbolic: SymbolicSparseColMat<usize>,
     /// Index into the widened values of every stored entry of the assembler's pattern.
     shell_map: Vec<usize>,
     /// The assembler-pattern matrix the shell terms are assembled into before the copy
     /// (taken out while in use).
-    pub(crate) scratch: Option<SparseColMat<usize, f64>>,
+    pub scratch: Option<SparseColMat<usize, f64>>,
     /// The vertex couplings it was built from (checkpoints rebuild it from them).
-    pub(crate) couplings: Vec<[usize; 2]>,
+    pub couplings: Vec<[usize; 2]>,
 }
 
 impl ContactPattern {
     /// `base` (the assembler's lower-triangle pattern over `dofs`' free dofs) plus every entry
     /// coupling the free coordinates of the vertices of each `[a, b]` in `couplings`.
-    pub(crate) fn new(
+    pub fn new(
         base: &SparseColMat<usize, f64>,
         dofs: &DofMap,
         couplings: &[[usize; 2]],
@@ -100,7 +100,7 @@ impl ContactPattern {
     }
 
     /// Whether every coupling of `couplings` has its entries in the pattern.
-    pub(crate) fn covers(&self, dofs: &DofMap, couplings: &[[usize; 2]]) -> bool {
+    pub fn covers(&self, dofs: &DofMap, couplings: &[[usize; 2]]) -> bool {
         couplings.iter().all(|&[u, v]| {
             (0..3).all(|i| {
                 (0..3).all(|j| {
@@ -117,7 +117,7 @@ impl ContactPattern {
     }
 
     /// A matrix with the widened pattern, all values 0.
-    pub(crate) fn template(&self) -> SparseColMat<usize, f64> {
+    pub fn template(&self) -> SparseColMat<usize, f64> {
         SparseColMat::new(
             self.symbolic.clone(),
             vec![0.0; self.symbolic.row_idx().len()],
@@ -125,7 +125,7 @@ impl ContactPattern {
     }
 
     /// Whether `h` has exactly the widened pattern.
-    pub(crate) fn has_pattern(&self, h: &SparseColMat<usize, f64>) -> bool {
+    pub fn has_pattern(&self, h: &SparseColMat<usize, f64>) -> bool {
         let (mine, theirs) = (self.symbolic.as_ref(), h.symbolic());
         theirs.ncols() == mine.ncols()
             && theirs.nrows() == mine.nrows()
@@ -135,7 +135,7 @@ impl ContactPattern {
     }
 
     /// Overwrites `h` (widened pattern) with `shell` (assembler pattern), 0 elsewhere.
-    pub(crate) fn widen(&self, shell: &SparseColMat<usize, f64>, h: &mut SparseColMat<usize, f64>) {
+    pub fn widen(&self, shell: &SparseColMat<usize, f64>, h: &mut SparseColMat<usize, f64>) {
         let val = h.val_mut();
         val.fill(0.0);
         for (&o, &v) in self.shell_map.iter().zip(shell.val()) {
@@ -143,15 +143,14 @@ impl ContactPattern {
         }
     }
 
-    /// Entries beyond the assembler's.
-    #[cfg(test)]
-    pub(crate) fn extra_entries(&self) -> usize {
+    /// Entries beyond the assembler's (the self-contact couplings' share of the pattern).
+    pub fn extra_entries(&self) -> usize {
         self.symbolic.row_idx().len() - self.shell_map.len()
     }
 }
 
 /// The value index of entry (max(p, q), min(p, q)) of a lower-triangle pattern, if stored.
-pub(crate) fn entry(s: SymbolicSparseColMatRef<'_, usize>, p: usize, q: usize) -> Option<usize> {
+pub fn entry(s: SymbolicSparseColMatRef<'_, usize>, p: usize, q: usize) -> Option<usize> {
     let (row, col) = if p >= q { (p, q) } else { (q, p) };
     let range = s.col_range(col);
     let start = range.start;

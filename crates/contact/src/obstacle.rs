@@ -6,8 +6,8 @@
 
 use std::path::Path;
 
+use crate::{distance2_derivatives, point_triangle_distance2};
 use nalgebra::{Matrix3, Vector3};
-use thinshell_energy::contact::{distance2_derivatives, point_triangle_distance2};
 use thinshell_mesh::DEGENERATE_TOLERANCE;
 
 type V = Vector3<f64>;
@@ -95,7 +95,7 @@ impl Obstacle {
 
     /// Checks the obstacle's numbers and normalises a plane's normal; the error says what is
     /// wrong.
-    pub(crate) fn validated(&self) -> Result<Obstacle, String> {
+    pub fn validated(&self) -> Result<Obstacle, String> {
         let finite = |v: &V| v.iter().all(|c| c.is_finite());
         match self {
             Obstacle::Plane { point, normal } => {

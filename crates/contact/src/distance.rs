@@ -7,8 +7,8 @@
 //! rational function of the 12 coordinates, and across type boundaries it is C¹ (values and
 //! gradients agree on the boundary, Hessians jump).
 
-use crate::material::dual::DualN;
 use nalgebra::{SMatrix, SVector, Vector3};
+use thinshell_energy::material::dual::DualN;
 
 /// The four points of a contact pair (point–triangle `[p, t0, t1, t2]`, edge–edge
 /// `[a0, a1, b0, b1]`), in metres.
