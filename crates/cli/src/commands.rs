@@ -9,15 +9,59 @@ use thinshell::mesh_info::mesh_info;
 use thinshell::output::{CheckpointEvery, Failure, OutputWriter, RunRecord, RunStatus};
 use thinshell::sim::{Observer, Simulation, StepRecord};
 
-/// `thinshell info MESH`: prints statistics and problems of an OBJ mesh.
+/// `thinshell info MESH`: prints statistics and every problem of an OBJ mesh. A mesh with
+/// problems that make it unusable gets them all listed (each with its OBJ lines), with the
+/// statistics of the faces without problems, and then fails as bad input naming the first.
 pub fn info(path: &Path) -> Result<(), Failure> {
     let bad = |e: thinshell_mesh::MeshError| Failure::BadInput(format!("{}: {e}", path.display()));
-    let mesh = thinshell_mesh::io::load_obj(path).map_err(bad)?;
-    // Statistics of a mesh whose areas overflow would print inf/NaN; say why instead.
-    thinshell_mesh::check_scale(&mesh, mesh.positions()).map_err(bad)?;
+    let data = thinshell_mesh::io::read_obj_data(std::io::BufReader::new(
+        std::fs::File::open(path).map_err(|e| bad(e.into()))?,
+    ))
+    .map_err(bad)?;
+    let diagnosis = thinshell_mesh::diagnose(&data.positions, &data.faces);
+    let located: Vec<thinshell_mesh::MeshError> = diagnosis
+        .problems
+        .into_iter()
+        .map(|e| thinshell_mesh::io::locate_in_obj(e, &data.face_lines, &data.vertex_lines))
+        .collect();
+    let Some(first) = located.first() else {
+        let mesh = diagnosis
+            .mesh
+            .ok_or_else(|| bad(thinshell_mesh::MeshError::Empty))?;
+        println!("{}", path.display());
+        println!("{}", mesh_info(&mesh));
+        return Ok(());
+    };
     println!("{}", path.display());
-    println!("{}", mesh_info(&mesh));
-    Ok(())
+    match &diagnosis.mesh {
+        Some(mesh) => {
+            println!(
+                "statistics of the {} of {} faces without problems:",
+                diagnosis.kept_faces.len(),
+                data.faces.len()
+            );
+            let mut info = mesh_info(mesh);
+            let warnings = std::mem::take(&mut info.problems);
+            info.problems = located.iter().map(ToString::to_string).collect();
+            info.problems.extend(warnings);
+            println!("{info}");
+        }
+        None => {
+            println!("no statistics: no valid mesh is left without the faces below");
+            println!("problems:");
+            for p in &located {
+                println!("  - {p}");
+            }
+        }
+    }
+    let more = match located.len() {
+        1 => String::new(),
+        n => format!(" (and {} more problems, listed above)", n - 1),
+    };
+    Err(Failure::BadInput(format!(
+        "{}: {first}{more}",
+        path.display()
+    )))
 }
 
 /// `thinshell check SCENE`: validates a scene and prints what would be simulated.

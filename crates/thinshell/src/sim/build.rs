@@ -52,7 +52,7 @@ fn scene_mesh(scene: &Scene) -> Result<Mesh, BuildError> {
     let s = &scene.file;
     let mesh_err = |source| match &s.mesh.obj {
         Some(path) => BuildError::MeshFile {
-            origin: scene.origin.clone(),
+            origin: format!("{}: `mesh.obj`", scene.key_location("mesh.obj")),
             path: scene.base_dir.join(path),
             source,
         },
