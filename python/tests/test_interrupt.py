@@ -209,6 +209,42 @@ def test_ctrl_c_stops_a_dask_sweep(scenes, tmp_path):
     assert len(complete) >= 1 and len(partial) >= 1 and not complete & partial
 
 
+def test_a_terminal_ctrl_c_returns_a_dask_sweep_at_once(scenes, tmp_path):
+    """Issue 42: a terminal's Ctrl-C is SIGINT to the whole process group - the script, the
+    LocalCluster's nannies and workers. The sweep returns within moments (the workers ignore the
+    signal while it runs and stop their runs through the sweep's Event), nothing prints a
+    traceback, and complete runs are kept."""
+    pytest.importorskip("distributed")
+    script = tmp_path / "dask_sweep.py"
+    script.write_text(DASK_CHILD)
+    out = tmp_path / "out"
+    child = subprocess.Popen(
+        [sys.executable, str(script), str(scenes / "square_cylinder.toml"), str(out), json.dumps(LONG)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+    )
+    try:
+        wait_for("run-*/result.json", out, child, timeout=180)
+        time.sleep(0.3)
+        sent = time.perf_counter()
+        os.killpg(child.pid, signal.SIGINT)
+        stdout, stderr = child.communicate(timeout=60)
+        exited = time.perf_counter() - sent
+    finally:
+        if child.poll() is None:
+            os.killpg(child.pid, signal.SIGKILL)
+    lines = [line for line in stdout.strip().splitlines() if line.startswith("{")]
+    assert lines, (stdout, stderr)
+    report = json.loads(lines[-1])
+    print(report, f"process exited {exited:.2f} s after the signal")
+    assert "latency" in report, (stdout, stderr)
+    # Generous bounds for a loaded machine; the 30 s wait for dead workers this replaces
+    # would fail both.
+    assert report["latency"] < 5.0, report
+    assert exited < 20.0, exited
+    assert "Traceback" not in stderr, stderr[-3000:]
+    assert len(list(out.glob("run-*/result.json"))) >= 1
+
+
 def test_a_script_without_main_guard_is_named(scenes, tmp_path):
     script = tmp_path / "unguarded.py"
     script.write_text(

@@ -12,7 +12,7 @@ pub mod modes;
 pub mod resume;
 pub mod view;
 
-pub use commands::{RunOptions, check, info, resume, run, run_with};
+pub use commands::{RunEnd, RunOptions, check, info, resume, run, run_with};
 pub use thinshell::output::{
     CHECKPOINT_FILE, CheckpointEvery, Failure, steps_csv_header, steps_csv_timing_columns,
 };

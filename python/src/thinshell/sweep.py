@@ -536,6 +536,14 @@ def sweep(
             workers = min(max_workers or cpus, len(todo))
             _check_main_guard()
             _sweep_pool(scene, combos, provs, dirs, todo, rows, workers, threads or max(1, cpus // workers), bar, failed)
+    except KeyboardInterrupt:
+        complete = sum((d / "result.json").exists() for d in dirs)
+        message = (
+            f"thinshell.sweep: interrupted; {complete} of {len(dirs)} runs are complete in {out} "
+            f"(kept: calling sweep() again runs only the others)"
+        )
+        print(message, file=sys.stderr, flush=True)
+        raise KeyboardInterrupt(message) from None
     finally:
         if bar is not None:
             bar.close()
@@ -602,6 +610,10 @@ def _sweep_dask(client, scene, combos, provs, dirs, todo, rows, threads, bar, fa
     total_slots = max(1, sum(slots.values()))
     stop_name = f"thinshell-sweep-stop-{uuid.uuid4().hex}"
     stop = distributed.Event(stop_name, client=client)
+    # A terminal's Ctrl-C reaches every process of its group: the workers and nannies of a
+    # LocalCluster too, which would die printing tracebacks. They ignore it while the sweep
+    # runs; the sweep tells their runs to stop through the Event instead.
+    _set_worker_sigint(client, True)
     futures = client.map(
         _dask_run,
         [scene] * len(todo),
@@ -626,15 +638,57 @@ def _sweep_dask(client, scene, combos, provs, dirs, todo, rows, threads, bar, fa
                 bar.update(rows[i], running=min(remaining, total_slots))
     except KeyboardInterrupt:
         # Told to stop rather than killed: the Event cancels running simulations (within one
-        # Newton iteration); runs not started see it and return at once.
-        stop.set()
-        not_started = [f for f in futures if f.status == "pending"]
+        # Newton iteration); runs not started see it and return at once. Whatever has not come
+        # back within a moment is left to the workers: each run's files (result.json, or
+        # interrupted.json) are written by the run itself, and the next call reuses them.
+        _within(0.3, stop.set)
+        _within(0.5, lambda: distributed.wait(futures, timeout=0.5))
+        _within(0.2, lambda: client.cancel([f for f in futures if f.status == "pending"]))
+        raise
+    finally:
+        _within(0.3, lambda: _set_worker_sigint(client, False))
+
+
+def _within(seconds: float, fn: Callable[[], Any]) -> None:
+    """``fn()`` in a daemon thread, given up after ``seconds``; exceptions ignored (a cluster
+    going away while the sweep is interrupted must not hold up its return or print)."""
+
+    def call() -> None:
         try:
-            distributed.wait(futures, timeout=30)
+            fn()
+        except BaseException:
+            pass
+
+    t = threading.Thread(target=call, daemon=True)
+    t.start()
+    t.join(seconds)
+
+
+#: In a Dask worker or nanny process: its own SIGINT handler while a sweep ignores the signal.
+_saved_sigint: list[Any] = []
+
+
+def _worker_sigint(ignore: bool) -> None:
+    """Run in a Dask worker or nanny process (in its event loop's thread, the main one):
+    ignore SIGINT, or restore the handler it had."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    if ignore:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        if not _saved_sigint:
+            _saved_sigint.append(previous)
+    elif _saved_sigint:
+        signal.signal(signal.SIGINT, _saved_sigint.pop())
+
+
+def _set_worker_sigint(client: Any, ignore: bool) -> None:
+    """Makes every worker and nanny process of ``client``'s cluster ignore SIGINT, or restores
+    their handler (best effort: a cluster that does not answer is left as it is)."""
+    for nanny in (False, True):
+        try:
+            client.run(_worker_sigint, ignore, nanny=nanny)
         except Exception:
             pass
-        client.cancel(not_started)
-        raise
 
 
 def _write_results(out: Path, result: list[Row]) -> None:
