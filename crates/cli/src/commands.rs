@@ -154,11 +154,7 @@ pub fn run_with(
 /// `thinshell resume OUT_DIR`: continues the run whose checkpoint is `OUT_DIR/checkpoint.bin`;
 /// its frames, `.pvd`, `steps.csv` and `summary.json` continue as if it had never stopped.
 /// Without `options.checkpoint_every` the run's own setting is kept.
-pub fn resume(
-    dir: &Path,
-    options: &RunOptions,
-    stop: &Arc<AtomicBool>,
-) -> Result<RunEnd, Failure> {
+pub fn resume(dir: &Path, options: &RunOptions, stop: &Arc<AtomicBool>) -> Result<RunEnd, Failure> {
     let (sim, writer, checkpoint_every) = crate::resume::reopen(dir, options.checkpoint_every)?;
     let options = RunOptions {
         checkpoint_every,
@@ -282,8 +278,7 @@ fn drive(
 /// `s` as one shell word (single-quoted unless it is plain), for a command to copy.
 fn shell_quote(s: &str) -> String {
     let plain = !s.is_empty()
-        && s
-            .chars()
+        && s.chars()
             .all(|c| c.is_ascii_alphanumeric() || "/._-+=:,@%".contains(c));
     if plain {
         s.to_string()

@@ -212,7 +212,11 @@ fn ctrl_c_leaves_a_checkpoint_that_resume_continues_from() {
     assert!(status.success());
     let stopped = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&stopped.stderr);
-    assert_eq!(stopped.status.code(), Some(130), "a clean stop exits with 130: {err}");
+    assert_eq!(
+        stopped.status.code(),
+        Some(130),
+        "a clean stop exits with 130: {err}"
+    );
     assert!(
         err.contains(&format!("thinshell resume {}", out.display())),
         "the resume command is printed: {err}"

@@ -153,16 +153,13 @@ impl Simulation {
 /// (material, energy terms, bending form), then optionally the rest state (default: the mesh's
 /// own shape, [`RestState::from_mesh`] with the model's form, so that the form is named once),
 /// start positions and velocities (default: the mesh's positions, at rest), boundary
-/// conditions, loads, growth, contact and the integrator (default: [`Static`] with its default
+/// conditions, loads, growth, contact and the integrator (default: [`Static`](thinshell_solver::Static) with its default
 /// settings). [`SimulationBuilder::build`] gives a simulation that steps exactly as one built
 /// from a scene: continuation of large rest-form changes, static load ramps, growth with mass
 /// uptake.
 ///
 /// ```
-/// use nalgebra::Matrix2;
-/// use thinshell::{Simulation, SimulationBuilder};
-/// use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
-/// use thinshell_mesh::generators;
+/// use thinshell::prelude::*; // the types below, from `thinshell` alone
 ///
 /// // A flat unit square whose rest metric is ā = [[2, 1], [1, 2]] in xy relaxes, in one static
 /// // solve, to the rhombus with that metric: an edge along x grows by √2.
