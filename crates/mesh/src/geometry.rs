@@ -103,3 +103,14 @@ pub(crate) fn out_of_scale(x: &[Vector3<f64>], [i, j, k]: [usize; 3]) -> Option<
         .max((v - u).norm_squared());
     (!((twice_area * twice_area).is_normal() && (l2 * l2).is_finite())).then_some(twice_area)
 }
+
+/// Mean edge length (m) of `mesh` at positions `x`: the length scale of the mesh (contact's
+/// default activation distance, the edge angles' scaling); 0 for a mesh without edges.
+pub fn mean_edge_length(mesh: &Mesh, x: &[Vector3<f64>]) -> f64 {
+    let edges = mesh.topology().edges();
+    let sum: f64 = edges
+        .iter()
+        .map(|e| (x[e.vertices[1].idx()] - x[e.vertices[0].idx()]).norm())
+        .sum();
+    sum / edges.len().max(1) as f64
+}

@@ -59,7 +59,8 @@ pub use nalgebra;
 pub use diagnose::{Diagnosis, diagnose};
 pub use error::MeshError;
 pub use geometry::{
-    BoundingBox, check_scale, face_areas, face_normal, face_normals, mid_edge_normals,
+    BoundingBox, check_scale, face_areas, face_normal, face_normals, mean_edge_length,
+    mid_edge_normals,
 };
 pub use ids::{EdgeId, FaceId, VertexId};
 pub use mesh::{BuildReport, DEGENERATE_TOLERANCE, Mesh};

@@ -41,7 +41,7 @@ from ._thinshell import (
     SimulationError,
     ThinshellError,
 )
-from .sweep import SweepMismatch, sweep
+from .sweep import PackedScene, SweepMismatch, sweep
 
 __version__: str = _thinshell.__version__
 
@@ -52,6 +52,7 @@ __all__ = [
     "Mesh",
     "Modes",
     "MeshError",
+    "PackedScene",
     "Scene",
     "SceneError",
     "Simulation",

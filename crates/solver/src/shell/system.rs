@@ -758,13 +758,7 @@ impl ShellSystem {
 
 /// Mean edge length (m) of the reference mesh; 1 if degenerate.
 fn mean_edge_length(mesh: &Mesh) -> f64 {
-    let p = mesh.positions();
-    let edges = mesh.topology().edges();
-    let sum: f64 = edges
-        .iter()
-        .map(|e| (p[e.vertices[1].idx()] - p[e.vertices[0].idx()]).norm())
-        .sum();
-    let mean = sum / edges.len().max(1) as f64;
+    let mean = thinshell_mesh::mean_edge_length(mesh, mesh.positions());
     if mean.is_finite() && mean > 0.0 {
         mean
     } else {
