@@ -178,15 +178,21 @@ DASK_CHILD = textwrap.dedent(
 )
 
 
-def test_ctrl_c_stops_a_dask_sweep(scenes, tmp_path):
+def start_dask_child(scenes, tmp_path, **popen):
+    """The script of DASK_CHILD sweeping in a child process; returns it and its out_dir."""
     pytest.importorskip("distributed")
     script = tmp_path / "dask_sweep.py"
     script.write_text(DASK_CHILD)
     out = tmp_path / "out"
     child = subprocess.Popen(
         [sys.executable, str(script), str(scenes / "square_cylinder.toml"), str(out), json.dumps(LONG)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen,
     )
+    return child, out
+
+
+def test_ctrl_c_stops_a_dask_sweep(scenes, tmp_path):
+    child, out = start_dask_child(scenes, tmp_path)
     try:
         wait_for("run-*/result.json", out, child, timeout=180)
         time.sleep(0.3)
@@ -214,14 +220,7 @@ def test_a_terminal_ctrl_c_returns_a_dask_sweep_at_once(scenes, tmp_path):
     LocalCluster's nannies and workers. The sweep returns within moments (the workers ignore the
     signal while it runs and stop their runs through the sweep's Event), nothing prints a
     traceback, and complete runs are kept."""
-    pytest.importorskip("distributed")
-    script = tmp_path / "dask_sweep.py"
-    script.write_text(DASK_CHILD)
-    out = tmp_path / "out"
-    child = subprocess.Popen(
-        [sys.executable, str(script), str(scenes / "square_cylinder.toml"), str(out), json.dumps(LONG)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-    )
+    child, out = start_dask_child(scenes, tmp_path, start_new_session=True)
     try:
         wait_for("run-*/result.json", out, child, timeout=180)
         time.sleep(0.3)

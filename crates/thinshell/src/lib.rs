@@ -13,7 +13,8 @@
 
 //!
 //! `thinshell` is the one dependency a Rust program needs: the crates whose types the builder
-//! takes are re-exported ([`mesh`], [`energy`], [`solver`], [`growth`], [`nalgebra`]), and
+//! takes are re-exported ([`mesh`], [`energy`], [`system`], [`solver`], [`growth`],
+//! [`nalgebra`]), and
 //! [`prelude`] brings the common ones into scope. Boundary conditions by region, as a scene's
 //! `region = { box = … }`, come from [`Supports`].
 //!
@@ -87,8 +88,10 @@ pub use thinshell_energy as energy;
 pub use thinshell_growth as growth;
 /// Triangle meshes: [`mesh::Mesh`], OBJ I/O ([`mesh::io`]), generators ([`mesh::generators`]).
 pub use thinshell_mesh as mesh;
-/// Boundary conditions, loads, integrators, Newton's method, path following.
+/// Newton's method, the integrators, path following.
 pub use thinshell_solver as solver;
+/// The shell system: boundary conditions, loads, contact, modes, the shell path.
+pub use thinshell_system as system;
 
 pub use output::{Failure, OutputWriter};
 pub use scene::{Scene, SceneError};
@@ -107,7 +110,8 @@ pub mod prelude {
     };
     pub use crate::mesh::{FaceId, Mesh, VertexId, generators, io};
     pub use crate::nalgebra::{Matrix2, Vector3};
-    pub use crate::solver::{Boundary, Loads, NewtonSettings};
+    pub use crate::solver::NewtonSettings;
+    pub use crate::system::{Boundary, Loads};
     pub use crate::{
         NoObserver, Observer, RunSummary, Scene, Simulation, SimulationBuilder, StepRecord,
         Supports,

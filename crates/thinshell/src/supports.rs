@@ -4,7 +4,7 @@
 
 use thinshell_growth::Region;
 use thinshell_mesh::Mesh;
-use thinshell_solver::Boundary;
+use thinshell_system::Boundary;
 
 use crate::scene::boundary::{clamp_edges, mirror_plane, pin_vertices, region_vertices};
 
