@@ -326,7 +326,7 @@ impl ShellSystem {
         Ok(())
     }
 
-    /// Number of edge angles a [`State`] of this system carries (0 without edge unknowns).
+    /// Number of edge angles a [`State`](thinshell_solver::State) of this system carries (0 without edge unknowns).
     pub fn n_edge_angles(&self) -> usize {
         self.dofs.n_edges()
     }
@@ -519,7 +519,7 @@ impl ShellSystem {
     }
 
     /// Edge angles (rad, one per edge) of the last solve on this system (static, implicit or
-    /// explicit step, [`Static::solve`](super::Static::solve)) or of the last relaxation by
+    /// explicit step, `Static::solve`) or of the last relaxation by
     /// [`ShellSystem::energy`]; empty before the first and without edge unknowns.
     pub fn edge_angles(&self) -> &[f64] {
         &self.angles
