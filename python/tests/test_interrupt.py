@@ -212,7 +212,10 @@ def test_ctrl_c_stops_a_dask_sweep(scenes, tmp_path):
     assert "Restarting worker" not in stderr and "killed" not in stderr.lower(), stderr[-3000:]
     complete = {p.parent.name for p in out.glob("run-*/result.json")}
     partial = {p.parent.name for p in out.glob("run-*/interrupted.json")}
-    assert len(complete) >= 1 and len(partial) >= 1 and not complete & partial
+    # Runs come back by value: a stopped run whose partial files arrive within the sweep's
+    # moment of grace is marked interrupted; one that does not has no result.json either, so
+    # both run again next time. Complete runs are kept.
+    assert 1 <= len(complete) < 4 and not complete & partial
 
 
 def test_a_terminal_ctrl_c_returns_a_dask_sweep_at_once(scenes, tmp_path):

@@ -703,11 +703,20 @@ def _sweep_dask(client, scene, combos, provs, dirs, todo, rows, threads, bar, fa
                 bar.update(rows[i], running=min(remaining, total_slots))
     except KeyboardInterrupt:
         # Told to stop rather than killed: the Event cancels running simulations (within one
-        # Newton iteration); runs not started see it and return at once. Whatever has not come
-        # back within a moment is left to the workers: each run's files (result.json, or
-        # interrupted.json) are written by the run itself, and the next call reuses them.
+        # Newton iteration); runs not started see it and return at once. What comes back within
+        # a moment is written (partial runs: interrupted.json); the rest has no result.json and
+        # runs again next time.
         _within(0.3, stop.set)
-        _within(0.5, lambda: distributed.wait(futures, timeout=0.5))
+
+        def collect() -> None:
+            # The runs that stop within a moment send their partial files (interrupted.json).
+            distributed.wait(futures, timeout=0.5)
+            for f in futures:
+                i = index[f.key]
+                if rows[i] is None and f.status == "finished":
+                    rows[i] = _receive(dirs[i], *f.result(timeout=0.2))
+
+        _within(0.8, collect)
         _within(0.2, lambda: client.cancel([f for f in futures if f.status == "pending"]))
         raise
     finally:
