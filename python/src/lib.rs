@@ -3,7 +3,7 @@
 //! Thin wrappers only: meshes are `thinshell_mesh::Mesh`, scenes `thinshell::scene::Scene`,
 //! simulations `thinshell::sim::Simulation`, the energy layer `thinshell_energy::Assembler`.
 //! Arrays cross as numpy arrays (f64, SI units); errors become the Python exceptions of
-//! [`errors`] with the message the `thinshell` CLI prints. The GIL is released while Rust works.
+//! `errors` with the message the `thinshell` CLI prints. The GIL is released while Rust works.
 //! The public Python API (with docstrings and stubs) is the `thinshell` package in
 //! `python/thinshell/`, which re-exports these classes.
 

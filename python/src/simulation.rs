@@ -680,9 +680,28 @@ impl PySimulation {
     /// (N, then J/rad per edge) and, when `hessian`, its Hessian (`scipy.sparse.csc_matrix`,
     /// rows and columns of held coordinates empty; clamped directors held as in the
     /// simulation): an `EnergyResult`, whose `edge_angles` are the angles used.
-    #[pyo3(signature = (hessian=true))]
-    fn energy<'py>(&self, py: Python<'py>, hessian: bool) -> PyResult<Bound<'py, PyAny>> {
-        let mut inner = self.lock()?;
+    ///
+    /// With `positions` (n × 3, m): the same model — this simulation's faces, current rest
+    /// forms (grown, edited), material and bending form — at those positions, with the
+    /// minimising edge angles (what `thinshell.energy(positions, sim=sim)` computes; boundary
+    /// clamps are not applied there).
+    #[pyo3(signature = (positions=None, hessian=true))]
+    fn energy<'py>(
+        slf: &Bound<'py, Self>,
+        py: Python<'py>,
+        positions: Option<Bound<'py, PyAny>>,
+        hessian: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        if let Some(x) = positions {
+            let kwargs = PyDict::new(py);
+            kwargs.set_item("hessian", hessian)?;
+            return py
+                .import("thinshell")?
+                .getattr("_energy_of_simulation")?
+                .call((slf, x), Some(&kwargs));
+        }
+        let this = slf.borrow();
+        let mut inner = this.lock()?;
         let sim = &mut inner.sim;
         let e = py
             .detach(move || crate::state_energy::state_energy(sim, hessian))

@@ -70,3 +70,34 @@ def test_plate_modes_match_kirchhoff(scenes):
     assert np.allclose(m.frequencies, exact, rtol=0.02), (m.frequencies, exact)
     assert m.shapes.shape[0] == 4 and m.shapes.shape[2] == 3
     assert np.all(m.residuals < 1e-9)
+
+
+def test_energy_with_a_simulation_is_the_simulations_model(scenes):
+    """Issue 42: after growth, the module-level energy() with ``sim=`` and ``sim.energy(x)``
+    evaluate the simulation's own model (grown rest forms, its form and material): both equal
+    the elastic energy the simulation reports, while the rest *shape* alone is another model."""
+    sim = thinshell.Simulation(thinshell.Scene.from_file(scenes / "sphere_uniform_heat.toml", ["integrator.steps=20"]))
+    sim.run()
+    x = sim.positions
+    reported = sim.energies["stretch"] + sim.energies["bend"]
+    a = thinshell.energy(x, sim=sim, hessian=False)
+    b = sim.energy(x, hessian=False)
+    assert a.energy == pytest.approx(reported, rel=1e-12)
+    assert b.energy == pytest.approx(reported, rel=1e-12)
+    assert a.stretch == pytest.approx(sim.energies["stretch"], rel=1e-12)
+    # The energy against the undeformed reference shape (what energy(x, F, rest=positions)
+    # means) is another model: grown rest forms differ from it by far more than round-off.
+    other = thinshell.energy(x, sim.faces, sim.reference_positions, form=sim.form, material=sim.material, hessian=False)
+    assert abs(other.energy - reported) > 0.1 * reported
+    # Another position: still the simulation's model (its gradient matches finite differences
+    # of the same call).
+    y = x * 1.001
+    g = sim.energy(y, hessian=False).gradient
+    d = np.zeros_like(y)
+    d[0, 2] = 1e-7
+    fd = (sim.energy(y + d, hessian=False).energy - sim.energy(y - d, hessian=False).energy) / 2e-7
+    assert fd == pytest.approx(g[2], rel=1e-5, abs=1e-9 * np.abs(g).max())
+    with pytest.raises(ValueError, match="ambiguous"):
+        thinshell.energy(x, sim.faces, sim=sim)
+    with pytest.raises(TypeError, match="sim="):
+        thinshell.energy(x)

@@ -124,3 +124,49 @@ def test_an_interrupted_sweep_resumes_with_the_missing_runs(serial, tmp_path):
     again = thinshell.sweep(thinshell.Scene.from_file(scene, ["integrator.steps=40"]), {"initial.scale": [1.9, 1.92, 1.94, 1.96, 1.98, 1.99], "material.young": [2e9]}, tmp_path, max_workers=1, frame=False)
     assert all(r["reused"] for r in again)
     assert comparable(again) == comparable(rows)
+
+
+def test_a_cluster_of_other_machines_gives_the_serial_results(tmp_path):
+    """Issue 42: a scene travels by value. The client's scene file and its OBJ mesh are
+    packed and then deleted; the workers have their own HOME, cache directory, temporary and
+    working directories. The Dask sweep equals a serial sweep of the same packed scene, row for
+    row and position for position, and its files come back into the client's out_dir."""
+    import shutil
+
+    distributed = pytest.importorskip("distributed")
+    client_files = tmp_path / "client"
+    client_files.mkdir()
+    shutil.copy(thinshell_scenes().parent / "meshes" / "seed_square.obj", client_files / "sheet.obj")
+    (client_files / "scene.toml").write_text(
+        'effects = ["stretching", "bending", "inertia"]\n'
+        '[mesh]\nobj = "sheet.obj"\n'
+        "[initial]\nscale = 1.9\n"
+        '[integrator]\nkind = "implicit"\ndt = 1e-3\nsteps = 4\n'
+    )
+    packed = thinshell.PackedScene.pack(client_files / "scene.toml")
+    shutil.rmtree(client_files)  # nothing of the client's files is left to read
+    grid = {"material.young": [1e9, 2e9], "integrator.dt": [1e-3, 2e-3]}
+    serial = thinshell.sweep(packed, grid, tmp_path / "serial", max_workers=1, frame=False)
+    assert all(r["status"] == "completed" for r in serial), serial
+    homes = {}
+    for k in ("home", "cache", "tmp", "cwd"):
+        homes[k] = tmp_path / "worker" / k
+        homes[k].mkdir(parents=True)
+    env = {"HOME": str(homes["home"]), "THINSHELL_CACHE_DIR": str(homes["cache"]), "TMPDIR": str(homes["tmp"])}
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+        env=env, local_directory=str(homes["tmp"]),
+    ) as cluster:
+        with distributed.Client(cluster) as client:
+            client.run(os.chdir, str(homes["cwd"]))
+            assert set(client.run(os.getcwd).values()) == {str(homes["cwd"])}
+            assert set(client.run(os.path.expanduser, "~").values()) == {str(homes["home"])}
+            rows = thinshell.sweep(packed, grid, tmp_path / "dask", client=client, frame=False)
+    assert comparable(rows) == comparable(serial)
+    for r in serial:
+        a = np.load(tmp_path / "serial" / r["run"] / "positions.npy")
+        b = np.load(tmp_path / "dask" / r["run"] / "positions.npy")
+        assert np.array_equal(a, b)
+        assert (tmp_path / "dask" / r["run"] / "result.json").exists()
+    # The workers wrote nothing outside their own temporary directory.
+    assert not any(homes["cwd"].iterdir()) and not any(homes["home"].iterdir())

@@ -9,15 +9,59 @@ use thinshell::mesh_info::mesh_info;
 use thinshell::output::{CheckpointEvery, Failure, OutputWriter, RunRecord, RunStatus};
 use thinshell::sim::{Observer, Simulation, StepRecord};
 
-/// `thinshell info MESH`: prints statistics and problems of an OBJ mesh.
+/// `thinshell info MESH`: prints statistics and every problem of an OBJ mesh. A mesh with
+/// problems that make it unusable gets them all listed (each with its OBJ lines), with the
+/// statistics of the faces without problems, and then fails as bad input naming the first.
 pub fn info(path: &Path) -> Result<(), Failure> {
     let bad = |e: thinshell_mesh::MeshError| Failure::BadInput(format!("{}: {e}", path.display()));
-    let mesh = thinshell_mesh::io::load_obj(path).map_err(bad)?;
-    // Statistics of a mesh whose areas overflow would print inf/NaN; say why instead.
-    thinshell_mesh::check_scale(&mesh, mesh.positions()).map_err(bad)?;
+    let data = thinshell_mesh::io::read_obj_data(std::io::BufReader::new(
+        std::fs::File::open(path).map_err(|e| bad(e.into()))?,
+    ))
+    .map_err(bad)?;
+    let diagnosis = thinshell_mesh::diagnose(&data.positions, &data.faces);
+    let located: Vec<thinshell_mesh::MeshError> = diagnosis
+        .problems
+        .into_iter()
+        .map(|e| thinshell_mesh::io::locate_in_obj(e, &data.face_lines, &data.vertex_lines))
+        .collect();
+    let Some(first) = located.first() else {
+        let mesh = diagnosis
+            .mesh
+            .ok_or_else(|| bad(thinshell_mesh::MeshError::Empty))?;
+        println!("{}", path.display());
+        println!("{}", mesh_info(&mesh));
+        return Ok(());
+    };
     println!("{}", path.display());
-    println!("{}", mesh_info(&mesh));
-    Ok(())
+    match &diagnosis.mesh {
+        Some(mesh) => {
+            println!(
+                "statistics of the {} of {} faces without problems:",
+                diagnosis.kept_faces.len(),
+                data.faces.len()
+            );
+            let mut info = mesh_info(mesh);
+            let warnings = std::mem::take(&mut info.problems);
+            info.problems = located.iter().map(ToString::to_string).collect();
+            info.problems.extend(warnings);
+            println!("{info}");
+        }
+        None => {
+            println!("no statistics: no valid mesh is left without the faces below");
+            println!("problems:");
+            for p in &located {
+                println!("  - {p}");
+            }
+        }
+    }
+    let more = match located.len() {
+        1 => String::new(),
+        n => format!(" (and {} more problems, listed above)", n - 1),
+    };
+    Err(Failure::BadInput(format!(
+        "{}: {first}{more}",
+        path.display()
+    )))
 }
 
 /// `thinshell check SCENE`: validates a scene and prints what would be simulated.
@@ -74,21 +118,22 @@ pub fn run(
         quiet,
         ..RunOptions::default()
     };
-    run_with(scene, out, overrides, &options, stop)
+    run_with(scene, out, overrides, &options, stop).map(|_| ())
 }
 
 /// `thinshell run SCENE`: runs a scene, writing frames (OBJ and/or VTK), `steps.csv`,
 /// `summary.json` and (with [`RunOptions::checkpoint_every`]) `checkpoint.bin` into `out`
 /// (default `out/<scene name>`). Ctrl-C (the `stop` flag) ends the run cleanly after the
 /// current step (a running Newton solve stops within one iteration and its step is not taken)
-/// and writes a checkpoint there, so that `resume` continues from it.
+/// and writes a checkpoint there, so that `resume` continues from it; the result then says
+/// [`RunEnd::Interrupted`] (the binary exits with 130 and prints the `thinshell resume` command).
 pub fn run_with(
     scene_path: &Path,
     out: Option<&Path>,
     overrides: &[String],
     options: &RunOptions,
     stop: &Arc<AtomicBool>,
-) -> Result<(), Failure> {
+) -> Result<RunEnd, Failure> {
     let (scene, sim) = crate::load::load(scene_path, overrides)?;
     if options.checkpoint_every.is_some() && sim.is_path_following() {
         return Err(Failure::BadInput(format!(
@@ -109,7 +154,7 @@ pub fn run_with(
 /// `thinshell resume OUT_DIR`: continues the run whose checkpoint is `OUT_DIR/checkpoint.bin`;
 /// its frames, `.pvd`, `steps.csv` and `summary.json` continue as if it had never stopped.
 /// Without `options.checkpoint_every` the run's own setting is kept.
-pub fn resume(dir: &Path, options: &RunOptions, stop: &Arc<AtomicBool>) -> Result<(), Failure> {
+pub fn resume(dir: &Path, options: &RunOptions, stop: &Arc<AtomicBool>) -> Result<RunEnd, Failure> {
     let (sim, writer, checkpoint_every) = crate::resume::reopen(dir, options.checkpoint_every)?;
     let options = RunOptions {
         checkpoint_every,
@@ -118,13 +163,23 @@ pub fn resume(dir: &Path, options: &RunOptions, stop: &Arc<AtomicBool>) -> Resul
     drive(sim, writer, &options, stop)
 }
 
+/// How a run that did not fail ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RunEnd {
+    /// Every step was taken.
+    Completed,
+    /// Stopped by Ctrl-C (the `stop` flag) after the last completed step, with a checkpoint
+    /// that `thinshell resume` continues from (path-following runs: no checkpoint).
+    Interrupted,
+}
+
 /// Runs a loaded (fresh or restored) simulation to its end and writes `summary.json`.
 fn drive(
     mut sim: Simulation,
     writer: OutputWriter,
     options: &RunOptions,
     stop: &Arc<AtomicBool>,
-) -> Result<(), Failure> {
+) -> Result<RunEnd, Failure> {
     let bar = (!options.quiet).then(|| {
         let bar = ProgressBar::new(sim.steps_total() as u64);
         bar.set_style(
@@ -166,37 +221,69 @@ fn drive(
         Err(_) => RunStatus::Failed,
     };
     writer.finish(&sim, status, result.as_ref().err())?;
-    match (result, options.quiet) {
-        (Err(e), _) => match crate::resume::memory_refusal(&e, &sim) {
-            Some(line) => Err(Failure::BadInput(line)),
-            None => Err(Failure::Simulation(format!(
-                "{e}{}",
-                failed_step_hint(&e, &sim)
-            ))),
-        },
-        (Ok(s), false) => {
-            let stability = match s.stable {
-                Some(true) => ", a stable equilibrium",
-                Some(false) => ", an UNSTABLE equilibrium (saddle)",
-                None => "",
+    let s = match result {
+        Err(e) => {
+            return match crate::resume::memory_refusal(&e, &sim) {
+                Some(line) => Err(Failure::BadInput(line)),
+                None => Err(Failure::Simulation(format!(
+                    "{e}{}",
+                    failed_step_hint(&e, &sim)
+                ))),
             };
-            let status = match status {
-                RunStatus::Interrupted => "interrupted",
-                _ => "completed",
-            };
-            println!(
-                "{}: {} {} of {} steps in {:.3} s, elastic energy {:.6e} J{stability}; output in {}",
-                sim.name(),
-                status,
-                s.steps,
-                s.steps_requested,
-                s.wall_s,
-                s.final_energy.elastic(),
-                writer.dir().display()
-            );
-            Ok(())
         }
-        (Ok(_), true) => Ok(()),
+        Ok(s) => s,
+    };
+    let end = if s.interrupted {
+        RunEnd::Interrupted
+    } else {
+        RunEnd::Completed
+    };
+    if !options.quiet {
+        let stability = match s.stable {
+            Some(true) => ", a stable equilibrium",
+            Some(false) => ", an UNSTABLE equilibrium (saddle)",
+            None => "",
+        };
+        let status = match end {
+            RunEnd::Interrupted => "interrupted",
+            RunEnd::Completed => "completed",
+        };
+        println!(
+            "{}: {} {} of {} steps in {:.3} s, elastic energy {:.6e} J{stability}; output in {}",
+            sim.name(),
+            status,
+            s.steps,
+            s.steps_requested,
+            s.wall_s,
+            s.final_energy.elastic(),
+            writer.dir().display()
+        );
+    }
+    if end == RunEnd::Interrupted {
+        // Also with --quiet: what to type next is the one thing a stopped run must say.
+        if sim.is_path_following() {
+            eprintln!(
+                "thinshell: interrupted; a path-following run cannot be resumed (run it again)"
+            );
+        } else {
+            eprintln!(
+                "thinshell: interrupted; continue with: thinshell resume {}",
+                shell_quote(&writer.dir().display().to_string())
+            );
+        }
+    }
+    Ok(end)
+}
+
+/// `s` as one shell word (single-quoted unless it is plain), for a command to copy.
+fn shell_quote(s: &str) -> String {
+    let plain = !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "/._-+=:,@%".contains(c));
+    if plain {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
     }
 }
 

@@ -1,7 +1,8 @@
 //! The `thinshell` command-line tool: `run`, `resume`, `check`, `view` and `info`.
 //!
 //! Exit codes: 0 success, 2 bad input (scene, mesh, arguments), 1 a simulation that failed (the
-//! last good state is written).
+//! last good state is written), 130 a run stopped by Ctrl-C (SIGINT; its state is kept and the
+//! `thinshell resume` command printed), as shells report a process ended by SIGINT.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -115,6 +116,11 @@ fn stop_flag() -> Arc<AtomicBool> {
     stop
 }
 
+/// Whether a run ended by Ctrl-C (exit code 130).
+fn interrupted(end: cli::RunEnd) -> bool {
+    end == cli::RunEnd::Interrupted
+}
+
 fn main() -> ExitCode {
     let args = match Args::try_parse() {
         Ok(a) => a,
@@ -139,7 +145,7 @@ fn main() -> ExitCode {
                 verbose,
                 checkpoint_every,
             };
-            cli::run_with(&scene, out.as_deref(), &set, &options, &stop_flag())
+            cli::run_with(&scene, out.as_deref(), &set, &options, &stop_flag()).map(interrupted)
         }
         Command::Resume {
             out_dir,
@@ -152,16 +158,16 @@ fn main() -> ExitCode {
                 verbose,
                 checkpoint_every,
             };
-            cli::resume(&out_dir, &options, &stop_flag())
+            cli::resume(&out_dir, &options, &stop_flag()).map(interrupted)
         }
-        Command::Check { scene, set } => cli::check(&scene, &set),
-        Command::Info { mesh } => cli::info(&mesh),
+        Command::Check { scene, set } => cli::check(&scene, &set).map(|()| false),
+        Command::Info { mesh } => cli::info(&mesh).map(|()| false),
         Command::Modes {
             scene,
             count,
             out,
             set,
-        } => cli::modes::modes_command(&scene, count, out.as_deref(), &set),
+        } => cli::modes::modes_command(&scene, count, out.as_deref(), &set).map(|()| false),
         Command::View {
             dir,
             dir2,
@@ -171,11 +177,12 @@ fn main() -> ExitCode {
             let dirs: Vec<&std::path::Path> = std::iter::once(dir.as_path())
                 .chain(dir2.as_deref())
                 .collect();
-            thinshell_cli::view::view(&dirs, port, html.as_deref())
+            thinshell_cli::view::view(&dirs, port, html.as_deref()).map(|()| false)
         }
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::SUCCESS,
+        Ok(true) => ExitCode::from(130),
         Err(Failure::BadInput(msg)) => {
             eprintln!("thinshell: error: {msg}");
             ExitCode::from(2)

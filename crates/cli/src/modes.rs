@@ -8,7 +8,7 @@ use thinshell::output::Failure;
 use thinshell::{Scene, Simulation};
 
 /// `thinshell modes SCENE --count N --out DIR`: builds the scene, computes its `count`
-/// lowest modes about the start state ([`simulation_modes`](thinshell::modes::simulation_modes)), writes them ([`write_modes`](thinshell::modes::write_modes);
+/// lowest modes about the start state ([`thinshell::modes::simulation_modes`]), writes them ([`thinshell::modes::write_modes`];
 /// default directory `out/<scene name>-modes`) and prints the frequencies.
 pub fn modes_command(
     scene: &Path,

@@ -385,19 +385,54 @@ fn bad_overrides() {
         (
             "set_invalid_value",
             "material.poisson=0.7",
-            vec![
-                "(with --set)",
-                "`material.poisson` must be in [0, 0.5), got 0.7",
-            ],
+            vec!["--set material.poisson=0.7: `material.poisson` must be in [0, 0.5), got 0.7"],
         ),
         (
             "set_unknown_key",
             "integrator.dtt=1e-3",
-            vec!["(with --set)", "unknown field `dtt`"],
+            vec!["--set integrator.dtt=1e-3: unknown field `dtt`"],
+        ),
+        (
+            "set_wrong_type",
+            "integrator.steps=\"many\"",
+            vec!["--set integrator.steps=\"many\": invalid type"],
+        ),
+        (
+            "set_unknown_table_key",
+            "material.thicknes=1e-4",
+            vec!["--set material.thicknes=1e-4: unknown field `thicknes`"],
         ),
     ] {
         scene_case(name, BASE.as_bytes(), None, &[set], &expect);
     }
+    // A problem of the file itself, found with an unrelated override, points at its own line
+    // of the file as written (the override rewrites the text; the message must not follow).
+    let bad = BASE.replace("dt = 1e-4", "dt = -1e-4");
+    scene_case(
+        "set_elsewhere",
+        bad.as_bytes(),
+        None,
+        &["integrator.steps=3"],
+        &["scene.toml:8:1: `integrator.dt` must be > 0"],
+    );
+    // A missing mesh file names the key and its line, or the --set that named it.
+    let d = case_dir("obj_missing_key");
+    let p = d.join("scene.toml");
+    std::fs::write(&p, OBJ_SCENE).unwrap();
+    let err = refused(&["check"], &[&p], "obj_missing_key");
+    assert!(
+        err.contains("scene.toml:3:1: `mesh.obj`: mesh file"),
+        "{err}"
+    );
+    let err = refused(
+        &["check", "--set", "mesh.obj=other.obj"],
+        &[&p],
+        "obj_missing_set",
+    );
+    assert!(
+        err.contains("--set mesh.obj=other.obj: `mesh.obj`: mesh file"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -477,7 +512,7 @@ fn bad_meshes_through_info() {
         (
             "truncated_vertex",
             "v 0 0 0\nv 1 0 0\nv 0 1\nf 1 2 3\n".as_bytes().to_vec(),
-            vec!["OBJ parse error", "position"],
+            vec!["OBJ line 3", "vertex with 2 numbers"],
         ),
         (
             "not_utf8",
@@ -489,7 +524,7 @@ fn bad_meshes_through_info() {
             "v 0 0 0 0\nv 1 0 0 0\nv 0 1 0 0\nf 1 2 3\n"
                 .as_bytes()
                 .to_vec(),
-            vec!["OBJ parse error", "(w) by zero"],
+            vec!["OBJ line 1", "weight w is 0"],
         ),
         (
             "infinite_coordinate",
@@ -519,7 +554,14 @@ fn bad_meshes_through_info() {
         let d = case_dir(&format!("info-{name}"));
         let p = d.join("mesh.obj");
         std::fs::write(&p, obj).unwrap();
-        let err = refused(&["info"], &[&p], name);
+        // Problems of the mesh (not of the file's syntax) are listed on stdout with the
+        // statistics `info` can give; stderr names the first, on one line.
+        let out = bin().arg("info").arg(&p).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert_eq!(out.status.code(), Some(2), "{name}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{name}: {err}");
+        assert!(err.starts_with("thinshell: error: "), "{name}: {err}");
+        println!("{name}\tinfo\t{}", err.trim_end());
         assert!(err.contains(&p.display().to_string()), "{name}: {err}");
         for e in expect {
             assert!(err.contains(e), "{name}: expected `{e}` in {err}");

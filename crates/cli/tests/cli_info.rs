@@ -82,3 +82,32 @@ fn bad_meshes_give_one_line_and_exit_code_2() {
         assert!(err.starts_with("thinshell: error: "), "{name}: {err}");
     }
 }
+
+/// `info` lists every problem of a broken mesh with its 1-based OBJ lines (not only the first),
+/// and the statistics of the faces without problems.
+#[test]
+fn info_lists_every_problem_with_its_obj_lines() {
+    let p = tmp(
+        "several.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 1 1 0\nv 2 0 0\n\
+         f 1 2 3\nf 2 1 4\nf 1 2 5\nf 2 6 3\nf 1 2 7\nf 3 2 6\n",
+    );
+    let out = bin().arg("info").arg(&p).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let s = String::from_utf8(out.stdout).unwrap();
+    let err = String::from_utf8(out.stderr).unwrap();
+    // Faces on lines 8–10 share edge 1–2, line 12 is degenerate, line 13 repeats line 11.
+    for expect in [
+        "statistics of the 1 of 6 faces without problems",
+        "vertices 3  faces 1",
+        "OBJ line 12: face 4 is degenerate",
+        "OBJ lines 11, 13: face 5 duplicates face 3",
+        "OBJ lines 8, 9, 10: edge (0, 1) is non-manifold: shared by 3 faces [0, 1, 2]",
+    ] {
+        assert!(s.contains(expect), "expected `{expect}` in\n{s}");
+    }
+    assert!(
+        err.contains("OBJ line 12: face 4 is degenerate") && err.contains("2 more problems"),
+        "{err}"
+    );
+}

@@ -194,6 +194,7 @@ fn ctrl_c_leaves_a_checkpoint_that_resume_continues_from() {
         .arg(&out)
         .arg(&scene)
         .args(&args)
+        .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
     let rows = || {
@@ -209,7 +210,17 @@ fn ctrl_c_leaves_a_checkpoint_that_resume_continues_from() {
         .status()
         .unwrap();
     assert!(status.success());
-    assert!(child.wait().unwrap().success(), "a clean stop exits with 0");
+    let stopped = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&stopped.stderr);
+    assert_eq!(
+        stopped.status.code(),
+        Some(130),
+        "a clean stop exits with 130: {err}"
+    );
+    assert!(
+        err.contains(&format!("thinshell resume {}", out.display())),
+        "the resume command is printed: {err}"
+    );
     let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
     assert!(summary.contains("\"status\": \"interrupted\""), "{summary}");
     assert!(out.join("checkpoint.bin").exists());

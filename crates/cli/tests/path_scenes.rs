@@ -386,3 +386,31 @@ fn the_arch_lands_on_the_plane_under_arc_length() {
     let last = lambda.last().copied().unwrap_or(0.0);
     assert!(last > 0.3, "{lambda:?}");
 }
+
+/// Issue 42: the unstable branch a path-following run was asked to trace is information, said
+/// once ("note:"), not a warning per point.
+#[test]
+fn a_traced_unstable_branch_is_noted_once_not_warned() {
+    let out_dir = temp_dir("path-scene-note").join("out");
+    let out = bin()
+        .args(["run", "--quiet", "--out"])
+        .arg(&out_dir)
+        .arg(arch_scene())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let csv = std::fs::read_to_string(out_dir.join("steps.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let k = header.iter().position(|h| *h == "stable").unwrap();
+    let unstable = lines.filter(|l| l.split(',').nth(k) == Some("0")).count();
+    assert!(unstable > 1, "the arch's path has several unstable points");
+    assert_eq!(
+        stderr.matches("note: ").count(),
+        1,
+        "one note for {unstable} unstable points: {stderr}"
+    );
+    assert!(stderr.contains("unstable equilibria"), "{stderr}");
+    assert!(!stderr.contains("not a minimum"), "{stderr}");
+}

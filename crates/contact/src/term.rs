@@ -245,11 +245,7 @@ impl Contact {
             .iter()
             .map(|e| e.vertices.map(|v| v.idx()))
             .collect();
-        let mean_edge = edges
-            .iter()
-            .map(|e| (p[e[0]] - p[e[1]]).norm())
-            .sum::<f64>()
-            / edges.len().max(1) as f64;
+        let mean_edge = thinshell_mesh::mean_edge_length(mesh, p);
         let activation = settings.distance.unwrap_or(0.1 * mean_edge);
         if !(activation > 0.0 && activation.is_finite()) {
             return Err(ContactError::Invalid(format!(

@@ -117,18 +117,60 @@ pub enum MeshError {
         /// What is required.
         reason: &'static str,
     },
-    /// The OBJ text could not be parsed.
-    #[error("OBJ parse error: {0}")]
-    Obj(#[from] tobj::LoadError),
-    /// A line of the OBJ text is malformed in a way `tobj` would silently accept.
+    /// A line of the OBJ text is malformed.
     #[error("OBJ line {line}: {message}")]
     ObjSyntax {
         /// 1-based line number.
         line: usize,
         /// What is wrong.
-        message: &'static str,
+        message: String,
+    },
+    /// A mesh problem of faces or vertices read from an OBJ file, with their 1-based lines.
+    #[error("OBJ line{} {}: {source}", if .lines.len() > 1 { "s" } else { "" }, join_lines(.lines))]
+    InObj {
+        /// The `f` lines of the faces and the `v` lines of the vertices involved (ascending).
+        lines: Vec<usize>,
+        /// The problem, with the mesh's 0-based face and vertex indices.
+        source: Box<MeshError>,
     },
     /// Reading or writing failed.
     #[error("I/O error: {0}")]
     Io(#[from] std::io::Error),
+}
+
+fn join_lines(lines: &[usize]) -> String {
+    let shown: Vec<String> = lines.iter().take(8).map(usize::to_string).collect();
+    let more = lines.len().saturating_sub(8);
+    if more > 0 {
+        format!("{} and {more} more", shown.join(", "))
+    } else {
+        shown.join(", ")
+    }
+}
+
+impl MeshError {
+    /// The input faces (0-based) the problem is about, for locating it in a file.
+    pub fn faces(&self) -> Vec<usize> {
+        match self {
+            MeshError::IndexOutOfRange { face, .. }
+            | MeshError::RepeatedVertex { face, .. }
+            | MeshError::DegenerateFace { face, .. }
+            | MeshError::OutOfScale { face, .. } => vec![*face],
+            MeshError::DuplicateFace { face, first, .. } => vec![*first, *face],
+            MeshError::NonManifoldEdge { faces, .. } => faces.clone(),
+            MeshError::NonOrientable { face, neighbor, .. } => vec![*face, *neighbor],
+            MeshError::InObj { source, .. } => source.faces(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// The input vertices (0-based) the problem is about when no face is (a coordinate that is
+    /// not finite).
+    pub fn vertices(&self) -> Vec<usize> {
+        match self {
+            MeshError::NonFiniteCoordinate { vertex, .. } => vec![*vertex],
+            MeshError::InObj { source, .. } => source.vertices(),
+            _ => Vec::new(),
+        }
+    }
 }

@@ -85,16 +85,32 @@ pub fn mid_edge_normals(mesh: &Mesh, x: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
 /// reported as [`MeshError::OutOfScale`].
 pub fn check_scale(mesh: &Mesh, x: &[Vector3<f64>]) -> Result<(), MeshError> {
     for (face, &f) in mesh.faces().iter().enumerate() {
-        let [i, j, k] = f.map(VertexId::idx);
-        let (u, v) = (x[j] - x[i], x[k] - x[i]);
-        let twice_area = u.cross(&v).norm();
-        let l2 = u
-            .norm_squared()
-            .max(v.norm_squared())
-            .max((v - u).norm_squared());
-        if !((twice_area * twice_area).is_normal() && (l2 * l2).is_finite()) {
+        if let Some(twice_area) = out_of_scale(x, f.map(VertexId::idx)) {
             return Err(MeshError::OutOfScale { face, twice_area });
         }
     }
     Ok(())
+}
+
+/// `Some(|e1 × e2|)` when the triangle's squared area or squared edge lengths under- or
+/// overflow f64 (see [`check_scale`]).
+pub(crate) fn out_of_scale(x: &[Vector3<f64>], [i, j, k]: [usize; 3]) -> Option<f64> {
+    let (u, v) = (x[j] - x[i], x[k] - x[i]);
+    let twice_area = u.cross(&v).norm();
+    let l2 = u
+        .norm_squared()
+        .max(v.norm_squared())
+        .max((v - u).norm_squared());
+    (!((twice_area * twice_area).is_normal() && (l2 * l2).is_finite())).then_some(twice_area)
+}
+
+/// Mean edge length (m) of `mesh` at positions `x`: the length scale of the mesh (contact's
+/// default activation distance, the edge angles' scaling); 0 for a mesh without edges.
+pub fn mean_edge_length(mesh: &Mesh, x: &[Vector3<f64>]) -> f64 {
+    let edges = mesh.topology().edges();
+    let sum: f64 = edges
+        .iter()
+        .map(|e| (x[e.vertices[1].idx()] - x[e.vertices[0].idx()]).norm())
+        .sum();
+    sum / edges.len().max(1) as f64
 }

@@ -1,16 +1,19 @@
-//! OBJ input and output (positions and triangles only), via `tobj`.
+//! OBJ input and output (positions and triangles only).
 //!
-//! Reading uses `tobj` with `triangulate: true` (polygons are fan-triangulated),
-//! `single_index: false` (texture / normal seams do not split vertices), and ignores points,
-//! lines, normals, texture coordinates and materials. All objects and groups of a file are
-//! merged into one mesh. Vertices keep the file's numbering (`v` lines in order), so
+//! Reading keeps `v` lines (`x y z`, an optional weight `w` that divides them, or trailing
+//! `r g b` vertex colours, ignored) and `f` lines (corners `v`, `v/vt`, `v//vn` or `v/vt/vn`;
+//! 1-based indices, negative ones counting back from the last `v` line above; polygons are
+//! fan-triangulated). Texture coordinates, normals, points, lines, groups, objects and materials
+//! are ignored; all objects and groups of a file are merged into one mesh. Vertices keep the
+//! file's numbering (`v` lines in order), so
 //! [`BuildReport::vertex_map`](crate::BuildReport::vertex_map) maps file vertices (0-based) to
-//! mesh vertices. Because `tobj` renumbers vertices per object, the file numbering is
-//! recovered from the coordinates: distinct `v` lines with bit-identical coordinates are
-//! merged into the first of them. The result then goes through [`Mesh::new`] (validation,
-//! dropping of unreferenced vertices, orientation fixing).
+//! mesh vertices. The result then goes through [`Mesh::new`] (validation, dropping of
+//! unreferenced vertices, orientation fixing).
+//!
+//! Every error names its 1-based line: a malformed line is [`MeshError::ObjSyntax`], and a mesh
+//! problem [`Mesh::new`] finds (a degenerate face, a non-manifold edge, …) comes back as
+//! [`MeshError::InObj`], naming the `f` (or `v`) lines of the faces (vertices) involved.
 
-use std::collections::HashMap;
 use std::fs::File;
 use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::Path;
@@ -20,121 +23,165 @@ use nalgebra::Vector3;
 use crate::error::MeshError;
 use crate::mesh::Mesh;
 
-fn load_options() -> tobj::LoadOptions {
-    tobj::LoadOptions {
-        triangulate: true,
-        single_index: false,
-        ignore_points: true,
-        ignore_lines: true,
-    }
-}
-
 /// Positions (m) and 0-based triangles as read from a file, before validation.
 pub type RawMesh = (Vec<Vector3<f64>>, Vec<[usize; 3]>);
 
-/// Reads raw positions and triangles from OBJ text without building a [`Mesh`].
-///
-/// Positions are all `v` lines in file order (including unreferenced ones).
-/// Besides `tobj`'s own checks, a face line (`f`) with fewer than three corners is an error
-/// ([`MeshError::ObjSyntax`]) rather than being read as a point or line and skipped, so that
-/// a truncated file is not silently accepted.
-pub fn read_obj_raw(mut reader: impl BufRead) -> Result<RawMesh, MeshError> {
+/// An OBJ file's positions and triangles with the lines they came from.
+#[derive(Clone, Debug, Default)]
+pub struct ObjData {
+    /// Every `v` line's position (m), in file order (including unreferenced ones).
+    pub positions: Vec<Vector3<f64>>,
+    /// 0-based triangles (polygons fan-triangulated), in file order.
+    pub faces: Vec<[usize; 3]>,
+    /// The 1-based line of each position's `v` line.
+    pub vertex_lines: Vec<usize>,
+    /// The 1-based line of each triangle's `f` line (several triangles share a polygon's line).
+    pub face_lines: Vec<usize>,
+}
+
+impl ObjData {
+    /// Builds the mesh ([`Mesh::new`]); a problem it finds names the OBJ lines involved
+    /// ([`MeshError::InObj`]).
+    pub fn into_mesh(self) -> Result<Mesh, MeshError> {
+        let (face_lines, vertex_lines) = (self.face_lines, self.vertex_lines);
+        Mesh::new(self.positions, self.faces)
+            .map_err(|e| locate_in_obj(e, &face_lines, &vertex_lines))
+    }
+}
+
+/// Wraps a [`Mesh::new`] error about input faces or vertices into [`MeshError::InObj`] with
+/// the 1-based OBJ lines they came from (other errors are returned as they are).
+pub fn locate_in_obj(e: MeshError, face_lines: &[usize], vertex_lines: &[usize]) -> MeshError {
+    let mut lines: Vec<usize> = e
+        .faces()
+        .iter()
+        .filter_map(|&f| face_lines.get(f).copied())
+        .chain(
+            e.vertices()
+                .iter()
+                .filter_map(|&v| vertex_lines.get(v).copied()),
+        )
+        .collect();
+    lines.sort_unstable();
+    lines.dedup();
+    if lines.is_empty() {
+        e
+    } else {
+        MeshError::InObj {
+            lines,
+            source: Box::new(e),
+        }
+    }
+}
+
+fn syntax(line: usize, message: impl Into<String>) -> MeshError {
+    MeshError::ObjSyntax {
+        line,
+        message: message.into(),
+    }
+}
+
+/// Reads an OBJ file's positions and triangles with their lines, without building a [`Mesh`]
+/// (see the module docs for what is kept). A malformed `v` or `f` line — a number that does not
+/// parse, a wrong count of coordinates, a face with fewer than three corners or an index of no
+/// `v` line — is [`MeshError::ObjSyntax`] naming its 1-based line, never skipped, so that a
+/// truncated file is not silently accepted.
+pub fn read_obj_data(mut reader: impl BufRead) -> Result<ObjData, MeshError> {
     let mut text = String::new();
     reader.read_to_string(&mut text)?;
-    // `tobj` renumbers vertices per object in order of first use; the file's own numbering is
-    // restored through the (bit-exact) coordinates of the `v` lines, parsed here the same way
-    // `tobj` parses them.
-    let mut file_positions: Vec<Vector3<f64>> = Vec::new();
-    let mut file_index: HashMap<[u64; 3], usize> = HashMap::new();
+    // A positive index may name a `v` line further down the file.
     let n_v_lines = text
         .lines()
         .filter(|l| l.split_whitespace().next() == Some("v"))
         .count();
-    let mut v_lines_so_far = 0;
+    let mut data = ObjData::default();
+    let mut corners: Vec<usize> = Vec::new();
     for (i, line) in text.lines().enumerate() {
+        let line_no = i + 1;
+        // A comment may follow the data on the same line.
+        let line = line.split('#').next().unwrap_or("");
         let mut tokens = line.split_whitespace();
         match tokens.next() {
-            Some("f") if tokens.clone().count() < 3 => {
-                return Err(MeshError::ObjSyntax {
-                    line: i + 1,
-                    message: "face with fewer than 3 vertices",
-                });
+            Some("v") => {
+                let mut vals = Vec::with_capacity(4);
+                for t in tokens {
+                    vals.push(t.parse::<f64>().map_err(|_| {
+                        syntax(line_no, format!("vertex coordinate `{t}` is not a number"))
+                    })?);
+                }
+                let mut p = match vals.len() {
+                    3 | 6 => [vals[0], vals[1], vals[2]],
+                    4 => [vals[0], vals[1], vals[2]],
+                    n => {
+                        return Err(syntax(
+                            line_no,
+                            format!(
+                                "vertex with {n} numbers (expected x y z, x y z w or x y z r g b)"
+                            ),
+                        ));
+                    }
+                };
+                if vals.len() == 4 {
+                    if vals[3] == 0.0 {
+                        return Err(syntax(line_no, "vertex weight w is 0 (x/w undefined)"));
+                    }
+                    p = p.map(|c| c / vals[3]);
+                }
+                data.positions.push(Vector3::from(p));
+                data.vertex_lines.push(line_no);
             }
             Some("f") => {
-                // `tobj` reports a bad vertex index without its line; find it here. Positive
-                // indices may refer to any `v` line of the file, negative ones count back from
-                // the last `v` line before the face.
+                corners.clear();
                 for t in tokens {
-                    let index = t.split('/').next().and_then(|v| v.parse::<i64>().ok());
-                    let in_range = match index {
-                        Some(k) if k > 0 => k.unsigned_abs() as usize <= n_v_lines,
-                        Some(k) if k < 0 => k.unsigned_abs() as usize <= v_lines_so_far,
-                        Some(_) => false,
-                        // Not a number: left for `tobj` to report.
-                        None => true,
+                    let index = t.split('/').next().unwrap_or("");
+                    let k: i64 = index.parse().map_err(|_| {
+                        syntax(
+                            line_no,
+                            format!("face vertex index `{t}` is not an integer"),
+                        )
+                    })?;
+                    let so_far = data.positions.len();
+                    let v = match k {
+                        k if k > 0 && k.unsigned_abs() as usize <= n_v_lines => k as usize - 1,
+                        k if k < 0 && k.unsigned_abs() as usize <= so_far => {
+                            so_far - k.unsigned_abs() as usize
+                        }
+                        _ => {
+                            return Err(syntax(
+                                line_no,
+                                format!(
+                                    "face vertex index out of range: {k} (0, or beyond the `v` \
+                                     lines: the file has {n_v_lines}, {so_far} above this line)"
+                                ),
+                            ));
+                        }
                     };
-                    if !in_range {
-                        return Err(MeshError::ObjSyntax {
-                            line: i + 1,
-                            message: "face vertex index out of range (0, or beyond the `v` lines)",
-                        });
-                    }
+                    corners.push(v);
                 }
-            }
-            Some("v") => {
-                v_lines_so_far += 1;
-                let vals: Vec<f64> = tokens.map_while(|t| t.parse::<f64>().ok()).collect();
-                // Malformed lines are left for `tobj` to report.
-                if vals.len() >= 3 {
-                    let mut p = [vals[0], vals[1], vals[2]];
-                    if vals.len() == 4 && vals[3] != 0.0 {
-                        p = p.map(|c| c / vals[3]);
-                    }
-                    let v = Vector3::from(p);
-                    file_index
-                        .entry(p.map(f64::to_bits))
-                        .or_insert(file_positions.len());
-                    file_positions.push(v);
+                if corners.len() < 3 {
+                    return Err(syntax(line_no, "face with fewer than 3 vertices"));
+                }
+                for k in 1..corners.len() - 1 {
+                    data.faces.push([corners[0], corners[k], corners[k + 1]]);
+                    data.face_lines.push(line_no);
                 }
             }
             _ => {}
         }
     }
-    // Materials are ignored: the loader reports "no materials" without touching the disk.
-    let (models, _materials) = tobj::load_obj_buf(&mut text.as_bytes(), &load_options(), |_| {
-        Err(tobj::LoadError::OpenFileFailed)
-    })?;
-    let mut faces: Vec<[usize; 3]> = Vec::new();
-    for model in &models {
-        let m = &model.mesh;
-        let local: Vec<usize> = m
-            .positions
-            .chunks_exact(3)
-            .map(|p| {
-                let key = [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()];
-                *file_index.entry(key).or_insert_with(|| {
-                    file_positions.push(Vector3::new(p[0], p[1], p[2]));
-                    file_positions.len() - 1
-                })
-            })
-            .collect();
-        for t in m.indices.chunks_exact(3) {
-            let mut tri = [0usize; 3];
-            for (c, &i) in t.iter().enumerate() {
-                tri[c] = *local
-                    .get(i as usize)
-                    .ok_or(MeshError::Obj(tobj::LoadError::FaceVertexOutOfBounds))?;
-            }
-            faces.push(tri);
-        }
-    }
-    Ok((file_positions, faces))
+    Ok(data)
+}
+
+/// Reads raw positions and triangles from OBJ text without building a [`Mesh`] (see
+/// [`read_obj_data`], which also gives each one's line).
+pub fn read_obj_raw(reader: impl BufRead) -> Result<RawMesh, MeshError> {
+    let data = read_obj_data(reader)?;
+    Ok((data.positions, data.faces))
 }
 
 /// Reads a mesh from OBJ text (see the module docs for what is kept).
 pub fn read_obj(reader: impl BufRead) -> Result<Mesh, MeshError> {
-    let (positions, faces) = read_obj_raw(reader)?;
-    Mesh::new(positions, faces)
+    read_obj_data(reader)?.into_mesh()
 }
 
 /// Loads a mesh from an OBJ file.

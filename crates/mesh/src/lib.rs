@@ -43,6 +43,7 @@
 
 mod bounding_box;
 mod delaunay;
+pub mod diagnose;
 pub mod error;
 pub mod generators;
 pub mod geometry;
@@ -55,9 +56,11 @@ pub mod topology;
 /// The linear-algebra crate of the public API (positions are `nalgebra::Vector3<f64>`).
 pub use nalgebra;
 
+pub use diagnose::{Diagnosis, diagnose};
 pub use error::MeshError;
 pub use geometry::{
-    BoundingBox, check_scale, face_areas, face_normal, face_normals, mid_edge_normals,
+    BoundingBox, check_scale, face_areas, face_normal, face_normals, mean_edge_length,
+    mid_edge_normals,
 };
 pub use ids::{EdgeId, FaceId, VertexId};
 pub use mesh::{BuildReport, DEGENERATE_TOLERANCE, Mesh};

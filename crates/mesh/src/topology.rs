@@ -292,3 +292,27 @@ impl Topology {
         self.face_component[f.idx()] as usize
     }
 }
+
+/// Vertices on an edge used by exactly one face, from a face list alone: no validation, so that
+/// deformed frames (whose faces may be degenerate) and meshes read raw get their boundary too
+/// (`thinshell view`). For a validated [`crate::Mesh`], [`Topology::boundary_vertices`].
+pub fn boundary_vertex_mask(n_vertices: usize, faces: &[[u32; 3]]) -> Vec<bool> {
+    let mut count: std::collections::HashMap<(u32, u32), u32> = std::collections::HashMap::new();
+    for f in faces {
+        for k in 0..3 {
+            let (a, b) = (f[k], f[(k + 1) % 3]);
+            *count.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let mut boundary = vec![false; n_vertices];
+    for ((a, b), n) in count {
+        if n == 1 {
+            for v in [a, b] {
+                if let Some(slot) = boundary.get_mut(v as usize) {
+                    *slot = true;
+                }
+            }
+        }
+    }
+    boundary
+}

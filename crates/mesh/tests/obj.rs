@@ -108,8 +108,8 @@ fn malformed_input_is_an_error_not_a_panic() {
         assert!(
             matches!(
                 e,
-                MeshError::Obj(_)
-                    | MeshError::ObjSyntax { .. }
+                MeshError::ObjSyntax { .. }
+                    | MeshError::InObj { .. }
                     | MeshError::Empty
                     | MeshError::NonFiniteCoordinate { .. }
                     | MeshError::DegenerateFace { .. }
@@ -171,4 +171,44 @@ fn write_rejects_wrong_positions() {
             ..
         }
     ));
+}
+
+/// Every OBJ error names its 1-based line: a malformed line its own, a mesh problem the `f`
+/// lines of the faces involved (polygons keep their line through the fan triangulation).
+#[test]
+fn errors_name_obj_lines() {
+    let e = io::read_obj("v 0 0 0\n# c\nv 1 x 0\nv 0 1 0\nf 1 2 3\n".as_bytes()).unwrap_err();
+    assert!(matches!(e, MeshError::ObjSyntax { line: 3, .. }), "{e}");
+    assert!(e.to_string().starts_with("OBJ line 3: "), "{e}");
+    let e = io::read_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x3\n".as_bytes()).unwrap_err();
+    assert!(matches!(e, MeshError::ObjSyntax { line: 4, .. }), "{e}");
+    // Degenerate: the third face (line 7) has collinear corners.
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\n\nf 1 2 4\n";
+    let e = io::read_obj(obj.as_bytes()).unwrap_err();
+    assert!(
+        matches!(&e, MeshError::InObj { lines, source }
+            if lines == &[7] && matches!(**source, MeshError::DegenerateFace { face: 1, .. })),
+        "{e}"
+    );
+    assert!(
+        e.to_string()
+            .starts_with("OBJ line 7: face 1 is degenerate"),
+        "{e}"
+    );
+    // Non-manifold: three faces on edge 1–2; the third is a quad on line 8 (two triangles).
+    let obj =
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 1 1 1\nf 1 2 3\nf 2 1 4\nf 1 2 6 5\n";
+    let e = io::read_obj(obj.as_bytes()).unwrap_err();
+    assert!(
+        matches!(&e, MeshError::InObj { lines, source }
+            if lines == &[7, 8, 9] && matches!(**source, MeshError::NonManifoldEdge { .. })),
+        "{e}"
+    );
+    assert!(
+        e.to_string().starts_with("OBJ lines 7, 8, 9: edge (0, 1)"),
+        "{e}"
+    );
+    // A coordinate that is not finite names its `v` line.
+    let e = io::read_obj("v 0 0 0\nv 1 0 0\nv 0 inf 0\nf 1 2 3\n".as_bytes()).unwrap_err();
+    assert!(e.to_string().starts_with("OBJ line 3: vertex 2"), "{e}");
 }

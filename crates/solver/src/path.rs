@@ -3,7 +3,7 @@
 //! and snap-backs: **arc-length** continuation (Riks/Crisfield) and **displacement control**.
 //!
 //! One implementation ([`PathTracer`]) drives any [`LoadedObjective`]: a shell
-//! ([`ShellPath`](crate::ShellPath)) or a one-dof test problem. Each step is a predictor
+//! (`thinshell_system::ShellPath`) or a one-dof test problem. Each step is a predictor
 //! along the tangent followed by Newton corrections of the bordered system
 //!
 //! ```text

@@ -2,7 +2,7 @@
 //!
 //! The angles φ_e of an edge-director form carry no mass: at every instant they minimise the
 //! energy for the current positions. Implicit and static solves find them together with the
-//! positions; [`ExplicitEuler`](super::ExplicitEuler), which only moves positions, calls
+//! positions; [`ExplicitEuler`](thinshell_solver::ExplicitEuler), which only moves positions, calls
 //! [`ShellSystem::relax_edge_angles`](crate::ShellSystem::relax_edge_angles) once per step.
 //! With the angles at their minimiser φ*(x), ∂E/∂φ = 0, so the position force −∂E/∂x(x, φ*)
 //! is the exact gradient of the reduced energy E*(x) = min_φ E(x, φ): the explicit step

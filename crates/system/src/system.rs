@@ -327,7 +327,7 @@ impl ShellSystem {
         Ok(())
     }
 
-    /// Number of edge angles a [`State`] of this system carries (0 without edge unknowns).
+    /// Number of edge angles a [`State`](thinshell_solver::State) of this system carries (0 without edge unknowns).
     pub fn n_edge_angles(&self) -> usize {
         self.dofs.n_edges()
     }
@@ -520,7 +520,7 @@ impl ShellSystem {
     }
 
     /// Edge angles (rad, one per edge) of the last solve on this system (static, implicit or
-    /// explicit step, [`Static::solve`](super::Static::solve)) or of the last relaxation by
+    /// explicit step, `Static::solve`) or of the last relaxation by
     /// [`ShellSystem::energy`]; empty before the first and without edge unknowns.
     pub fn edge_angles(&self) -> &[f64] {
         &self.angles
@@ -786,13 +786,7 @@ fn check_rest(mesh: &Mesh, model: &ShellModel, rest: &RestState) -> Result<(), S
 
 /// Mean edge length (m) of the reference mesh; 1 if degenerate.
 fn mean_edge_length(mesh: &Mesh) -> f64 {
-    let p = mesh.positions();
-    let edges = mesh.topology().edges();
-    let sum: f64 = edges
-        .iter()
-        .map(|e| (p[e.vertices[1].idx()] - p[e.vertices[0].idx()]).norm())
-        .sum();
-    let mean = sum / edges.len().max(1) as f64;
+    let mean = thinshell_mesh::mean_edge_length(mesh, mesh.positions());
     if mean.is_finite() && mean > 0.0 {
         mean
     } else {

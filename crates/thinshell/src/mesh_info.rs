@@ -52,12 +52,11 @@ pub fn mesh_info(mesh: &Mesh) -> MeshInfo {
     let topo = mesh.topology();
     let report = mesh.build_report();
     let bb = mesh.bounding_box();
-    let (mut lmin, mut lsum, mut lmax) = (f64::INFINITY, 0.0, 0.0f64);
+    let (mut lmin, mut lmax) = (f64::INFINITY, 0.0f64);
     for e in topo.edges() {
         let l = (x[e.vertices[1].idx()] - x[e.vertices[0].idx()]).norm();
         lmin = lmin.min(l);
         lmax = lmax.max(l);
-        lsum += l;
     }
     let (mut area, mut min_angle, mut max_aspect, mut slivers) = (0.0, 180.0f64, 0.0f64, 0);
     for f in mesh.faces() {
@@ -119,7 +118,7 @@ pub fn mesh_info(mesh: &Mesh) -> MeshInfo {
         dropped_vertices: dropped,
         bounding_box: (bb.min.into(), bb.max.into()),
         area,
-        edge_length: [lmin, lsum / n_edges.max(1) as f64, lmax],
+        edge_length: [lmin, thinshell_mesh::mean_edge_length(mesh, x), lmax],
         min_angle_deg: min_angle,
         max_aspect_ratio: max_aspect,
         slivers,

@@ -1,6 +1,6 @@
 //! Natural frequencies and mode shapes of a scene (docs/modal.md): the library function
 //! [`simulation_modes`], the writer of `modes.json` plus one VTK frame per mode
-//! ([`write_modes`]) and the `thinshell modes` command ([`modes_command`]). Self-contained so
+//! ([`write_modes`]) and the `thinshell modes` command (`thinshell_cli::modes::modes_command`). Self-contained so
 //! that it moves with the CLI.
 
 use std::path::Path;

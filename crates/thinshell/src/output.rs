@@ -369,6 +369,8 @@ pub struct OutputWriter {
     csv_rows: usize,
     /// The notice that Newton solves fell back to CG has been given.
     iterative_noticed: bool,
+    /// A traced path's first unstable point was noted (one line, not a warning per point).
+    unstable_path_noticed: bool,
     /// Totals over the whole run (across resumes).
     totals: Totals,
     /// Checkpointing: when, the scene's identity, and the last one written.
@@ -530,6 +532,7 @@ impl OutputWriter {
             last_frame: record.last_frame,
             csv_rows: record.csv_rows,
             iterative_noticed: false,
+            unstable_path_noticed: false,
             totals: record.totals,
             checkpoint_every,
             scene_hash: crate::sim::scene_hash(scene),
@@ -735,7 +738,18 @@ impl OutputWriter {
                 r.step, r.cg_iterations
             ));
         }
-        if r.stable == Some(false) {
+        if r.stable == Some(false) && sim.is_path_following() {
+            // Tracing a path past a limit point is asked for: its unstable branch is
+            // information (each point's stability is in steps.csv), said once.
+            if !self.unstable_path_noticed {
+                self.unstable_path_noticed = true;
+                (self.notify)(&format!(
+                    "note: step {}: the traced path continues through unstable equilibria \
+                     (saddles, as past a limit point); steps.csv's `stable` column has each point",
+                    r.step
+                ));
+            }
+        } else if r.stable == Some(false) {
             (self.notify)(&format!(
                 "warning: step {}: the equilibrium is not a minimum (the exact Hessian is not \
                  positive definite: a saddle, unstable under perturbation)",

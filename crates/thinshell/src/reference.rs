@@ -12,7 +12,7 @@ use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 pub enum SquareCase {
     /// ā^{xy} = 4I, b̄ = 0: a flat square of side 2.
     Enlarged,
-    /// ā^{xy} = [[2,1],[1,2]], b̄ = 0: the rhombus spanned by ½(√3+1, √3−1), ½(√3−1, √3+1).
+    /// ā^{xy} = `[[2,1],[1,2]]`, b̄ = 0: the rhombus spanned by ½(√3+1, √3−1), ½(√3−1, √3+1).
     Rhombus,
     /// ā^{xy} = I, b̄^{xy} = diag(1,0): a cylinder of radius 1 with axis ∥ y.
     Cylinder,

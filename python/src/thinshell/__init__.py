@@ -41,7 +41,7 @@ from ._thinshell import (
     SimulationError,
     ThinshellError,
 )
-from .sweep import SweepMismatch, sweep
+from .sweep import PackedScene, SweepMismatch, sweep
 
 __version__: str = _thinshell.__version__
 
@@ -52,6 +52,7 @@ __all__ = [
     "Mesh",
     "Modes",
     "MeshError",
+    "PackedScene",
     "Scene",
     "SceneError",
     "Simulation",
@@ -138,16 +139,23 @@ def modes(
 
 def energy(
     V: _np.ndarray,
-    F: _np.ndarray,
-    rest: "_np.ndarray | tuple[_np.ndarray, _np.ndarray]",
+    F: "_np.ndarray | None" = None,
+    rest: "_np.ndarray | tuple[_np.ndarray, _np.ndarray] | None" = None,
     material: "_Mapping[str, float | str] | None" = None,
-    form: str = "edge_director_tan",
+    form: "str | None" = None,
     terms: "str | _Iterable[str]" = ("stretching", "bending"),
     edge_angles: "_np.ndarray | None" = None,
     hessian: bool = True,
+    *,
+    sim: "Simulation | None" = None,
 ) -> EnergyResult:
     """Elastic energy of the shell ``(V, F)`` at positions ``V`` against ``rest``, with its
     gradient and Hessian, for use in your own solver.
+
+    With ``sim=``: the model of that simulation - its faces, its current rest forms (grown or
+    edited, ``sim.rest_forms``), its material and its bending form - at positions ``V``, so that
+    ``energy(sim.positions, sim=sim).energy`` is the simulation's elastic energy. Giving ``F``,
+    ``rest``, ``material`` or ``form`` as well is refused (which model would be meant?).
 
     Parameters
     ----------
@@ -167,19 +175,33 @@ def energy(
         the energy at ``V`` (the massless angles' equilibrium, as a simulation solves them:
         fitted free edges, model.md section 1.2, keep 0; returned as ``edge_angles``).
     hessian : whether to assemble the Hessian.
+    sim : a :class:`Simulation` whose model to evaluate (see above).
     """
-    import scipy.sparse
-
     if isinstance(terms, str):
         terms = [terms]  # "bending" is one term, not the letters b, e, n, ...
+    if sim is not None:
+        given = [k for k, v in (("F", F), ("rest", rest), ("material", material), ("form", form)) if v is not None]
+        if given:
+            raise ValueError(
+                f"energy(): sim= gives the faces, rest forms, material and form; "
+                f"{', '.join(given)} given as well is ambiguous (drop sim= to evaluate another model)"
+            )
+        F, rest, material, form = sim.faces, sim.rest_forms, sim.material, sim.form
+    elif F is None or rest is None:
+        raise TypeError("energy(): give the faces F and the rest shape (rest=), or a simulation (sim=)")
     stretch, bend, grad, rows, cols, vals, n, phi = _thinshell.energy_parts(
         V,
         F,
         rest,
         dict(material) if material is not None else None,
-        form,
+        form or "edge_director_tan",
         list(terms),
         None if edge_angles is None else _np.ascontiguousarray(edge_angles, dtype=_np.float64),
         hessian,
     )
     return _energy_result(stretch, bend, grad, rows, cols, vals, n, hessian, phi)
+
+
+def _energy_of_simulation(sim: Simulation, V: _np.ndarray, hessian: bool = True) -> EnergyResult:
+    """``Simulation.energy(positions)``: :func:`energy` with ``sim=``."""
+    return energy(V, sim=sim, hessian=hessian)

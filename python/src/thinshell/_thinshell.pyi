@@ -224,9 +224,11 @@ class Simulation:
     @property
     def material(self) -> dict[str, Any]:
         """thickness (m), young (Pa), poisson, density (kg/m^3), viscosity (Pa s), model."""
-    def energy(self, hessian: bool = True) -> Any:
+    def energy(self, positions: npt.ArrayLike | None = None, hessian: bool = True) -> Any:
         """EnergyResult at the simulation's own state (positions and edge angles): elastic
-        energy (J), gradient over all coordinates, Hessian over the unknowns."""
+        energy (J), gradient over all coordinates, Hessian over the unknowns. With
+        ``positions``: this simulation's model (faces, current rest forms, material, form) at
+        those positions, with the minimising edge angles (``thinshell.energy(x, sim=self)``)."""
     def modes(self, count: int = 6) -> Any:
         """Modes: the count lowest natural frequencies (Hz) and mode shapes about the state."""
 

@@ -37,7 +37,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["SweepMismatch", "sweep", "toml_literal", "UNITS"]
+__all__ = ["PackedScene", "SweepMismatch", "sweep", "toml_literal", "UNITS"]
 
 Row = dict[str, Any]
 
@@ -56,6 +56,51 @@ UNITS: dict[str, str] = {
 class SweepMismatch(ValueError):
     """``out_dir`` holds a sweep of another scene, grid or package version, and the call asked
     (``on_mismatch="error"``) to refuse rather than to run the new one beside it."""
+
+
+class PackedScene:
+    """A scene by value: its text, its overrides and the content of every file it reads (the
+    mesh's OBJ), so that it runs where the files are not - a Dask worker on another machine,
+    with its own disk, HOME and working directory - or after they are gone.
+
+    ``PackedScene.pack(scene)`` reads the files once; ``unpack(directory)`` writes them there
+    (named by their content) and gives the :class:`thinshell.Scene` that reads them. Pickles as
+    plain data. :func:`sweep` packs the scene it sends to Dask workers, and takes a packed scene
+    as its ``scene`` (unpacked into ``out_dir/inputs``, so that run ids do not depend on where
+    the files came from)."""
+
+    def __init__(self, text: str, overrides: Sequence[str], origin: str, mesh_obj: bytes | None) -> None:
+        self.text, self.overrides, self.origin, self.mesh_obj = text, list(overrides), origin, mesh_obj
+
+    @classmethod
+    def pack(cls, scene: Any) -> "PackedScene":
+        """Reads the files of ``scene`` (a :class:`thinshell.Scene`, a dict or a path)."""
+        from . import load_scene
+
+        if isinstance(scene, PackedScene):
+            return scene
+        scene = load_scene(scene)
+        files = list(scene.files)
+        mesh = Path(files[0]).read_bytes() if files else None
+        return cls(scene.toml, scene.overrides, scene.origin, mesh)
+
+    def unpack(self, directory: "str | os.PathLike[str]") -> Any:
+        """The scene, with its files written under ``directory`` (created)."""
+        from . import Scene
+
+        d = Path(directory)
+        d.mkdir(parents=True, exist_ok=True)
+        overrides = list(self.overrides)
+        if self.mesh_obj is not None:
+            path = d / f"mesh-{hashlib.sha256(self.mesh_obj).hexdigest()[:24]}.obj"
+            if not path.exists():
+                fd, tmp = tempfile.mkstemp(dir=d, prefix=".mesh-", suffix=".obj")
+                with os.fdopen(fd, "wb") as f:
+                    f.write(self.mesh_obj)
+                os.replace(tmp, path)
+            # Relative to the directory: the scene (and a sweep's run ids) do not depend on it.
+            overrides.append(f"mesh.obj={json.dumps(path.name)}")
+        return Scene.from_toml(self.text, overrides, base_dir=str(d), origin=self.origin)
 
 
 def toml_literal(value: Any) -> str:
@@ -102,7 +147,8 @@ def _write_atomic(path: Path, text: str) -> None:
 
 def _file_digests(paths: Sequence[Any], cache: dict[str, str]) -> dict[str, str]:
     """sha256 of each file's content ("missing: ..." when it cannot be read: the run will fail
-    and say why, and a file appearing later changes the id)."""
+    and say why, and a file appearing later changes the id), by file name: where the file lies
+    is the scene's business (its resolved text names the path), what it holds is this."""
     out = {}
     for p in paths:
         key = str(Path(p).resolve())
@@ -111,7 +157,7 @@ def _file_digests(paths: Sequence[Any], cache: dict[str, str]) -> dict[str, str]
                 cache[key] = hashlib.sha256(Path(key).read_bytes()).hexdigest()
             except OSError as e:
                 cache[key] = f"missing: {type(e).__name__}"
-        out[key] = cache[key]
+        out[Path(key).name] = cache[key]
     return out
 
 
@@ -263,16 +309,21 @@ def run_one(
 
 
 def _dask_run(
-    scene: Any,
+    packed: PackedScene,
     params: Mapping[str, Any],
-    run_dir: str,
+    run_name: str,
     threads_by_host: Mapping[str, int],
     provenance: Mapping[str, Any],
     stop_event: str,
-) -> Row:
-    """:func:`run_one` in a Dask worker, stopped (``Simulation.cancel()``, within one Newton
+) -> tuple[Row, dict[str, bytes]]:
+    """:func:`run_one` in a Dask worker, by value: the scene arrives packed (its text and mesh),
+    the run goes into a directory of the worker's own (its temporary directory: nothing of the
+    client's disk is read or written), and the row comes back with the run's files, which the
+    client writes into ``out_dir``. Stopped (``Simulation.cancel()``, within one Newton
     iteration) when the sweep sets the Dask ``Event`` named ``stop_event``: the worker is told
     to stop, not killed, and returns the partial run's row."""
+    import shutil
+
     import distributed
 
     worker = distributed.get_worker()
@@ -280,9 +331,9 @@ def _dask_run(
     threads = threads_by_host.get(host, 1)
     event = distributed.Event(stop_event)
     if event.is_set():
-        row: Row = {"run": Path(run_dir).name, **{k: _plain(v) for k, v in params.items()}}
+        row: Row = {"run": run_name, **{k: _plain(v) for k, v in params.items()}}
         row.update(_empty_metrics(), status="interrupted", error="not started: the sweep was interrupted", wall_s=0.0)
-        return row
+        return row, {}
     sims: list[Any] = []
     done = threading.Event()
 
@@ -299,10 +350,16 @@ def _dask_run(
 
     watcher = threading.Thread(target=watch, daemon=True)
     watcher.start()
+    local = Path(tempfile.mkdtemp(prefix="thinshell-run-"))
     try:
-        return run_one(scene, params, run_dir, threads, provenance, reraise_interrupt=False, on_simulation=sims.append)
+        scene = packed.unpack(local / "inputs")
+        run_dir = local / run_name
+        row = run_one(scene, params, str(run_dir), threads, provenance, reraise_interrupt=False, on_simulation=sims.append)
+        files = {p.name: p.read_bytes() for p in run_dir.iterdir() if p.is_file()}
+        return row, files
     finally:
         done.set()
+        shutil.rmtree(local, ignore_errors=True)
 
 
 # --- the sweep ------------------------------------------------------------------------------
@@ -470,6 +527,9 @@ def sweep(
         raise ValueError(f"sweep: max_workers must be a positive integer, not {max_workers!r}")
     if frame is True:
         import pandas  # noqa: F401  (fail before the runs, not after)
+    if isinstance(scene, PackedScene):
+        # Its files under out_dir: run ids then do not depend on where the files came from.
+        scene = scene.unpack(Path(out_dir) / "inputs")
     scene = load_scene(scene)
     keys = list(grid)
     for k in keys:
@@ -536,6 +596,14 @@ def sweep(
             workers = min(max_workers or cpus, len(todo))
             _check_main_guard()
             _sweep_pool(scene, combos, provs, dirs, todo, rows, workers, threads or max(1, cpus // workers), bar, failed)
+    except KeyboardInterrupt:
+        complete = sum((d / "result.json").exists() for d in dirs)
+        message = (
+            f"thinshell.sweep: interrupted; {complete} of {len(dirs)} runs are complete in {out} "
+            f"(kept: calling sweep() again runs only the others)"
+        )
+        print(message, file=sys.stderr, flush=True)
+        raise KeyboardInterrupt(message) from None
     finally:
         if bar is not None:
             bar.close()
@@ -602,11 +670,18 @@ def _sweep_dask(client, scene, combos, provs, dirs, todo, rows, threads, bar, fa
     total_slots = max(1, sum(slots.values()))
     stop_name = f"thinshell-sweep-stop-{uuid.uuid4().hex}"
     stop = distributed.Event(stop_name, client=client)
+    # A terminal's Ctrl-C reaches every process of its group: the workers and nannies of a
+    # LocalCluster too, which would die printing tracebacks. They ignore it while the sweep
+    # runs; the sweep tells their runs to stop through the Event instead.
+    _set_worker_sigint(client, True)
+    # By value: the scene's text and mesh, not paths on this machine; the same object for
+    # every run (scattered once).
+    packed = client.scatter(PackedScene.pack(scene), broadcast=True)
     futures = client.map(
         _dask_run,
-        [scene] * len(todo),
+        [packed] * len(todo),
         [combos[i] for i in todo],
-        [str(dirs[i]) for i in todo],
+        [dirs[i].name for i in todo],
         [by_host] * len(todo),
         [provs[i] for i in todo],
         [stop_name] * len(todo),
@@ -618,23 +693,91 @@ def _sweep_dask(client, scene, combos, provs, dirs, todo, rows, threads, bar, fa
         for fut in distributed.as_completed(futures):
             i = index[fut.key]
             try:
-                rows[i] = fut.result()
+                rows[i] = _receive(dirs[i], *fut.result())
             except Exception as e:
                 rows[i] = failed(i, e)
+            # Streamed: the run's files are on disk now; the cluster forgets them.
+            fut.release()
             remaining -= 1
             if bar is not None:
                 bar.update(rows[i], running=min(remaining, total_slots))
     except KeyboardInterrupt:
         # Told to stop rather than killed: the Event cancels running simulations (within one
-        # Newton iteration); runs not started see it and return at once.
-        stop.set()
-        not_started = [f for f in futures if f.status == "pending"]
+        # Newton iteration); runs not started see it and return at once. What comes back within
+        # a moment is written (partial runs: interrupted.json); the rest has no result.json and
+        # runs again next time.
+        _within(0.3, stop.set)
+
+        def collect() -> None:
+            # The runs that stop within a moment send their partial files (interrupted.json).
+            distributed.wait(futures, timeout=0.5)
+            for f in futures:
+                i = index[f.key]
+                if rows[i] is None and f.status == "finished":
+                    rows[i] = _receive(dirs[i], *f.result(timeout=0.2))
+
+        _within(0.8, collect)
+        _within(0.2, lambda: client.cancel([f for f in futures if f.status == "pending"]))
+        raise
+    finally:
+        _within(0.3, lambda: _set_worker_sigint(client, False))
+
+
+def _receive(run_dir: Path, row: Row, files: Mapping[str, bytes]) -> Row:
+    """Writes a run's files that came back by value into its directory (``result.json`` or
+    ``interrupted.json`` last, as a run does); returns its row."""
+    run_dir.mkdir(parents=True, exist_ok=True)
+    for stale in ("result.json", "interrupted.json"):
+        (run_dir / stale).unlink(missing_ok=True)
+    last = [n for n in files if n in ("result.json", "interrupted.json")]
+    for name in [n for n in files if n not in last] + last:
+        fd, tmp = tempfile.mkstemp(dir=run_dir, prefix=name, suffix=".tmp")
+        with os.fdopen(fd, "wb") as f:
+            f.write(files[name])
+        os.replace(tmp, run_dir / name)
+    return row
+
+
+def _within(seconds: float, fn: Callable[[], Any]) -> None:
+    """``fn()`` in a daemon thread, given up after ``seconds``; exceptions ignored (a cluster
+    going away while the sweep is interrupted must not hold up its return or print)."""
+
+    def call() -> None:
         try:
-            distributed.wait(futures, timeout=30)
+            fn()
+        except BaseException:
+            pass
+
+    t = threading.Thread(target=call, daemon=True)
+    t.start()
+    t.join(seconds)
+
+
+#: In a Dask worker or nanny process: its own SIGINT handler while a sweep ignores the signal.
+_saved_sigint: list[Any] = []
+
+
+def _worker_sigint(ignore: bool) -> None:
+    """Run in a Dask worker or nanny process (in its event loop's thread, the main one):
+    ignore SIGINT, or restore the handler it had."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    if ignore:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        if not _saved_sigint:
+            _saved_sigint.append(previous)
+    elif _saved_sigint:
+        signal.signal(signal.SIGINT, _saved_sigint.pop())
+
+
+def _set_worker_sigint(client: Any, ignore: bool) -> None:
+    """Makes every worker and nanny process of ``client``'s cluster ignore SIGINT, or restores
+    their handler (best effort: a cluster that does not answer is left as it is)."""
+    for nanny in (False, True):
+        try:
+            client.run(_worker_sigint, ignore, nanny=nanny)
         except Exception:
             pass
-        client.cancel(not_started)
-        raise
 
 
 def _write_results(out: Path, result: list[Row]) -> None:

@@ -8,7 +8,6 @@
 //! (H = 1/R on a sphere of radius R whose normals point out). Both are NaN on boundary vertices,
 //! where they are not defined; the page draws NaN in grey.
 
-use std::collections::HashMap;
 use std::path::Path;
 
 /// One frame's arrays.
@@ -169,23 +168,9 @@ pub fn parse_obj(text: &str) -> Result<FrameData, String> {
     })
 }
 
-/// Vertices on an edge with exactly one face.
+/// Vertices on an edge with exactly one face (the mesh crate's, from the face list alone).
 pub fn boundary_vertices(n_vertices: usize, faces: &[[u32; 3]]) -> Vec<bool> {
-    let mut count: HashMap<(u32, u32), u32> = HashMap::new();
-    for f in faces {
-        for k in 0..3 {
-            let (a, b) = (f[k], f[(k + 1) % 3]);
-            *count.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    let mut boundary = vec![false; n_vertices];
-    for ((a, b), n) in count {
-        if n == 1 {
-            boundary[a as usize] = true;
-            boundary[b as usize] = true;
-        }
-    }
-    boundary
+    thinshell_mesh::topology::boundary_vertex_mask(n_vertices, faces)
 }
 
 /// Per-vertex curvatures (see the module docs), NaN on the boundary and at vertices without area.

@@ -34,7 +34,7 @@ pub struct Static {
     pub force_scale: Option<f64>,
     /// Whether a step uses continuation from its start (default `true`): from the problem
     /// whose equilibrium the start is ([`Model::problem_at`]: a shell's own forms at the start,
-    /// no loads) to the model's, in sub-steps ([`continuation_walk`]). A far start (a flat sheet
+    /// no loads) to the model's, in sub-steps (`continuation_walk`). A far start (a flat sheet
     /// grown into a cone) otherwise ends at the iteration limit or in the basin of a
     /// higher-energy minimum. It solves the step when the one-shot solve fails, and checks a
     /// one-shot solve that succeeded only after [`WANDERING_STEPS`](crate::WANDERING_STEPS) or

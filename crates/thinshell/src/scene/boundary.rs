@@ -11,6 +11,7 @@ use thinshell_system::{Boundary, Prescribed};
 
 use super::problem::{Check, Problem, finite, finite_all, problem, v3};
 use super::region::RegionSpec;
+use thinshell_growth::Region;
 
 /// Boundary conditions.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq, Default)]
@@ -125,7 +126,8 @@ pub fn validate(b: &BoundarySpec) -> Check {
 /// The solver's boundary of a validated `[boundary]` section: regions select vertices of the
 /// reference positions `x_ref`; prescribed motion starts from the start positions `x`. A
 /// region that selects nothing (no vertex; a clamp's, no boundary edge) or names a vertex the
-/// mesh does not have is a problem of its key.
+/// mesh does not have is a problem of its key. The selection is [`crate::Supports`]'s, the
+/// Rust API's (one home for both).
 pub fn build(
     spec: &BoundarySpec,
     mesh: &Mesh,
@@ -135,35 +137,15 @@ pub fn build(
     let mut boundary = Boundary::default();
     for (i, pin) in spec.pins.iter().enumerate() {
         let key = format!("boundary.pins[{i}].region");
-        let axes: Vec<usize> = pin
-            .axes
-            .as_deref()
-            .unwrap_or("xyz")
-            .chars()
-            .filter_map(|c| "xyz".find(c))
-            .collect();
-        for vtx in region_vertices(&key, &pin.region, x_ref)? {
-            boundary
-                .pinned_coordinates
-                .extend(axes.iter().map(|&a| (VertexId::new(vtx), a)));
-        }
+        let inside = region_vertices(&super::region::build(&pin.region), x_ref)
+            .map_err(|(sub, m)| problem(format!("{key}{sub}"), m))?;
+        pin_vertices(&mut boundary, &inside, pin.axes.as_deref().unwrap_or("xyz"));
     }
     for (i, clamp) in spec.clamps.iter().enumerate() {
         let key = format!("boundary.clamps[{i}].region");
-        let inside = region_vertices(&key, &clamp.region, x_ref)?;
-        let mut mark = vec![false; x_ref.len()];
-        inside.iter().for_each(|&i| mark[i] = true);
-        let topo = mesh.topology();
-        let before = boundary.clamped_edges.len();
-        for &e in topo.boundary_edges() {
-            let [a, b] = topo.edge(e).vertices;
-            if mark[a.idx()] && mark[b.idx()] {
-                boundary.clamped_edges.push(e);
-            }
-        }
-        if boundary.clamped_edges.len() == before {
-            return Err(problem(key, "contains no boundary edge of the mesh"));
-        }
+        let inside = region_vertices(&super::region::build(&clamp.region), x_ref)
+            .map_err(|(sub, m)| problem(format!("{key}{sub}"), m))?;
+        clamp_edges(&mut boundary, mesh, &inside).map_err(|m| problem(key, m))?;
     }
     for (i, plane) in spec.symmetry.iter().enumerate() {
         let axis = "xyz".find(plane.axis.as_str()).ok_or_else(|| {
@@ -172,24 +154,15 @@ pub fn build(
                 "must be \"x\", \"y\" or \"z\"",
             )
         })?;
-        let tolerance = plane
-            .tolerance
-            .unwrap_or(1e-9 * mesh.bounding_box().diagonal());
-        let edges = Boundary::symmetry_plane(mesh, axis, plane.value, tolerance).map_err(|_| {
-            problem(
-                format!("boundary.symmetry[{i}]"),
-                format!(
-                    "the plane {} = {} holds no boundary edge of the mesh (within {tolerance:e} m)",
-                    plane.axis, plane.value
-                ),
-            )
-        })?;
-        boundary.mirror_edges.extend(edges);
+        mirror_plane(&mut boundary, mesh, axis, plane.value, plane.tolerance)
+            .map_err(|m| problem(format!("boundary.symmetry[{i}]"), m))?;
     }
     for (i, p) in spec.prescribed.iter().enumerate() {
         let key = format!("boundary.prescribed[{i}].region");
         let vel = v3(&p.velocity);
-        for vtx in region_vertices(&key, &p.region, x_ref)? {
+        let inside = region_vertices(&super::region::build(&p.region), x_ref)
+            .map_err(|(sub, m)| problem(format!("{key}{sub}"), m))?;
+        for vtx in inside {
             let x0 = x[vtx];
             boundary.prescribed.push(Prescribed {
                 vertex: VertexId::new(vtx),
@@ -200,27 +173,78 @@ pub fn build(
     Ok(boundary)
 }
 
-/// Vertices of the reference positions `x` inside a region given under `key`.
-fn region_vertices(
-    key: &str,
-    region: &RegionSpec,
+/// Vertices of the positions `x` inside `region` (listed vertices: checked against the mesh).
+/// An error is a sub-key (`""` or `".vertices"`) and what is wrong.
+pub(crate) fn region_vertices(
+    region: &Region,
     x: &[Vector3<f64>],
-) -> Result<Vec<usize>, Problem> {
-    let inside: Vec<usize> = if let Some(list) = &region.vertices {
+) -> Result<Vec<usize>, (&'static str, String)> {
+    let inside: Vec<usize> = if let Region::Vertices(list) = region {
         if let Some(&bad) = list.iter().find(|&&i| i >= x.len()) {
-            return Err(problem(
-                format!("{key}.vertices"),
+            return Err((
+                ".vertices",
                 format!("vertex {bad} out of range (the mesh has {})", x.len()),
             ));
         }
         list.clone()
     } else {
         // The same geometric predicates as the growth crate's regions (half-space, ball, box).
-        let r = super::region::build(region);
-        (0..x.len()).filter(|&i| r.contains(&x[i])).collect()
+        (0..x.len()).filter(|&i| region.contains(&x[i])).collect()
     };
     if inside.is_empty() {
-        return Err(problem(key, "contains no vertex of the mesh"));
+        return Err(("", "contains no vertex of the mesh".to_string()));
     }
     Ok(inside)
+}
+
+/// Pins the coordinates `axes` (letters of "xyz") of `vertices`.
+pub(crate) fn pin_vertices(boundary: &mut Boundary, vertices: &[usize], axes: &str) {
+    let axes: Vec<usize> = axes.chars().filter_map(|c| "xyz".find(c)).collect();
+    for &vtx in vertices {
+        boundary
+            .pinned_coordinates
+            .extend(axes.iter().map(|&a| (VertexId::new(vtx), a)));
+    }
+}
+
+/// Clamps the boundary edges with both ends among `vertices`.
+pub(crate) fn clamp_edges(
+    boundary: &mut Boundary,
+    mesh: &Mesh,
+    vertices: &[usize],
+) -> Result<(), String> {
+    let mut mark = vec![false; mesh.n_vertices()];
+    vertices.iter().for_each(|&i| mark[i] = true);
+    let topo = mesh.topology();
+    let before = boundary.clamped_edges.len();
+    for &e in topo.boundary_edges() {
+        let [a, b] = topo.edge(e).vertices;
+        if mark[a.idx()] && mark[b.idx()] {
+            boundary.clamped_edges.push(e);
+        }
+    }
+    if boundary.clamped_edges.len() == before {
+        return Err("contains no boundary edge of the mesh".into());
+    }
+    Ok(())
+}
+
+/// Makes the boundary edges on the plane `x[axis] = value` mirror edges; the tolerance
+/// defaults to 1e-9 of the mesh's bounding-box diagonal.
+pub(crate) fn mirror_plane(
+    boundary: &mut Boundary,
+    mesh: &Mesh,
+    axis: usize,
+    value: f64,
+    tolerance: Option<f64>,
+) -> Result<(), String> {
+    let tolerance = tolerance.unwrap_or(1e-9 * mesh.bounding_box().diagonal());
+    let edges = Boundary::symmetry_plane(mesh, axis, value, tolerance).map_err(|_| {
+        format!(
+            "the plane {} = {value} holds no boundary edge of the mesh (within {tolerance:e} m)",
+            ["x", "y", "z"].get(axis).copied().unwrap_or("?")
+        )
+    })?;
+    boundary.mirror_edges.extend(edges);
+    Ok(())
 }

@@ -99,6 +99,16 @@ pub struct Scene {
     pub base_dir: PathBuf,
     /// Where it came from (file path or a description), for messages.
     pub origin: String,
+    /// The text as written and the `--set` assignments applied to it: what error messages
+    /// found after loading point into (see [`Scene::key_location`]).
+    source: Source,
+}
+
+/// A scene's text before overrides, and the overrides.
+#[derive(Clone, Debug, Default)]
+struct Source {
+    text: String,
+    overrides: Vec<String>,
 }
 
 impl Scene {
@@ -118,8 +128,10 @@ impl Scene {
         Self::from_toml_with_overrides(&text, &origin, &base, overrides)
     }
 
-    /// [`Scene::from_toml`] after applying `key=value` overrides to the text; with overrides,
-    /// messages name the origin as `"<origin> (with --set)"`.
+    /// [`Scene::from_toml`] after applying `key=value` overrides to the text. A problem with a
+    /// value that an override set (an unknown key, a wrong type, a value out of range) is
+    /// reported as [`SceneError::Override`] naming the `--set` argument; any other problem
+    /// points at its line in the text as written.
     pub fn from_toml_with_overrides(
         text: &str,
         origin: &str,
@@ -127,22 +139,74 @@ impl Scene {
         overrides: &[String],
     ) -> Result<Scene, SceneError> {
         if overrides.is_empty() {
-            Self::from_toml(text, origin, base_dir)
-        } else {
-            let text = apply_overrides(text, origin, overrides)?;
-            Self::from_toml(&text, &format!("{origin} (with --set)"), base_dir)
+            return Self::from_toml(text, origin, base_dir);
         }
+        let edited = apply_overrides(text, origin, overrides)?;
+        let source = Source {
+            text: text.to_string(),
+            overrides: overrides.to_vec(),
+        };
+        let (key, failure) = match parse(&edited) {
+            Ok(file) => {
+                return Ok(Scene {
+                    file,
+                    base_dir: base_dir.to_path_buf(),
+                    origin: origin.to_string(),
+                    source,
+                });
+            }
+            Err(Failure::Syntax(e)) => {
+                let key = e
+                    .span()
+                    .and_then(|s| key_at(&edited, s.start))
+                    .unwrap_or_default();
+                (key, Failure::Syntax(e))
+            }
+            Err(Failure::Invalid(p)) => (p.key.clone(), Failure::Invalid(p)),
+        };
+        Err(source.error(origin, &key, failure))
     }
 
     /// Parses and validates scene text; `origin` names it in messages, `base_dir` resolves paths.
     pub fn from_toml(text: &str, origin: &str, base_dir: &Path) -> Result<Scene, SceneError> {
-        let file: SceneFile = toml::from_str(text).map_err(|e| syntax(text, origin, &e))?;
-        validate::validate(&file).map_err(|p| invalid(text, origin, p))?;
+        let file = parse(text).map_err(|f| match f {
+            Failure::Syntax(e) => syntax(text, origin, &e),
+            Failure::Invalid(p) => invalid(text, origin, p),
+        })?;
         Ok(Scene {
             file,
             base_dir: base_dir.to_path_buf(),
             origin: origin.to_string(),
+            source: Source {
+                text: text.to_string(),
+                overrides: Vec::new(),
+            },
         })
+    }
+
+    /// Where the value of a dotted key came from, for messages about it found after loading
+    /// (a mesh file that cannot be read, a vertex index beyond the mesh): `"--set KEY=VALUE"`
+    /// when an override set it, else `"ORIGIN:LINE:COLUMN"` of the key in the text (of its
+    /// nearest enclosing table when the key is not written).
+    pub fn key_location(&self, key: &str) -> String {
+        match self.source.override_for(key) {
+            Some(a) => format!("--set {a}"),
+            None => {
+                let (line, column) = locate(&self.source.text, key)
+                    .map_or((1, 1), |o| line_col(&self.source.text, o));
+                format!("{}:{line}:{column}", self.origin)
+            }
+        }
+    }
+
+    /// The text of the scene as written, before any `--set` override.
+    pub fn text(&self) -> &str {
+        &self.source.text
+    }
+
+    /// The `--set` overrides applied to [`Scene::text`].
+    pub fn overrides(&self) -> &[String] {
+        &self.source.overrides
     }
 
     /// The scene's name: `name` if given, else the file stem of `origin`.
@@ -156,21 +220,72 @@ impl Scene {
     }
 
     /// Turns a problem found after loading (e.g. a vertex index out of range once the mesh is
-    /// known) into an error that points into the scene file, when the text is available.
-    pub fn problem(&self, text: Option<&str>, key: &str, message: impl Into<String>) -> SceneError {
+    /// known) into an error that points at the key's line, or at the `--set` that gave it.
+    pub fn problem(&self, key: &str, message: impl Into<String>) -> SceneError {
         let p = Problem {
             key: key.to_string(),
             message: message.into(),
         };
-        match text {
-            Some(t) => invalid(t, &self.origin, p),
-            None => SceneError::Invalid {
-                origin: self.origin.clone(),
-                key: p.key,
-                line: 0,
-                column: 0,
-                message: p.message,
-            },
+        self.source.error(&self.origin, key, Failure::Invalid(p))
+    }
+}
+
+/// Why scene text was refused: by the parser (syntax, unknown key, wrong type) or by validation.
+enum Failure {
+    Syntax(toml::de::Error),
+    Invalid(Problem),
+}
+
+fn parse(text: &str) -> Result<SceneFile, Failure> {
+    let file: SceneFile = toml::from_str(text).map_err(Failure::Syntax)?;
+    validate::validate(&file).map_err(Failure::Invalid)?;
+    Ok(file)
+}
+
+impl Source {
+    /// The last override that set `key`, a value inside it, or a table containing it that the
+    /// text as written does not have.
+    fn override_for(&self, key: &str) -> Option<&str> {
+        self.overrides.iter().rev().find_map(|a| {
+            let set = a.split_once('=')?.0.split('.').map(str::trim);
+            let set: Vec<&str> = set.collect();
+            let set = set.join(".");
+            let inside = key == set
+                || key
+                    .strip_prefix(set.as_str())
+                    .is_some_and(|r| r.starts_with(['.', '[']));
+            // An error at a table the override created (e.g. a missing field of it).
+            let creates = set.strip_prefix(key).is_some_and(|r| r.starts_with('.'))
+                && !exists(&self.text, key);
+            (inside || creates).then_some(a.as_str())
+        })
+    }
+
+    /// A problem at `key`: blamed on the override that set it, else at the key's line in the
+    /// text as written.
+    fn error(&self, origin: &str, key: &str, failure: Failure) -> SceneError {
+        let message = match &failure {
+            Failure::Syntax(e) => e.message().trim().to_string(),
+            Failure::Invalid(p) => format!("`{}` {}", p.key, p.message),
+        };
+        if let Some(a) = self.override_for(key) {
+            return SceneError::Override {
+                assignment: a.to_string(),
+                message,
+            };
+        }
+        match failure {
+            Failure::Invalid(p) => invalid(&self.text, origin, p),
+            Failure::Syntax(e) => {
+                let (line, column) =
+                    locate(&self.text, key).map_or((1, 1), |o| line_col(&self.text, o));
+                SceneError::Syntax {
+                    origin: origin.to_string(),
+                    line,
+                    column,
+                    message: e.message().trim().to_string(),
+                }
+            }
         }
     }
 }
@@ -234,12 +349,24 @@ enum Segment<'a> {
 
 /// Byte offset of the deepest existing part of a dotted key path in the TOML text.
 fn locate(text: &str, key: &str) -> Option<usize> {
+    walk(text, key).map(|(offset, _)| offset)
+}
+
+/// Whether the whole dotted key path is written in the TOML text.
+fn exists(text: &str, key: &str) -> bool {
+    walk(text, key).is_some_and(|(_, complete)| complete)
+}
+
+/// The offset of the deepest existing part of `key`, and whether that is all of it.
+fn walk(text: &str, key: &str) -> Option<(usize, bool)> {
     let doc = DeTable::parse(text).ok()?;
     let mut best: Option<usize> = None;
     let mut table: Option<&DeTable<'_>> = Some(doc.get_ref());
     let mut array: Option<&[toml::Spanned<DeValue<'_>>]> = None;
-    for seg in key_segments(key) {
-        let found = match seg {
+    let segments = key_segments(key);
+    let mut matched = 0;
+    for seg in &segments {
+        let found = match *seg {
             Segment::Key(k) => table
                 .and_then(|t| t.iter().find(|(name, _)| name.get_ref() == k))
                 .map(|(kspan, v)| (kspan.span().start, v)),
@@ -247,6 +374,7 @@ fn locate(text: &str, key: &str) -> Option<usize> {
         };
         let Some((offset, value)) = found else { break };
         best = Some(offset);
+        matched += 1;
         table = None;
         array = None;
         match value.get_ref() {
@@ -255,7 +383,38 @@ fn locate(text: &str, key: &str) -> Option<usize> {
             _ => {}
         }
     }
-    best
+    best.map(|b| (b, matched == segments.len()))
+}
+
+/// The dotted key path (`a.b[2].c`) of the key or value at byte `offset` of the TOML text: the
+/// deepest key whose name or (non-table) value spans the offset.
+fn key_at(text: &str, offset: usize) -> Option<String> {
+    fn value_path(v: &toml::Spanned<DeValue<'_>>, offset: usize, path: &str) -> Option<String> {
+        match v.get_ref() {
+            DeValue::Table(t) => table_path(t, offset, path),
+            DeValue::Array(a) => a.iter().enumerate().find_map(|(i, e)| {
+                let p = format!("{path}[{i}]");
+                value_path(e, offset, &p).or_else(|| e.span().contains(&offset).then_some(p))
+            }),
+            _ => None,
+        }
+    }
+    fn table_path(t: &DeTable<'_>, offset: usize, path: &str) -> Option<String> {
+        t.iter().find_map(|(k, v)| {
+            let p = if path.is_empty() {
+                k.get_ref().to_string()
+            } else {
+                format!("{path}.{}", k.get_ref())
+            };
+            value_path(v, offset, &p).or_else(|| {
+                let here = k.span().contains(&offset)
+                    || (!matches!(v.get_ref(), DeValue::Table(_)) && v.span().contains(&offset));
+                here.then_some(p)
+            })
+        })
+    }
+    let doc = DeTable::parse(text).ok()?;
+    table_path(doc.get_ref(), offset, "")
 }
 
 /// Applies `key=value` assignments (TOML syntax for the value; a bare word is taken as a string).

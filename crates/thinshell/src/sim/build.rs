@@ -50,7 +50,7 @@ fn scene_mesh(scene: &Scene) -> Result<Mesh, BuildError> {
     let s = &scene.file;
     let mesh_err = |source| match &s.mesh.obj {
         Some(path) => BuildError::MeshFile {
-            origin: scene.origin.clone(),
+            origin: format!("{}: `mesh.obj`", scene.key_location("mesh.obj")),
             path: scene.base_dir.join(path),
             source,
         },
@@ -151,16 +151,13 @@ impl Simulation {
 /// (material, energy terms, bending form), then optionally the rest state (default: the mesh's
 /// own shape, [`RestState::from_mesh`] with the model's form, so that the form is named once),
 /// start positions and velocities (default: the mesh's positions, at rest), boundary
-/// conditions, loads, growth, contact and the integrator (default: [`Static`] with its default
+/// conditions, loads, growth, contact and the integrator (default: [`Static`](thinshell_solver::Static) with its default
 /// settings). [`SimulationBuilder::build`] gives a simulation that steps exactly as one built
 /// from a scene: continuation of large rest-form changes, static load ramps, growth with mass
 /// uptake.
 ///
 /// ```
-/// use nalgebra::Matrix2;
-/// use thinshell::{Simulation, SimulationBuilder};
-/// use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
-/// use thinshell_mesh::generators;
+/// use thinshell::prelude::*; // the types below, from `thinshell` alone
 ///
 /// // A flat unit square whose rest metric is ā = [[2, 1], [1, 2]] in xy relaxes, in one static
 /// // solve, to the rhombus with that metric: an edge along x grows by √2.

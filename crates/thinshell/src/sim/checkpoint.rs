@@ -333,7 +333,7 @@ fn matrices(m: &[Matrix2<f64>]) -> impl ExactSizeIterator<Item = f64> + '_ {
 }
 
 impl Simulation {
-    /// The checkpoint bytes of the current state (see the [module](self) documentation), with
+    /// The checkpoint bytes of the current state (see the documentation of `sim/checkpoint.rs`), with
     /// `scene_hash` ([`scene_hash`]) and the caller's `attachment`.
     pub fn checkpoint_bytes(&self, scene_hash: u64, attachment: &[u8]) -> Vec<u8> {
         let mut w = Writer::default();

@@ -1,4 +1,4 @@
-//! Turning a [`Scene`] into a running simulation: only the terms and loads the scene's effects
+//! Turning a [`Scene`](crate::Scene) into a running simulation: only the terms and loads the scene's effects
 //! ask for are built, and [`Simulation::run`] steps it with an [`Observer`] for progress and
 //! output.
 //!

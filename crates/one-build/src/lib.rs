@@ -1,0 +1,1 @@
+//! No code: see `Cargo.toml` (the features that give the whole workspace one build).
