@@ -10,7 +10,7 @@
 //!   its 3×N Jacobian and contracted Hessian over a face's N dofs: [`MidEdgeAverage`], N = 18,
 //!   and the edge directors [`EdgeDirector`], N = 21 with one angle per edge, model.md §1.1;
 //!   chosen by [`SffKind`]); [`material`] (the [`ElasticLaw`] trait — energy, 6-gradient and
-//!   6×6 Hessian in the form entries a, b — with [`StVK`], [`NeoHookean`] and [`Bilayer`],
+//!   6×6 Hessian in the form entries a, b — with [`StVK`], [`NeoHookean`], [`Bilayer`] and [`TensionField`],
 //!   chosen by [`MaterialModel`]; every law is evaluated through it); and [`eval_face`], the
 //!   one chain rule from (form, law) to a face's energy, N-gradient and N×N Hessian (exact,
 //!   Gauss–Newton or projected to PSD, [`HessianMode`]);
@@ -106,7 +106,7 @@ pub use linalg::{ProjectPsd, project_psd};
 pub use mass::lumped_mass;
 pub use material::{
     Bilayer, ElasticLaw, EnergyConstants, FaceGeometry, LawEval, Layer, Material, MaterialModel,
-    NeoHookean, Order, StVK,
+    NeoHookean, Order, StVK, TensionField,
 };
 pub use membrane_strain::first_fundamental_form;
 pub use rest::{DampingState, RestState};

@@ -1,5 +1,6 @@
-//! `[material] model` end to end (docs/scenes.md, model.md §2.1–2.2): a bimetal strip curls to
-//! Timoshenko's curvature; neo-Hookean scenes against closed forms; bad material tables.
+//! `[material] model` end to end (docs/scenes.md, model.md §2.1–2.3): a bimetal strip curls to
+//! Timoshenko's curvature; neo-Hookean and tension-field scenes against closed forms; bad
+//! material tables.
 #![allow(clippy::unwrap_used)]
 
 use std::path::Path;
@@ -157,6 +158,37 @@ fn neo_hookean_scenes() {
     );
 }
 
+/// `model = "tension_field"` through a scene (model.md §2.3): a sheet held flat whose planar
+/// rest metric is a_xy = diag(0.81, 1.21) is stretched along x (strain λ₁ = 1/0.81 − 1) and
+/// compressed along y (λ₂ = 1/1.21 − 1 < −ν λ₁): wrinkled everywhere, so its energy is the
+/// uniaxial h/8 · E/2 · λ₁² · 2·(rest area), rest area √(0.81·1.21)·L·W, relative 1e-12, with
+/// no bending energy; StVK's differs by more than 10 %.
+#[test]
+fn tension_field_scene_relaxes_compression() {
+    let (h, e) = (1e-4, 2e9);
+    let (sx, sy) = (0.81f64, 1.21f64);
+    let text = |model: &str| {
+        format!(
+            "effects = [\"stretching\", \"bending\"]\n\
+             [mesh]\ngenerator = \"rectangle\"\nwidth = {LENGTH}\nheight = {WIDTH}\nnx = {NX}\nny = {NY}\n\
+             [material]\nmodel = \"{model}\"\n\
+             [rest]\nfrom = \"planar\"\na_xy = [[{sx}, 0.0], [0.0, {sy}]]\n\
+             [integrator]\nkind = \"static\"\nsteps = 1\n"
+        )
+    };
+    let l1 = 1.0 / sx - 1.0;
+    let want = h / 8.0 * 0.5 * e * l1 * l1 * 2.0 * (sx * sy).sqrt() * LENGTH * WIDTH;
+    let got = simulation(&text("tension_field")).energy();
+    assert!(
+        (got.stretch / want - 1.0).abs() < 1e-12,
+        "{} vs {want}",
+        got.stretch
+    );
+    assert_eq!(got.bend, 0.0);
+    let stvk = simulation(&text("stvk")).energy().stretch;
+    assert!((stvk / want - 1.0).abs() > 0.1, "StVK {stvk} vs {want}");
+}
+
 /// Bad `[material]` tables are scene errors with file:line:col: an unknown model lists the
 /// valid ones; a single-layer key with `bilayer`, a layer with `stvk`, a missing layer, a bad
 /// layer value.
@@ -177,7 +209,7 @@ fn bad_material_tables() {
             "model = \"rubber\"".to_string(),
             vec![
                 "scene.toml:7:",
-                "unknown variant `rubber`, expected one of `stvk`, `neo_hookean`, `bilayer`",
+                "unknown variant `rubber`, expected one of `stvk`, `neo_hookean`, `bilayer`, `tension_field`",
             ],
         ),
         (
