@@ -87,6 +87,7 @@ pub mod linalg;
 pub mod mass;
 pub mod material;
 pub mod membrane_strain;
+pub(crate) mod real;
 pub mod rest;
 pub mod sff;
 pub mod shell;

@@ -16,6 +16,7 @@ mod tension_field;
 pub use bilayer::{Bilayer, Layer};
 pub use neo_hookean::NeoHookean;
 pub use stvk::StVK;
+pub(crate) use stvk::sv_energy_of;
 pub use tension_field::TensionField;
 
 use crate::error::EnergyError;

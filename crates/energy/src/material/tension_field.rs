@@ -4,6 +4,7 @@
 
 use super::dual::{Dual1, DualN, Scalar};
 use super::{ElasticLaw, FaceGeometry, LawEval, Material, Order, StVK};
+use crate::stvk_quadratic::inv_entries;
 use crate::terms::Terms;
 use nalgebra::Vector3;
 
@@ -37,22 +38,16 @@ enum Region {
 
 /// The larger principal strain λ₁ = tr M/2 + √(tr²M/4 − det M) of M = ā⁻¹D for the entries
 /// d of D = a − ā and those (p, q, r) of ā⁻¹, and the discriminant tr²M/4 − det M.
-fn largest_strain<S: Scalar>(d: &[S; 3], (p, q, r): (f64, f64, f64)) -> (S, S) {
+fn largest_strain<S: Scalar>(d: &[S; 3], [p, q, r]: [f64; 3]) -> (S, S) {
     let half_tr = (d[0].scale(p) + d[1].scale(2.0 * q) + d[2].scale(r)).scale(0.5);
     let det = (d[0] * d[2] - d[1] * d[1]).scale(p * r - q * q);
     let disc = half_tr * half_tr - det;
     (half_tr + disc.sqrt(), disc)
 }
 
-/// ā⁻¹'s entries (p, q, r), q averaged from both off-diagonal entries.
-fn inv_entries(face: &FaceGeometry) -> (f64, f64, f64) {
-    let ai = &face.a_bar_inv;
-    (ai[(0, 0)], 0.5 * (ai[(0, 1)] + ai[(1, 0)]), ai[(1, 1)])
-}
-
 /// The region of the strain d = a − ā (f64; the discriminant clamped at 0 against round-off).
-fn region(d: &Vector3<f64>, inv: (f64, f64, f64), alpha: f64, beta: f64) -> Region {
-    let (p, q, r) = inv;
+fn region(d: &Vector3<f64>, inv: [f64; 3], alpha: f64, beta: f64) -> Region {
+    let [p, q, r] = inv;
     let half_tr = 0.5 * (p * d[0] + 2.0 * q * d[1] + r * d[2]);
     let det = (p * r - q * q) * (d[0] * d[2] - d[1] * d[1]);
     let root = (half_tr * half_tr - det).max(0.0).sqrt();
@@ -90,7 +85,7 @@ impl ElasticLaw for TensionField {
             return;
         }
         let (alpha, beta) = (m.alpha(), m.beta());
-        let inv = inv_entries(face);
+        let inv = inv_entries(&face.a_bar_inv);
         let d = a - face.a_bar;
         match region(&d, inv, alpha, beta) {
             Region::Slack => {}
@@ -164,7 +159,7 @@ mod tests {
             a_bar_inv: Matrix2::identity(),
             area: 1.0,
         };
-        let inv = inv_entries(&face);
+        let inv = inv_entries(&face.a_bar_inv);
         let at = |l1: f64, l2: f64| region(&Vector3::new(l1, 0.0, l2), inv, m.alpha(), m.beta());
         assert_eq!(at(0.1, 0.05), Region::Taut);
         assert_eq!(at(0.1, -0.029), Region::Taut);

@@ -13,6 +13,7 @@
 
 use super::normals::{add_cross_hess, cross_normal, normalize_hess, normalize_jac};
 use super::{SecondFundamentalForm, SffDerivatives};
+use crate::real::Real;
 use crate::stencil::{EdgeClamp, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
@@ -35,6 +36,18 @@ fn edge_weights(w: &Vector3<f64>, e: usize) -> (f64, f64) {
     (0..3).fold((0.0, 0.0), |(a, b), k| {
         (a + w[k] * COEF[k][e].0, b + w[k] * COEF[k][e].1)
     })
+}
+
+/// b's entries from the products d1_e = n_e·e1, d2_e = n_e·e2 ([`COEF`] written out:
+/// b11 = 2 (n1 − n0)·e1, b12 = (n1 − n0)·e2 + (n2 − n0)·e1, b22 = 2 (n2 − n0)·e2), over any
+/// [`Real`] (the per-face form and the batched pass).
+#[inline(always)]
+pub(crate) fn b_of_products<T: Real>(d1: &[T; 3], d2: &[T; 3]) -> [T; 3] {
+    [
+        T::cst(2.0) * (d1[1] - d1[0]),
+        (d2[1] - d2[0]) + (d1[2] - d1[0]),
+        T::cst(2.0) * (d2[2] - d2[0]),
+    ]
 }
 
 /// The unit normal p of the symmetry plane of boundary edge e when it is a mirror edge.
@@ -110,9 +123,7 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
             d1[e] = n.dot(&e1);
             d2[e] = n.dot(&e2);
         }
-        let b11 = 2.0 * (d1[1] - d1[0]);
-        let b12 = (d2[1] - d2[0]) + (d1[2] - d1[0]);
-        let b22 = 2.0 * (d2[2] - d2[0]);
+        let [b11, b12, b22] = b_of_products(&d1, &d2);
         Matrix2::new(b11, b12, b12, b22)
     }
 
@@ -156,8 +167,8 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
         // b from n_e·e1, n_e·e2 as in `b` ([`COEF`] written out).
         let d1: [f64; 3] = std::array::from_fn(|e| n[e].dot(&e1));
         let d2: [f64; 3] = std::array::from_fn(|e| n[e].dot(&e2));
-        let b12 = (d2[1] - d2[0]) + (d1[2] - d1[0]);
-        let b = Matrix2::new(2.0 * (d1[1] - d1[0]), b12, b12, 2.0 * (d2[2] - d2[0]));
+        let [b11, b12, b22] = b_of_products(&d1, &d2);
+        let b = Matrix2::new(b11, b12, b12, b22);
         let w = weights(&b);
         let mut g = SVector::<f64, 18>::zeros();
         let add = |g: &mut SVector<f64, 18>, blk: usize, v: &Vector3<f64>| {

@@ -1,7 +1,7 @@
 //! Second fundamental form discretisations.
 
-mod edge_director;
-mod mid_edge_average;
+pub(crate) mod edge_director;
+pub(crate) mod mid_edge_average;
 pub(crate) mod normals;
 
 pub use edge_director::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
