@@ -5,10 +5,10 @@
 //!
 //! Every place that needs a face's metric (rest state, the per-face kernels, the batched pass,
 //! growth's material directions) calls these functions; the metric and its gradient are
-//! written once over [`Real`] (f64 here, one SIMD lane per face in `assembly::batch`).
+//! written once over `real::Real` (f64 here, one SIMD lane per face in `assembly::batch`).
 
-use crate::linalg::sym_matrix;
 use crate::real::{Real, Vec3, add, dot, scale};
+use crate::small_matrix::sym_matrix;
 use nalgebra::{Matrix2, SMatrix, Vector3};
 
 /// The metric entries (a11, a12, a22) = (e1·e1, e1·e2, e2·e2) (m²) of the edge vectors

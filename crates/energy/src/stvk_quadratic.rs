@@ -8,7 +8,7 @@
 //! - [`sv_quadratic_times`]: K·d without forming K (gradients are 2Kd, the energy d·Kd);
 //! - [`sv_norm_sq_entries`]: the value ‖A⁻¹D‖²_SV alone (the energy-only path).
 //!
-//! K·d and the value are written once over [`Real`] (`*_of`), for the per-face kernels and the
+//! K·d and the value are written once over `real::Real` (`*_of`), for the per-face kernels and the
 //! batched pass alike. [`sv_norm_sq`] is the definition on a general 2×2 matrix (in f64 for tests, in dual numbers
 //! for the neo-Hookean bending term).
 

@@ -25,9 +25,9 @@
 //! build's baseline otherwise): the whole chunk loop is inlined into pulp's dispatch, whose
 //! target features then apply to the plain array arithmetic below, which LLVM vectorises.
 
-use crate::kernel::{
-    EnergyTerms, FaceDamping, FaceEval, FaceRest, Want, eval_face, eval_face_energy,
-};
+use crate::damping::FaceDamping;
+use crate::face_stencil::EdgeAngles;
+use crate::kernel::{FaceEval, FaceRest, Want, eval_face, eval_face_energy};
 use crate::material::{EnergyConstants, Material, sv_energy_of};
 use crate::membrane_strain::{metric_gradient_of, metric_of};
 use crate::real::{Real, Vec3};
@@ -35,10 +35,9 @@ use crate::rest::{DampingState, RestState};
 use crate::sff::edge_director::b_of_moments;
 use crate::sff::mid_edge_average::b_of_products;
 use crate::sff::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
-use crate::stencil::EdgeAngles;
-use crate::stencils::Stencils;
+use crate::stencil_table::Stencils;
 use crate::stvk_quadratic::{sv_norm_sq_of, sv_quadratic_times_of};
-use crate::terms::Terms;
+use crate::terms::{EnergyTerms, Terms};
 use nalgebra::{Matrix2, Vector3};
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 

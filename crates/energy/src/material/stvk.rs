@@ -13,7 +13,7 @@ use nalgebra::Vector3;
 /// - bend = h³/24 · ‖ā⁻¹(b − b̄)‖²_SV · A.
 ///
 /// Each is a quadratic dᵀKd in the three form entries ([`crate::stvk_quadratic`]); no a–b
-/// coupling. The energy alone is the SV norm written out ([`sv_energy_of`]), the gradient
+/// coupling. The energy alone is the SV norm written out (`sv_energy_of`), the gradient
 /// 2Kd without forming K, the Hessian 2K.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct StVK;
@@ -70,7 +70,7 @@ impl ElasticLaw for StVK {
         }
     }
 
-    /// The SV norms written out, no 3×3 matrices ([`sv_energy_of`]).
+    /// The SV norms written out, no 3×3 matrices (`sv_energy_of`, shared with the batched pass).
     #[inline]
     fn energy(
         &self,

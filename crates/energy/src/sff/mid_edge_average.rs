@@ -13,8 +13,8 @@
 
 use super::normals::{add_cross_hess, cross_normal, normalize_hess, normalize_jac};
 use super::{SecondFundamentalForm, SffDerivatives};
+use crate::face_stencil::{EdgeClamp, FaceStencil};
 use crate::real::Real;
-use crate::stencil::{EdgeClamp, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
 /// Normalised average of the two unit face normals per interior edge; face normal on a boundary

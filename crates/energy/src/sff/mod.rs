@@ -8,7 +8,7 @@ pub use edge_director::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
 pub(crate) use edge_director::{fit_quality, fitted_edge_angle};
 pub use mid_edge_average::MidEdgeAverage;
 
-use crate::stencil::FaceStencil;
+use crate::face_stencil::FaceStencil;
 use nalgebra::{Matrix2, SMatrix, SVector, Vector3};
 
 /// Output of [`SecondFundamentalForm::b_derivatives`].

@@ -19,7 +19,7 @@ use thinshell_energy::contact::{
     mollifier_threshold, overlapping_pairs, pair_barrier, pair_energy, pair_gap,
     point_triangle_distance2, segment_crosses_triangle,
 };
-use thinshell_energy::linalg::project_psd;
+use thinshell_energy::project_psd;
 use thinshell_mesh::Mesh;
 
 use super::contact_pattern::{PATTERN_REACH, entry};

@@ -32,9 +32,9 @@
 
 use super::normals::{add_cross_hess, cross_normal, normalize_jac, skew};
 use super::{SecondFundamentalForm, SffDerivatives};
+use crate::face_stencil::{EdgeAngles, EdgeClamp, FaceStencil};
 use crate::material::dual::{Dual1, DualN, Scalar};
 use crate::real::Real;
-use crate::stencil::{EdgeAngles, EdgeClamp, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
 mod boundary;
