@@ -49,6 +49,22 @@ pub(crate) fn dot<T: Real>(u: &Vec3<T>, v: &Vec3<T>) -> T {
     u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
 }
 
+/// u × v.
+#[inline(always)]
+pub(crate) fn cross<T: Real>(u: &Vec3<T>, v: &Vec3<T>) -> Vec3<T> {
+    [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ]
+}
+
+/// u − v.
+#[inline(always)]
+pub(crate) fn sub<T: Real>(u: &Vec3<T>, v: &Vec3<T>) -> Vec3<T> {
+    [u[0] - v[0], u[1] - v[1], u[2] - v[2]]
+}
+
 /// u + v.
 #[inline(always)]
 pub(crate) fn add<T: Real>(u: &Vec3<T>, v: &Vec3<T>) -> Vec3<T> {

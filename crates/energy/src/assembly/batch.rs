@@ -30,10 +30,11 @@ use crate::face_stencil::EdgeAngles;
 use crate::kernel::{FaceEval, FaceRest, Want, eval_face, eval_face_energy};
 use crate::material::{EnergyConstants, Material, sv_energy_of};
 use crate::membrane_strain::{metric_gradient_of, metric_of};
-use crate::real::{Real, Vec3};
+use crate::real::{Real, Vec3, cross, dot};
 use crate::rest::{DampingState, RestState};
 use crate::sff::edge_director::b_of_moments;
 use crate::sff::mid_edge_average::b_of_products;
+use crate::sff::normals::{cross_pullback_of, pull_of, unit_of};
 use crate::sff::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
 use crate::stencil_table::Stencils;
 use crate::stvk_quadratic::{sv_norm_sq_of, sv_quadratic_times_of};
@@ -149,16 +150,12 @@ impl V3 {
 
     #[inline(always)]
     fn dot(&self, o: &V3) -> Lanes {
-        self.x * o.x + self.y * o.y + self.z * o.z
+        dot(&self.arr(), &o.arr())
     }
 
     #[inline(always)]
     fn cross(&self, o: &V3) -> V3 {
-        V3 {
-            x: self.y * o.z - self.z * o.y,
-            y: self.z * o.x - self.x * o.z,
-            z: self.x * o.y - self.y * o.x,
-        }
+        V3::from_arr(cross(&self.arr(), &o.arr()))
     }
 
     #[inline(always)]
@@ -168,6 +165,13 @@ impl V3 {
             y: self.y * s,
             z: self.z * s,
         }
+    }
+
+    /// (self/|self|, |self|) ([`unit_of`]).
+    #[inline(always)]
+    fn unit(&self) -> (V3, Lanes) {
+        let (m, len) = unit_of(&self.arr());
+        (V3::from_arr(m), len)
     }
 
     #[inline(always)]
@@ -390,21 +394,17 @@ struct Normals {
 fn normals(s: &Batch) -> Normals {
     let x = &s.x;
     let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
-    let cf = e1.cross(&e2);
-    let lf = cf.norm();
-    let nf = cf.scale(lf.recip());
+    let (nf, lf) = e1.cross(&e2).unit();
     let mut n = [nf; 3];
     let mut ls = [Lanes::zero(); 3];
     let mut ng = [nf; 3];
     let mut lg = [Lanes::zero(); 3];
     for e in 0..3 {
         let [i0, i1, i2] = NEIGHBOUR[e];
-        let cg = (x[i1] - x[i0]).cross(&(x[i2] - x[i0]));
-        lg[e] = cg.norm();
-        ng[e] = cg.scale(lg[e].recip());
-        let sum = nf + ng[e];
-        ls[e] = sum.norm();
-        n[e] = V3::select(&s.flap[e], &sum.scale(ls[e].recip()), &nf);
+        (ng[e], lg[e]) = (x[i1] - x[i0]).cross(&(x[i2] - x[i0])).unit();
+        let sum;
+        (sum, ls[e]) = (nf + ng[e]).unit();
+        n[e] = V3::select(&s.flap[e], &sum, &nf);
     }
     let d1: [Lanes; 3] = std::array::from_fn(|e| n[e].dot(&e1));
     let d2: [Lanes; 3] = std::array::from_fn(|e| n[e].dot(&e2));
@@ -537,10 +537,8 @@ struct DirectorEdge {
 #[inline(always)]
 fn director(s: &Batch, variant: DirectorVariant) -> Director {
     let x = &s.x;
-    let cf = (x[1] - x[0]).cross(&(x[2] - x[0]));
-    let area2 = cf.norm();
+    let (nf, area2) = (x[1] - x[0]).cross(&(x[2] - x[0])).unit();
     let inv_area2 = area2.recip();
-    let nf = cf.scale(inv_area2);
     // Written out per edge: `from_fn` with this closure is not inlined.
     let edge = [
         director_edge(s, variant, &nf, area2, 0),
@@ -570,9 +568,8 @@ fn director_edge(
     let e = x[c] - x[b];
     let le = e.norm();
     let inv_le = le.recip();
-    let ng_raw = (x[b] - x[c]).cross(&(x[q] - x[c]));
-    let inv_lg = ng_raw.norm().recip();
-    let ng = ng_raw.scale(inv_lg);
+    let (ng, lg) = (x[b] - x[c]).cross(&(x[q] - x[c])).unit();
+    let inv_lg = lg.recip();
     let eh = e.scale(inv_le);
     let sn = nf.cross(&ng).dot(&eh);
     let cs = nf.dot(&ng);
@@ -653,9 +650,7 @@ fn director_reverse(s: &Batch, dr: &Director, w: &Sym, g: &mut [V3; 9]) {
         g[b] += uf + ug - w2;
     }
     let nu = dr.nf.scale(g_area);
-    g[0] += (x[1] - x[2]).cross(&nu);
-    g[1] += (x[2] - x[0]).cross(&nu);
-    g[2] += nu.cross(&(x[1] - x[0]));
+    add_cross_pullback(x, [0, 1, 2], &nu, g);
 }
 
 /// Energies of a batch (`eval_face_energy` for StVK and the mid-edge average).
@@ -706,10 +701,20 @@ fn quadratic(k: &Constants, inv: &Sym, c: Lanes, d: &Sym, g: &mut Sym) -> Lanes 
     d[0] * kd[0] + d[1] * kd[1] + d[2] * kd[2]
 }
 
-/// Pull a vector back through m = u/|u|: (I − m mᵀ) v / |u|.
+/// Pull a vector back through m = u/|u|: (I − m mᵀ) v / |u| ([`pull_of`]).
 #[inline(always)]
 fn pull(m: &V3, len: Lanes, v: &V3) -> V3 {
-    (*v - m.scale(m.dot(v))).scale(len.recip())
+    V3::from_arr(pull_of(&m.arr(), len, &v.arr()))
+}
+
+/// ∇ of ν·((q1 − q0) × (q2 − q0)) added to the blocks `idx` of `g` ([`cross_pullback_of`]).
+#[inline(always)]
+fn add_cross_pullback(x: &[V3; 6], idx: [usize; 3], nu: &V3, g: &mut [V3; 9]) {
+    let q = idx.map(|i| x[i].arr());
+    let d = cross_pullback_of([&q[0], &q[1], &q[2]], &nu.arr());
+    for (&i, v) in idx.iter().zip(d) {
+        g[i] += V3::from_arr(v);
+    }
 }
 
 /// A bending form's forward pass, kept for its reverse pass.
@@ -750,16 +755,10 @@ impl Forward for Normals {
             let flap = &s.flap[e];
             mu_f += V3::select(flap, &mu_s, &p);
             let nu = V3::select(flap, &nu, &V3::zero());
-            let [i0, i1, i2] = NEIGHBOUR[e];
-            let (q0, q1, q2) = (x[i0], x[i1], x[i2]);
-            g[i0] += (q1 - q2).cross(&nu);
-            g[i1] += (q2 - q0).cross(&nu);
-            g[i2] += nu.cross(&(q1 - q0));
+            add_cross_pullback(x, NEIGHBOUR[e], &nu, g);
         }
         let nu = pull(&self.nf, self.lf, &mu_f);
-        g[0] += (x[1] - x[2]).cross(&nu);
-        g[1] += (x[2] - x[0]).cross(&nu);
-        g[2] += nu.cross(&(x[1] - x[0]));
+        add_cross_pullback(x, [0, 1, 2], &nu, g);
     }
 }
 
