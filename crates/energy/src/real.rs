@@ -2,7 +2,8 @@
 //! the assembler's batched pass (one SIMD lane per face, `assembly::batch`) evaluate the same
 //! definition: the metric, the SV norm and K·d, the metric's pull-back, normals and b
 //! ([`crate::membrane_strain`], [`crate::stvk_quadratic`], [`crate::sff`]). The dual numbers
-//! of the material laws extend it ([`crate::material::dual`]).
+//! of the material laws implement it too, and their `Scalar` (derivatives through any
+//! function) extends it ([`crate::material::dual`]).
 //!
 //! Formulas over [`Real`] use only IEEE-exact operations in a fixed order (no fused
 //! multiply-add), so a face's result is the same bits in every implementation.
