@@ -308,14 +308,8 @@ fn neo_hookean_is_stvk_at_small_strain() {
     }
 }
 
-/// A flat face under the equibiaxial stretch λ (positions scaled by λ, b = b̄ = 0) through the
-/// kernel and the assembler's face layout: stretching energy against the closed forms, relative
-/// 1e-12, for λ = 0.6, 1.5, 2.5 (A = √det ā):
-/// StVK h/8·A·(α/2 (2(λ²−1))² + 2β(λ²−1)²); NH h/4·A·(β(2λ² − 2 − 4 ln λ) + 4α ln²λ);
-/// bilayer Σ_l h_l/8·A·(2α_l + 2β_l)(λ² − (1+ε_l)²)²; tension field: StVK's for λ > 1 (taut),
-/// 0 for λ < 1 (slack).
-#[test]
-fn equibiaxial_stretch_matches_closed_forms() {
+/// A flat stencil in the z = 0 plane with all three flaps, at rest (ā its metric, b̄ = 0).
+fn flat_face() -> ([Vector3<f64>; 6], FaceRest) {
     let x = [
         Vector3::new(0.0, 0.0, 0.0),
         Vector3::new(1.0, 0.0, 0.0),
@@ -328,6 +322,18 @@ fn equibiaxial_stretch_matches_closed_forms() {
         a_bar: first_fundamental_form(&[x[0], x[1], x[2]]),
         b_bar: Matrix2::zeros(),
     };
+    (x, rest)
+}
+
+/// A flat face under the equibiaxial stretch λ (positions scaled by λ, b = b̄ = 0) through the
+/// kernel and the assembler's face layout: stretching energy against the closed forms, relative
+/// 1e-12, for λ = 0.6, 1.5, 2.5 (A = √det ā):
+/// StVK h/8·A·(α/2 (2(λ²−1))² + 2β(λ²−1)²); NH h/4·A·(β(2λ² − 2 − 4 ln λ) + 4α ln²λ);
+/// bilayer Σ_l h_l/8·A·(2α_l + 2β_l)(λ² − (1+ε_l)²)²; tension field: StVK's for λ > 1 (taut),
+/// 0 for λ < 1 (slack).
+#[test]
+fn equibiaxial_stretch_matches_closed_forms() {
+    let (x, rest) = flat_face();
     let area = rest.a_bar.determinant().sqrt();
     let sv = |alpha: f64, beta: f64, h: f64, l2: f64| {
         h / 8.0 * area * (2.0 * alpha + 2.0 * beta) * l2 * l2
@@ -392,18 +398,7 @@ fn equibiaxial_stretch_matches_closed_forms() {
 /// compressed (s = 0.9, t = 0.95): slack, energy and gradient exactly 0.
 #[test]
 fn tension_field_uniaxial_is_one_dimensional() {
-    let x = [
-        Vector3::new(0.0, 0.0, 0.0),
-        Vector3::new(1.0, 0.1, 0.0),
-        Vector3::new(0.3, 0.8, 0.0),
-        Vector3::new(1.2, 0.9, 0.0),
-        Vector3::new(-0.5, 0.6, 0.0),
-        Vector3::new(0.6, -0.7, 0.0),
-    ];
-    let rest = FaceRest {
-        a_bar: first_fundamental_form(&[x[0], x[1], x[2]]),
-        b_bar: Matrix2::zeros(),
-    };
+    let (x, rest) = flat_face();
     let area = 0.5 * rest.a_bar.determinant().sqrt();
     let tf = base().with_model(MaterialModel::TensionField);
     let (young, h) = (tf.young, tf.thickness);

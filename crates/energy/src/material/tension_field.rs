@@ -37,12 +37,17 @@ enum Region {
 }
 
 /// The larger principal strain λ₁ = tr M/2 + √(tr²M/4 − det M) of M = ā⁻¹D for the entries
-/// d of D = a − ā and those (p, q, r) of ā⁻¹, and the discriminant tr²M/4 − det M.
-fn largest_strain<S: Scalar>(d: &[S; 3], [p, q, r]: [f64; 3]) -> (S, S) {
+/// d of D = a − ā and those (p, q, r) of ā⁻¹.
+fn largest_strain<S: Scalar>(d: &[S; 3], [p, q, r]: [f64; 3]) -> S {
     let half_tr = (d[0].scale(p) + d[1].scale(2.0 * q) + d[2].scale(r)).scale(0.5);
     let det = (d[0] * d[2] - d[1] * d[1]).scale(p * r - q * q);
-    let disc = half_tr * half_tr - det;
-    (half_tr + disc.sqrt(), disc)
+    half_tr + (half_tr * half_tr - det).sqrt()
+}
+
+/// The wrinkled branch's energy c·λ₁² (c = h/8 · A · k).
+fn wrinkled<S: Scalar>(d: &[S; 3], inv: [f64; 3], c: f64) -> S {
+    let l1 = largest_strain(d, inv);
+    (l1 * l1).scale(c)
 }
 
 /// The region of the strain d = a − ā (f64; the discriminant clamped at 0 against round-off).
@@ -101,24 +106,16 @@ impl ElasticLaw for TensionField {
                 let c =
                     m.thickness / 8.0 * face.area * (beta * (alpha + beta) / (0.5 * alpha + beta));
                 match order {
-                    Order::Energy => {
-                        let (l1, _) = largest_strain(&[d[0], d[1], d[2]], inv);
-                        out.stretch = c * l1 * l1;
-                    }
+                    Order::Energy => out.stretch = wrinkled(&[d[0], d[1], d[2]], inv, c),
                     Order::Gradient => {
                         let dv: [Dual1<3>; 3] = std::array::from_fn(|i| Dual1::variable(d[i], i));
-                        let (l1, _) = largest_strain(&dv, inv);
-                        let e = (l1 * l1).scale(c);
-                        out.stretch = e.v;
-                        out.ga = e.g;
+                        let e = wrinkled(&dv, inv, c);
+                        (out.stretch, out.ga) = (e.v, e.g);
                     }
                     Order::Hessian => {
                         let dv: [DualN<3>; 3] = std::array::from_fn(|i| DualN::variable(d[i], i));
-                        let (l1, _) = largest_strain(&dv, inv);
-                        let e = (l1 * l1).scale(c);
-                        out.stretch = e.v;
-                        out.ga = e.g;
-                        out.haa = e.h;
+                        let e = wrinkled(&dv, inv, c);
+                        (out.stretch, out.ga, out.haa) = (e.v, e.g, e.h);
                     }
                 }
             }
