@@ -17,7 +17,7 @@ use thinshell_mesh::{FaceId, Mesh};
 use crate::{convert, errors};
 
 /// `Material` from a dict (keys thickness m, young Pa, poisson, density kg/m³, viscosity Pa·s,
-/// model "stvk" | "neo_hookean"); missing keys take the paper defaults.
+/// model "stvk" | "neo_hookean" | "tension_field"); missing keys take the paper defaults.
 fn material(d: Option<&Bound<'_, PyDict>>) -> PyResult<Material> {
     let mut m = Material::paper();
     if let Some(d) = d {
@@ -34,9 +34,10 @@ fn material(d: Option<&Bound<'_, PyDict>>) -> PyResult<Material> {
                     m.model = match name.as_str() {
                         "stvk" => MaterialModel::StVK,
                         "neo_hookean" => MaterialModel::NeoHookean,
+                        "tension_field" => MaterialModel::TensionField,
                         _ => {
                             return Err(PyValueError::new_err(format!(
-                                "material.model: `{name}`: expected \"stvk\" or \"neo_hookean\" (bilayers: use a scene)"
+                                "material.model: `{name}`: expected \"stvk\", \"neo_hookean\" or \"tension_field\" (bilayers: use a scene)"
                             )));
                         }
                     }

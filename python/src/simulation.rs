@@ -660,7 +660,8 @@ impl PySimulation {
     }
 
     /// The material: a dict with `thickness` (m), `young` (Pa), `poisson`, `density`
-    /// (kg/m³), `viscosity` (Pa·s) and `model` ("stvk", "neo_hookean", "bilayer").
+    /// (kg/m³), `viscosity` (Pa·s) and `model` ("stvk", "neo_hookean", "bilayer",
+    /// "tension_field").
     #[getter]
     fn material<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let m = self.lock()?.sim.model().material;

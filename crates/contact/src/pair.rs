@@ -7,7 +7,7 @@ use super::distance::{
     point_triangle_type,
 };
 use super::mollifier::mollifier;
-use thinshell_energy::linalg::project_psd;
+use thinshell_energy::project_psd;
 use thinshell_energy::material::dual::DualN;
 
 /// The kind of a contact pair, which fixes the meaning of its four points.

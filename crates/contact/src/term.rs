@@ -19,7 +19,7 @@ use crate::{
 use faer::sparse::SparseColMat;
 use nalgebra::{Matrix3, Vector3};
 use thinshell_energy::DofMap;
-use thinshell_energy::linalg::project_psd;
+use thinshell_energy::project_psd;
 use thinshell_mesh::Mesh;
 
 pub use crate::obstacle::Obstacle;

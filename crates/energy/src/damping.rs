@@ -8,8 +8,8 @@
 //! kernels evaluate it here: [`DampingQuadratics`] (value, gradient and Hessian in the form
 //! entries) for [`crate::eval_face`], [`damping_energy`] for the energy-only path.
 
-use crate::linalg::{inv2, sym_entries};
 use crate::material::{EnergyConstants, Material};
+use crate::small_matrix::{inv2, sym_entries};
 use crate::stvk_quadratic::{sv_norm_sq_entries, sv_quadratic};
 use nalgebra::{Matrix2, Matrix3, Vector3};
 

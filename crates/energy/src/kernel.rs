@@ -1,15 +1,13 @@
 //! The per-face kernel: energy, N-gradient and N×N Hessian of one face for any second
 //! fundamental form (N face dofs) and any material law, by one chain rule through the forms.
 
-pub use crate::damping::FaceDamping;
-use crate::damping::{DampingQuadratics, damping_energy};
-use crate::linalg::{ProjectPsd, inv2, sym_entries};
-pub use crate::material::EnergyConstants;
-use crate::material::{FaceGeometry, LawEval, Material, Order};
+use crate::damping::{DampingQuadratics, FaceDamping, damping_energy};
+use crate::face_stencil::FaceStencil;
+use crate::material::{EnergyConstants, FaceGeometry, LawEval, Material, Order};
 use crate::membrane_strain::{add_metric_hessian, edges, metric, metric_gradient, metric_jacobian};
 use crate::sff::SecondFundamentalForm;
-use crate::stencil::FaceStencil;
-pub use crate::terms::{EnergyTerms, HessianMode, Terms};
+use crate::small_matrix::{ProjectPsd, inv2, sym_entries};
+use crate::terms::{EnergyTerms, HessianMode, Terms};
 use nalgebra::{Matrix2, SMatrix, SVector, Vector3};
 use std::cell::{Cell, RefCell};
 

@@ -3,14 +3,14 @@
 //!
 //! Two layers:
 //! - **per-face kernels** — pure functions on fixed-size arrays, in dependency order:
-//!   [`stencil`] (the plain face data: [`FaceStencil`] with positions, flap flags and
+//!   [`face_stencil`] (the plain face data: [`FaceStencil`] with positions, flap flags and
 //!   [`EdgeAngles`]); one file per formula: [`membrane_strain`] (the metric a and its
 //!   derivatives), [`stvk_quadratic`] (the St. Venant–Kirchhoff quadratic: matrix, K·d, value),
 //!   [`damping`] (Kelvin–Voigt); [`sff`] (the [`SecondFundamentalForm`]`<N>` trait giving b,
 //!   its 3×N Jacobian and contracted Hessian over a face's N dofs: [`MidEdgeAverage`], N = 18,
 //!   and the edge directors [`EdgeDirector`], N = 21 with one angle per edge, model.md §1.1;
 //!   chosen by [`SffKind`]); [`material`] (the [`ElasticLaw`] trait — energy, 6-gradient and
-//!   6×6 Hessian in the form entries a, b — with [`StVK`], [`NeoHookean`] and [`Bilayer`],
+//!   6×6 Hessian in the form entries a, b — with [`StVK`], [`NeoHookean`], [`Bilayer`] and [`TensionField`],
 //!   chosen by [`MaterialModel`]; every law is evaluated through it); and [`eval_face`], the
 //!   one chain rule from (form, law) to a face's energy, N-gradient and N×N Hessian (exact,
 //!   Gauss–Newton or projected to PSD, [`HessianMode`]);
@@ -81,40 +81,46 @@ pub mod assembly;
 pub mod damping;
 pub mod dofs;
 pub mod error;
+pub mod face_stencil;
 pub mod kernel;
-pub mod linalg;
 pub mod mass;
 pub mod material;
 pub mod membrane_strain;
+pub mod model;
+pub(crate) mod real;
 pub mod rest;
 pub mod sff;
-pub mod shell;
-pub mod stencil;
-pub mod stencils;
+pub mod small_matrix;
+pub mod stencil_table;
 pub mod stvk_quadratic;
-pub mod terms;
+// Private: its types have one public path, the crate root.
+mod terms;
+
+// `contact/` (moving to its own crate, #45) still imports the PSD projection by its old path.
+mod linalg {
+    pub(crate) use crate::small_matrix::project_psd;
+}
 
 pub use assembly::{Assembler, EvalOutput};
 pub use damping::FaceDamping;
 pub use dofs::DofMap;
 pub use error::EnergyError;
-pub use kernel::{
-    EnergyTerms, FaceEval, FaceRest, HessianMode, Terms, Want, eval_face, eval_face_energy,
-};
-pub use linalg::{ProjectPsd, project_psd};
+pub use face_stencil::{EdgeAngles, EdgeClamp, FaceStencil, edge_signs};
+pub use kernel::{FaceEval, FaceRest, Want, eval_face, eval_face_energy};
 pub use mass::lumped_mass;
 pub use material::{
     Bilayer, ElasticLaw, EnergyConstants, FaceGeometry, LawEval, Layer, Material, MaterialModel,
-    NeoHookean, Order, StVK,
+    NeoHookean, Order, StVK, TensionField,
 };
 pub use membrane_strain::first_fundamental_form;
+pub use model::ShellModel;
 pub use rest::{DampingState, RestState};
 pub use sff::{
     DIRECTOR_DOFS, DirectorVariant, EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind,
 };
-pub use shell::ShellModel;
-pub use stencil::{EdgeAngles, EdgeClamp, FaceStencil, edge_signs};
-pub use stencils::{Stencils, fitted_free_edges};
+pub use small_matrix::{ProjectPsd, project_psd};
+pub use stencil_table::{Stencils, fitted_free_edges};
+pub use terms::{EnergyTerms, HessianMode, Terms};
 
 // The linear-algebra crates of the public types (nalgebra vectors and forms, faer sparse
 // matrices), re-exported so that a dependent crate uses the same versions and features.

@@ -3,17 +3,25 @@
 //! metric ā; this file holds a itself, in the barycentric basis (e1, e2) = (x1 − x0, x2 − x0):
 //! a = RᵀR with R = [e1 | e2], entries (a11, a12, a22) = (e1·e1, e1·e2, e2·e2) (m²).
 //!
-//! Every place that needs a face's metric (rest state, the per-face kernels, growth's material
-//! directions) calls these functions.
+//! Every place that needs a face's metric (rest state, the per-face kernels, the batched pass,
+//! growth's material directions) calls these functions; the metric and its gradient are
+//! written once over `real::Real` (f64 here, one SIMD lane per face in `assembly::batch`).
 
-use crate::linalg::sym_matrix;
+use crate::real::{Real, Vec3, add, dot, scale};
+use crate::small_matrix::sym_matrix;
 use nalgebra::{Matrix2, SMatrix, Vector3};
 
 /// The metric entries (a11, a12, a22) = (e1·e1, e1·e2, e2·e2) (m²) of the edge vectors
 /// e1 = x1 − x0, e2 = x2 − x0.
 #[inline]
 pub fn metric(e1: &Vector3<f64>, e2: &Vector3<f64>) -> Vector3<f64> {
-    Vector3::new(e1.dot(e1), e1.dot(e2), e2.dot(e2))
+    metric_of(&(*e1).into(), &(*e2).into()).into()
+}
+
+/// [`metric`] over any [`Real`].
+#[inline(always)]
+pub(crate) fn metric_of<T: Real>(e1: &Vec3<T>, e2: &Vec3<T>) -> Vec3<T> {
+    [dot(e1, e1), dot(e1, e2), dot(e2, e2)]
 }
 
 /// The edge vectors (e1, e2) = (x1 − x0, x2 − x0) (m) of a face.
@@ -56,9 +64,16 @@ pub fn metric_gradient(
     e1: &Vector3<f64>,
     e2: &Vector3<f64>,
 ) -> [Vector3<f64>; 3] {
-    let g1 = e1 * (2.0 * g[0]) + e2 * g[1];
-    let g2 = e1 * g[1] + e2 * (2.0 * g[2]);
-    [-(g1 + g2), g1, g2]
+    metric_gradient_of(&(*g).into(), &(*e1).into(), &(*e2).into()).map(Vector3::from)
+}
+
+/// [`metric_gradient`] over any [`Real`].
+#[inline(always)]
+pub(crate) fn metric_gradient_of<T: Real>(g: &Vec3<T>, e1: &Vec3<T>, e2: &Vec3<T>) -> [Vec3<T>; 3] {
+    let g1 = add(&scale(e1, T::cst(2.0) * g[0]), &scale(e2, g[1]));
+    let g2 = add(&scale(e1, g[1]), &scale(e2, T::cst(2.0) * g[2]));
+    let s = add(&g1, &g2);
+    [[-s[0], -s[1], -s[2]], g1, g2]
 }
 
 /// Adds Σ_k g_k ∇²a_k to the (x0, x1, x2) block (the first 9 rows and columns) of `h`.

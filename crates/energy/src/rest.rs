@@ -7,7 +7,7 @@ use crate::dofs::check_len;
 use crate::error::EnergyError;
 use crate::membrane_strain::first_fundamental_form;
 use crate::sff::SffKind;
-use crate::stencils::Stencils;
+use crate::stencil_table::Stencils;
 use nalgebra::{Matrix2, Vector3};
 use thinshell_mesh::{FaceId, Mesh, VertexId};
 

@@ -8,21 +8,23 @@
 //! - [`sv_quadratic_times`]: K·d without forming K (gradients are 2Kd, the energy d·Kd);
 //! - [`sv_norm_sq_entries`]: the value ‖A⁻¹D‖²_SV alone (the energy-only path).
 //!
-//! [`sv_norm_sq`] is the definition on a general 2×2 matrix (in f64 for tests, in dual numbers
+//! K·d and the value are written once over `real::Real` (`*_of`), for the per-face kernels and the
+//! batched pass alike. [`sv_norm_sq`] is the definition on a general 2×2 matrix (in f64 for tests, in dual numbers
 //! for the neo-Hookean bending term).
 
 use crate::material::dual::Scalar;
+use crate::real::{Real, Vec3, dot};
 use nalgebra::{Matrix2, Matrix3, Vector3};
 
-/// The entries (p, q, r) of a symmetric A⁻¹ = [[p, q], [q, r]] (q averaged from both
+/// The entries [p, q, r] of a symmetric A⁻¹ = [[p, q], [q, r]] (q averaged from both
 /// off-diagonal entries).
 #[inline]
-fn entries(a_inv: &Matrix2<f64>) -> (f64, f64, f64) {
-    (
+pub(crate) fn inv_entries(a_inv: &Matrix2<f64>) -> Vec3<f64> {
+    [
         a_inv[(0, 0)],
         0.5 * (a_inv[(0, 1)] + a_inv[(1, 0)]),
         a_inv[(1, 1)],
-    )
+    ]
 }
 
 /// Matrix K of the quadratic form d ↦ c·‖A⁻¹D‖²_SV = dᵀ K d, with D = [[d11, d12], [d12, d22]].
@@ -33,7 +35,7 @@ fn entries(a_inv: &Matrix2<f64>) -> (f64, f64, f64) {
 /// α, β ≥ 0 and A positive definite, so the energy's Hessian in the form, 2K, is PSD.
 #[inline]
 pub fn sv_quadratic(a_inv: &Matrix2<f64>, alpha: f64, beta: f64, c: f64) -> Matrix3<f64> {
-    let (a, b, cc) = entries(a_inv);
+    let [a, b, cc] = inv_entries(a_inv);
     let g = Vector3::new(a, 2.0 * b, cc);
     let q = Matrix3::new(
         a * a,
@@ -59,14 +61,33 @@ pub fn sv_quadratic_times(
     c: f64,
     d: &Vector3<f64>,
 ) -> Vector3<f64> {
-    let (p, q, r) = entries(a_inv);
-    let v = Vector3::new(p, 2.0 * q, r);
-    let qd = Vector3::new(
-        p * p * d[0] + 2.0 * p * q * d[1] + q * q * d[2],
-        2.0 * p * q * d[0] + 2.0 * (q * q + p * r) * d[1] + 2.0 * q * r * d[2],
-        q * q * d[0] + 2.0 * q * r * d[1] + r * r * d[2],
-    );
-    (v * (0.5 * alpha * v.dot(d)) + qd * beta) * c
+    sv_quadratic_times_of(&inv_entries(a_inv), alpha, beta, c, &(*d).into()).into()
+}
+
+/// [`sv_quadratic_times`] over any [`Real`], from the entries (p, q, r) of A⁻¹.
+#[inline(always)]
+pub(crate) fn sv_quadratic_times_of<T: Real>(
+    inv: &Vec3<T>,
+    alpha: f64,
+    beta: f64,
+    c: T,
+    d: &Vec3<T>,
+) -> Vec3<T> {
+    let [p, q, r] = *inv;
+    let two = T::cst(2.0);
+    let v = [p, two * q, r];
+    let qd = [
+        p * p * d[0] + two * p * q * d[1] + q * q * d[2],
+        two * p * q * d[0] + two * (q * q + p * r) * d[1] + two * q * r * d[2],
+        q * q * d[0] + two * q * r * d[1] + r * r * d[2],
+    ];
+    let s = T::cst(0.5 * alpha) * dot(&v, d);
+    let beta = T::cst(beta);
+    [
+        (v[0] * s + qd[0] * beta) * c,
+        (v[1] * s + qd[1] * beta) * c,
+        (v[2] * s + qd[2] * beta) * c,
+    ]
 }
 
 /// ‖A⁻¹D‖²_SV = α/2 tr(M)² + β tr(M²), M = A⁻¹D, from the entries d of D, with `half_alpha`
@@ -78,13 +99,19 @@ pub fn sv_norm_sq_entries(
     beta: f64,
     d: &Vector3<f64>,
 ) -> f64 {
-    let (p, q, r) = entries(a_inv);
+    sv_norm_sq_of(&inv_entries(a_inv), half_alpha, beta, &(*d).into())
+}
+
+/// [`sv_norm_sq_entries`] over any [`Real`], from the entries (p, q, r) of A⁻¹.
+#[inline(always)]
+pub(crate) fn sv_norm_sq_of<T: Real>(inv: &Vec3<T>, half_alpha: f64, beta: f64, d: &Vec3<T>) -> T {
+    let [p, q, r] = *inv;
     let m00 = p * d[0] + q * d[1];
     let m01 = p * d[1] + q * d[2];
     let m10 = q * d[0] + r * d[1];
     let m11 = q * d[1] + r * d[2];
     let t = m00 + m11;
-    half_alpha * t * t + beta * (m00 * m00 + 2.0 * m01 * m10 + m11 * m11)
+    T::cst(half_alpha) * t * t + T::cst(beta) * (m00 * m00 + T::cst(2.0) * m01 * m10 + m11 * m11)
 }
 
 /// ‖M‖²_SV = α/2 tr(M)² + β tr(M²) of a general 2×2 matrix M = [[m11, m12], [m21, m22]] over

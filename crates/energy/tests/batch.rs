@@ -3,7 +3,9 @@
 //! energy + gradient, several faces per SIMD lane) against the scalar per-face kernels
 //! evaluated face by face and scattered here: per-face energies within 1e-13 of the largest
 //! face energy, the gradient within 1e-13 of its largest entry (round-off of differently
-//! ordered sums; measured over 40 cases: energies ≤ 4e-16, gradient ≤ 5e-15). On random
+//! ordered sums; measured over 40 cases: energies ≤ 4e-16, gradient ≤ 5e-15). The energy-only
+//! pass's per-face energies are the kernel's bits (both evaluate the formulas written once over
+//! `real::Real`), and so are the gradient pass's without damping. On random
 //! meshes with free edges (faces without flaps), face counts that are no multiple of the batch
 //! width, every combination of terms and random materials. Results are the same bits for 1, 2
 //! and 3 threads.
@@ -211,8 +213,19 @@ proptest! {
         let (e, eg, g) = batched(&c, &model, 1);
         let err = energy_error(&e, &e_ref);
         prop_assert!(err <= TOL, "energy-only pass: {err:e}");
+        // The energy-only pass evaluates the energy-only kernel's formulas (written once over
+        // `real::Real`) in the same order: the same bits.
+        let bits = |v: &[EnergyTerms]| -> Vec<[u64; 3]> {
+            v.iter().map(|t| [t.stretch, t.bend, t.damping].map(f64::to_bits)).collect()
+        };
+        prop_assert_eq!(bits(&e), bits(&e_ref), "energy-only pass: not the kernel's bits");
         let err = energy_error(&eg, &eg_ref);
         prop_assert!(err <= TOL, "gradient pass energies: {err:e}");
+        if !model.terms.damping {
+            // Likewise the law's 2Kd (damping's gradient is K·d there, the matrix K in the
+            // kernel, which also needs K for its Hessian).
+            prop_assert_eq!(bits(&eg), bits(&eg_ref), "gradient pass: not the kernel's bits");
+        }
         let scale = max_abs(g_ref.iter().copied());
         let gerr = max_abs(g.iter().zip(&g_ref).map(|(a, b)| a - b));
         prop_assert!(gerr <= TOL * scale, "gradient: {gerr:e} of {scale:e}");

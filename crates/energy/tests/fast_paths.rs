@@ -16,8 +16,9 @@ use thinshell_testkit::strategies::{cases_or, rest_strategy, stencil_strategy};
 
 const TOL: f64 = 1e-12;
 
-/// StVK, neo-Hookean and a bilayer with eigenstrains, all unit-ish so every term counts.
-fn materials() -> [Material; 3] {
+/// StVK, neo-Hookean, a bilayer with eigenstrains and the tension field, all unit-ish so every
+/// term counts.
+fn materials() -> [Material; 4] {
     let base = unit_material(0.5);
     let layer = |thickness, young, eigenstrain| Layer {
         thickness,
@@ -29,6 +30,7 @@ fn materials() -> [Material; 3] {
         base,
         base.with_model(MaterialModel::NeoHookean),
         Material::bilayer(layer(0.12, 3.0, -0.02), layer(0.18, 1.0, 0.03), 1.0, 0.5),
+        base.with_model(MaterialModel::TensionField),
     ]
 }
 

@@ -1,6 +1,7 @@
-//! The material laws (model.md §2, §2.1, §2.2): exact derivatives through the face kernel with
+//! The material laws (model.md §2, §2.1–2.3): exact derivatives through the face kernel with
 //! both bending forms, neo-Hookean → StVK at small strain, equibiaxial stretch against closed
-//! forms, the bilayer against StVK and Timoshenko's bimetal curvature, and det a ≤ 0.
+//! forms, the bilayer against StVK and Timoshenko's bimetal curvature, the tension field under
+//! uniaxial tension, and det a ≤ 0.
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::{Matrix2, SMatrix, SVector, Vector3};
@@ -40,11 +41,15 @@ fn bilayer() -> Material {
     )
 }
 
-fn models() -> [(&'static str, Material); 3] {
+fn models() -> [(&'static str, Material); 4] {
     [
         ("stvk", base()),
         ("neo_hookean", base().with_model(MaterialModel::NeoHookean)),
         ("bilayer", bilayer()),
+        (
+            "tension_field",
+            base().with_model(MaterialModel::TensionField),
+        ),
     ]
 }
 
@@ -303,13 +308,8 @@ fn neo_hookean_is_stvk_at_small_strain() {
     }
 }
 
-/// A flat face under the equibiaxial stretch λ (positions scaled by λ, b = b̄ = 0) through the
-/// kernel and the assembler's face layout: stretching energy against the closed forms, relative
-/// 1e-12, for λ = 0.6, 1.5, 2.5 (A = √det ā):
-/// StVK h/8·A·(α/2 (2(λ²−1))² + 2β(λ²−1)²); NH h/4·A·(β(2λ² − 2 − 4 ln λ) + 4α ln²λ);
-/// bilayer Σ_l h_l/8·A·(2α_l + 2β_l)(λ² − (1+ε_l)²)².
-#[test]
-fn equibiaxial_stretch_matches_closed_forms() {
+/// A flat stencil in the z = 0 plane with all three flaps, at rest (ā its metric, b̄ = 0).
+fn flat_face() -> ([Vector3<f64>; 6], FaceRest) {
     let x = [
         Vector3::new(0.0, 0.0, 0.0),
         Vector3::new(1.0, 0.0, 0.0),
@@ -322,6 +322,18 @@ fn equibiaxial_stretch_matches_closed_forms() {
         a_bar: first_fundamental_form(&[x[0], x[1], x[2]]),
         b_bar: Matrix2::zeros(),
     };
+    (x, rest)
+}
+
+/// A flat face under the equibiaxial stretch λ (positions scaled by λ, b = b̄ = 0) through the
+/// kernel and the assembler's face layout: stretching energy against the closed forms, relative
+/// 1e-12, for λ = 0.6, 1.5, 2.5 (A = √det ā):
+/// StVK h/8·A·(α/2 (2(λ²−1))² + 2β(λ²−1)²); NH h/4·A·(β(2λ² − 2 − 4 ln λ) + 4α ln²λ);
+/// bilayer Σ_l h_l/8·A·(2α_l + 2β_l)(λ² − (1+ε_l)²)²; tension field: StVK's for λ > 1 (taut),
+/// 0 for λ < 1 (slack).
+#[test]
+fn equibiaxial_stretch_matches_closed_forms() {
+    let (x, rest) = flat_face();
     let area = rest.a_bar.determinant().sqrt();
     let sv = |alpha: f64, beta: f64, h: f64, l2: f64| {
         h / 8.0 * area * (2.0 * alpha + 2.0 * beta) * l2 * l2
@@ -354,10 +366,14 @@ fn equibiaxial_stretch_matches_closed_forms() {
                         )
                     })
                     .sum(),
+                MaterialModel::TensionField if lambda > 1.0 => {
+                    h / 8.0 * area * (0.5 * alpha * (2.0 * l2).powi(2) + 2.0 * beta * l2 * l2)
+                }
+                MaterialModel::TensionField => 0.0,
             };
             let out = eval::<18, _>(&MidEdgeAverage, &m, &s, &rest, None, Terms::ELASTIC, None);
             assert!(
-                (out.energy.stretch - want).abs() <= 1e-12 * want,
+                (out.energy.stretch - want).abs() <= 1e-12 * want.max(f64::MIN_POSITIVE),
                 "{name}, λ = {lambda}: {} vs {want}",
                 out.energy.stretch
             );
@@ -369,6 +385,89 @@ fn equibiaxial_stretch_matches_closed_forms() {
             );
         }
     }
+}
+
+/// Tension field under uniaxial tension (model.md §2.3): a flat face stretched by s along the
+/// direction at angle θ and by t across it. With the lateral contraction larger than Poisson's
+/// (t² − 1 = −κ(s² − 1), κ = 0.4, 0.6, 0.75 > ν = 0.3) the face is wrinkled and its energy is the
+/// 1-D uniaxial value E h/2 · ε² · area, ε = (s² − 1)/2 the Green strain (area = A/2 the rest
+/// area), whatever t: asserted to 1e-12 relative, and equal (1e-9 relative) to StVK's energy
+/// minimised over t by golden-section search, at s = 1.01, 1.1, 1.5 and θ = 0, 0.5; the
+/// gradient along the lateral motion (∂E/∂t) vanishes (1e-12 of |g|·|v|); gradient and Hessian
+/// match central differences (`check_fd`). Both directions
+/// compressed (s = 0.9, t = 0.95): slack, energy and gradient exactly 0.
+#[test]
+fn tension_field_uniaxial_is_one_dimensional() {
+    let (x, rest) = flat_face();
+    let area = 0.5 * rest.a_bar.determinant().sqrt();
+    let tf = base().with_model(MaterialModel::TensionField);
+    let (young, h) = (tf.young, tf.thickness);
+    // Positions under the stretch (s along (cos θ, sin θ), t across).
+    let deform = |s: f64, t: f64, theta: f64| {
+        let (c, n) = (theta.cos(), theta.sin());
+        x.map(|p| {
+            let (u, v) = (c * p.x + n * p.y, -n * p.x + c * p.y);
+            let (u, v) = (s * u, t * v);
+            Vector3::new(c * u - n * v, n * u + c * v, 0.0)
+        })
+    };
+    let energy = |m: &Material, s: f64, t: f64, theta: f64| {
+        let st = FaceStencil::new(deform(s, t, theta), [true; 3]);
+        eval::<18, _>(&MidEdgeAverage, m, &st, &rest, None, Terms::ELASTIC, None)
+    };
+    for theta in [0.0, 0.5] {
+        for s in [1.01, 1.1, 1.5f64] {
+            let eps = 0.5 * (s * s - 1.0);
+            let want = 0.5 * young * h * eps * eps * area;
+            for kappa in [0.4, 0.6, 0.75] {
+                let t = (1.0 - kappa * (s * s - 1.0)).sqrt();
+                let out = energy(&tf, s, t, theta);
+                assert!(
+                    (out.energy.stretch - want).abs() <= 1e-12 * want,
+                    "s = {s}, κ = {kappa}, θ = {theta}: {} vs {want}",
+                    out.energy.stretch
+                );
+                assert_eq!(out.energy.bend, 0.0);
+                // Exact derivatives of the wrinkled branch (the random cases of
+                // `derivatives_match_fd` visit all three regions; this one is known wrinkled).
+                let st = FaceStencil::new(deform(s, t, theta), [true; 3]);
+                check_fd::<18, _>(&MidEdgeAverage, &tf, &st, &rest, Terms::ELASTIC).unwrap();
+                // ∂E/∂t: the lateral motion of every vertex, v = ∂x/∂t.
+                let (c, n) = (theta.cos(), theta.sin());
+                let v = SVector::<f64, 18>::from_fn(|i, _| {
+                    let p = x[i / 3];
+                    let across = -n * p.x + c * p.y;
+                    [-n * across, c * across, 0.0][i % 3]
+                });
+                let g = SVector::<f64, 18>::from_column_slice(out.gradient.as_slice());
+                assert!(
+                    g.dot(&v).abs() <= 1e-12 * g.norm() * v.norm(),
+                    "s = {s}, κ = {kappa}: dE/dt = {}",
+                    g.dot(&v)
+                );
+            }
+            // StVK with the lateral stretch free: golden-section search over t.
+            let stvk = |t: f64| energy(&base(), s, t, theta).energy.stretch;
+            let (mut lo, mut hi) = (0.5, 1.0);
+            let phi = 0.5 * (5f64.sqrt() - 1.0);
+            for _ in 0..200 {
+                let (m1, m2) = (hi - phi * (hi - lo), lo + phi * (hi - lo));
+                if stvk(m1) < stvk(m2) {
+                    hi = m2;
+                } else {
+                    lo = m1;
+                }
+            }
+            let relaxed = stvk(0.5 * (lo + hi));
+            assert!(
+                (relaxed - want).abs() <= 1e-9 * want,
+                "s = {s}, θ = {theta}: StVK minimised over t {relaxed} vs {want}"
+            );
+        }
+    }
+    let slack = energy(&tf, 0.9, 0.95, 0.5);
+    assert_eq!(slack.energy.stretch, 0.0);
+    assert_eq!(slack.gradient.amax(), 0.0);
 }
 
 /// Timoshenko's bimetal curvature, m = h₁/h₂, n = E₁/E₂ (equal ν).

@@ -1,5 +1,6 @@
-//! `[material] model` end to end (docs/scenes.md, model.md §2.1–2.2): a bimetal strip curls to
-//! Timoshenko's curvature; neo-Hookean scenes against closed forms; bad material tables.
+//! `[material] model` end to end (docs/scenes.md, model.md §2.1–2.3): a bimetal strip curls to
+//! Timoshenko's curvature; neo-Hookean and tension-field scenes against closed forms; bad
+//! material tables.
 #![allow(clippy::unwrap_used)]
 
 use std::path::Path;
@@ -88,6 +89,18 @@ fn bimetal_strip_curls_to_timoshenko() {
     assert!(kxy.abs() < 1e-3 * want, "twist {kxy}");
 }
 
+/// The strip, flat, with `model` and the planar rest metric a_xy = diag(sx, sy), one static
+/// step.
+fn planar_rest_scene(sx: f64, sy: f64, model: &str) -> String {
+    format!(
+        "effects = [\"stretching\", \"bending\"]\n\
+         [mesh]\ngenerator = \"rectangle\"\nwidth = {LENGTH}\nheight = {WIDTH}\nnx = {NX}\nny = {NY}\n\
+         [material]\nmodel = \"{model}\"\n\
+         [rest]\nfrom = \"planar\"\na_xy = [[{sx}, 0.0], [0.0, {sy}]]\n\
+         [integrator]\nkind = \"static\"\nsteps = 1\n"
+    )
+}
+
 /// Neo-Hookean through a scene: (1) a sheet whose rest metric is shrunk (planar ā = s·I, s =
 /// 0.64) held flat along its whole boundary stays in uniform equibiaxial stretch μ = 1/√s = 1.25
 /// with the closed-form energy h/4·[β(2μ² − 2 − 4 ln μ) + 4α ln²μ]·2·(rest area), relative
@@ -98,15 +111,7 @@ fn bimetal_strip_curls_to_timoshenko() {
 fn neo_hookean_scenes() {
     let (h, e, nu) = (1e-4, 2e9, 0.3);
     let (alpha, beta) = (e * nu / (1.0 - nu * nu), e / (2.0 * (1.0 + nu)));
-    let base = |s: f64, model: &str| {
-        format!(
-            "effects = [\"stretching\", \"bending\"]\n\
-             [mesh]\ngenerator = \"rectangle\"\nwidth = {LENGTH}\nheight = {WIDTH}\nnx = {NX}\nny = {NY}\n\
-             [material]\nmodel = \"{model}\"\n\
-             [rest]\nfrom = \"planar\"\na_xy = [[{s}, 0.0], [0.0, {s}]]\n\
-             [integrator]\nkind = \"static\"\nsteps = 1\n"
-        )
-    };
+    let base = |s: f64, model: &str| planar_rest_scene(s, s, model);
     // (1) Boundary held.
     let s = 0.64f64;
     let mu = 1.0 / s.sqrt();
@@ -157,6 +162,29 @@ fn neo_hookean_scenes() {
     );
 }
 
+/// `model = "tension_field"` through a scene (model.md §2.3): the flat start of a sheet whose
+/// planar rest metric is a_xy = diag(0.81, 1.21) is stretched along x (strain λ₁ = 1/0.81 − 1) and
+/// compressed along y (λ₂ = 1/1.21 − 1 < −ν λ₁): wrinkled everywhere, so its energy is the
+/// uniaxial h/8 · E/2 · λ₁² · 2·(rest area), rest area √(0.81·1.21)·L·W, relative 1e-12, with
+/// no bending energy; StVK's differs by more than 10 %.
+#[test]
+fn tension_field_scene_relaxes_compression() {
+    let (h, e) = (1e-4, 2e9);
+    let (sx, sy) = (0.81f64, 1.21f64);
+    let text = |model: &str| planar_rest_scene(sx, sy, model);
+    let l1 = 1.0 / sx - 1.0;
+    let want = h / 8.0 * 0.5 * e * l1 * l1 * 2.0 * (sx * sy).sqrt() * LENGTH * WIDTH;
+    let got = simulation(&text("tension_field")).energy();
+    assert!(
+        (got.stretch / want - 1.0).abs() < 1e-12,
+        "{} vs {want}",
+        got.stretch
+    );
+    assert_eq!(got.bend, 0.0);
+    let stvk = simulation(&text("stvk")).energy().stretch;
+    assert!((stvk / want - 1.0).abs() > 0.1, "StVK {stvk} vs {want}");
+}
+
 /// Bad `[material]` tables are scene errors with file:line:col: an unknown model lists the
 /// valid ones; a single-layer key with `bilayer`, a layer with `stvk`, a missing layer, a bad
 /// layer value.
@@ -177,7 +205,7 @@ fn bad_material_tables() {
             "model = \"rubber\"".to_string(),
             vec![
                 "scene.toml:7:",
-                "unknown variant `rubber`, expected one of `stvk`, `neo_hookean`, `bilayer`",
+                "unknown variant `rubber`, expected one of `stvk`, `neo_hookean`, `bilayer`, `tension_field`",
             ],
         ),
         (

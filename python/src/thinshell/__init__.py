@@ -165,8 +165,8 @@ def energy(
     rest : rest positions (n, 3) - the rest forms are that shape's - or a tuple
         ``(a_bar, b_bar)`` of (m, 2, 2) arrays (m^2 and m, in each face's basis).
     material : dict with any of ``thickness`` (m), ``young`` (Pa), ``poisson``, ``density``
-        (kg/m^3), ``viscosity`` (Pa s), ``model`` ("stvk" or "neo_hookean"); the rest are
-        paper's (h = 1e-4 m, E = 2e9 Pa, nu = 0.3).
+        (kg/m^3), ``viscosity`` (Pa s), ``model`` ("stvk", "neo_hookean" or
+        "tension_field"); the rest are paper's (h = 1e-4 m, E = 2e9 Pa, nu = 0.3).
     form : discrete second fundamental form: "edge_director_tan" (the default, as in scenes)
         or "edge_director_sin" (one angle unknown per edge), or "mid_edge_average" (positions
         only). A Simulation's own is ``sim.form``.

@@ -25,16 +25,20 @@
 //! build's baseline otherwise): the whole chunk loop is inlined into pulp's dispatch, whose
 //! target features then apply to the plain array arithmetic below, which LLVM vectorises.
 
-use crate::kernel::{
-    EnergyTerms, FaceDamping, FaceEval, FaceRest, Want, eval_face, eval_face_energy,
-};
-use crate::material::EnergyConstants;
-use crate::material::Material;
+use crate::damping::FaceDamping;
+use crate::face_stencil::EdgeAngles;
+use crate::kernel::{FaceEval, FaceRest, Want, eval_face, eval_face_energy};
+use crate::material::{EnergyConstants, Material, sv_energy_of};
+use crate::membrane_strain::{metric_gradient_of, metric_of};
+use crate::real::{Real, Vec3, cross, dot};
 use crate::rest::{DampingState, RestState};
+use crate::sff::edge_director::b_of_moments;
+use crate::sff::mid_edge_average::b_of_products;
+use crate::sff::normals::{cross_pullback_of, pull_of, unit_of};
 use crate::sff::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
-use crate::stencil::EdgeAngles;
-use crate::stencils::Stencils;
-use crate::terms::Terms;
+use crate::stencil_table::Stencils;
+use crate::stvk_quadratic::{sv_norm_sq_of, sv_quadratic_times_of};
+use crate::terms::{EnergyTerms, Terms};
 use nalgebra::{Matrix2, Vector3};
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
@@ -65,16 +69,6 @@ impl Lanes {
     #[inline(always)]
     fn map(self, f: impl Fn(f64) -> f64) -> Self {
         Lanes(std::array::from_fn(|i| f(self.0[i])))
-    }
-
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        self.map(f64::sqrt)
-    }
-
-    #[inline(always)]
-    fn recip(self) -> Self {
-        Lanes::splat(1.0) / self
     }
 
     /// `a` where `mask`, else `b`, lane by lane.
@@ -118,6 +112,17 @@ impl Neg for Lanes {
     }
 }
 
+impl Real for Lanes {
+    #[inline(always)]
+    fn cst(c: f64) -> Self {
+        Lanes::splat(c)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        self.map(f64::sqrt)
+    }
+}
+
 impl AddAssign for Lanes {
     #[inline(always)]
     fn add_assign(&mut self, o: Lanes) {
@@ -145,16 +150,12 @@ impl V3 {
 
     #[inline(always)]
     fn dot(&self, o: &V3) -> Lanes {
-        self.x * o.x + self.y * o.y + self.z * o.z
+        dot(&self.arr(), &o.arr())
     }
 
     #[inline(always)]
     fn cross(&self, o: &V3) -> V3 {
-        V3 {
-            x: self.y * o.z - self.z * o.y,
-            y: self.z * o.x - self.x * o.z,
-            z: self.x * o.y - self.y * o.x,
-        }
+        V3::from_arr(cross(&self.arr(), &o.arr()))
     }
 
     #[inline(always)]
@@ -166,9 +167,27 @@ impl V3 {
         }
     }
 
+    /// (self/|self|, |self|) ([`unit_of`]).
+    #[inline(always)]
+    fn unit(&self) -> (V3, Lanes) {
+        let (m, len) = unit_of(&self.arr());
+        (V3::from_arr(m), len)
+    }
+
     #[inline(always)]
     fn norm(&self) -> Lanes {
         self.dot(self).sqrt()
+    }
+
+    /// The entries as a [`Vec3`] (for the formulas written over [`Real`]).
+    #[inline(always)]
+    fn arr(&self) -> Vec3<Lanes> {
+        [self.x, self.y, self.z]
+    }
+
+    #[inline(always)]
+    fn from_arr([x, y, z]: Vec3<Lanes>) -> V3 {
+        V3 { x, y, z }
     }
 
     #[inline(always)]
@@ -324,38 +343,6 @@ fn sqrt_det(ms: &[Matrix2<f64>; LANES]) -> Lanes {
     (m00 * m11 - m10 * m01).sqrt()
 }
 
-/// ‖M⁻¹D‖²_SV = α/2 tr(M⁻¹D)² + β tr((M⁻¹D)²) from the entries (p, q, r) of M⁻¹ and d of D
-/// (`sv_norm_sq_entries`).
-#[inline(always)]
-fn sv_norm_sq(k: &Constants, inv: &Sym, d: &Sym) -> Lanes {
-    let [p, q, r] = *inv;
-    let m00 = p * d[0] + q * d[1];
-    let m01 = p * d[1] + q * d[2];
-    let m10 = q * d[0] + r * d[1];
-    let m11 = q * d[1] + r * d[2];
-    let t = m00 + m11;
-    t * t * k.half_alpha + (m00 * m00 + m01 * m10 * 2.0 + m11 * m11) * k.beta
-}
-
-/// K·d of the SV quadratic with scale `c` (`sv_quadratic_times`).
-#[inline(always)]
-fn sv_times(k: &Constants, inv: &Sym, c: Lanes, d: &Sym) -> Sym {
-    let [p, q, r] = *inv;
-    let (v0, v1, v2) = (p, q * 2.0, r);
-    let two_pq = p * q * 2.0;
-    let qd = [
-        p * p * d[0] + two_pq * d[1] + q * q * d[2],
-        two_pq * d[0] + (q * q + p * r) * 2.0 * d[1] + q * r * 2.0 * d[2],
-        q * q * d[0] + q * r * 2.0 * d[1] + r * r * d[2],
-    ];
-    let s = (v0 * d[0] + v1 * d[1] + v2 * d[2]) * (0.5 * k.alpha);
-    [
-        (v0 * s + qd[0] * k.beta) * c,
-        (v1 * s + qd[1] * k.beta) * c,
-        (v2 * s + qd[2] * k.beta) * c,
-    ]
-}
-
 #[inline(always)]
 fn sub3(a: &Sym, b: &Sym) -> Sym {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
@@ -407,29 +394,21 @@ struct Normals {
 fn normals(s: &Batch) -> Normals {
     let x = &s.x;
     let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
-    let cf = e1.cross(&e2);
-    let lf = cf.norm();
-    let nf = cf.scale(lf.recip());
+    let (nf, lf) = e1.cross(&e2).unit();
     let mut n = [nf; 3];
     let mut ls = [Lanes::zero(); 3];
     let mut ng = [nf; 3];
     let mut lg = [Lanes::zero(); 3];
     for e in 0..3 {
         let [i0, i1, i2] = NEIGHBOUR[e];
-        let cg = (x[i1] - x[i0]).cross(&(x[i2] - x[i0]));
-        lg[e] = cg.norm();
-        ng[e] = cg.scale(lg[e].recip());
-        let sum = nf + ng[e];
-        ls[e] = sum.norm();
-        n[e] = V3::select(&s.flap[e], &sum.scale(ls[e].recip()), &nf);
+        (ng[e], lg[e]) = (x[i1] - x[i0]).cross(&(x[i2] - x[i0])).unit();
+        let sum;
+        (sum, ls[e]) = (nf + ng[e]).unit();
+        n[e] = V3::select(&s.flap[e], &sum, &nf);
     }
     let d1: [Lanes; 3] = std::array::from_fn(|e| n[e].dot(&e1));
     let d2: [Lanes; 3] = std::array::from_fn(|e| n[e].dot(&e2));
-    let b = [
-        (d1[1] - d1[0]) * 2.0,
-        (d2[1] - d2[0]) + (d1[2] - d1[0]),
-        (d2[2] - d2[0]) * 2.0,
-    ];
+    let b = b_of_products(&d1, &d2);
     Normals {
         nf,
         lf,
@@ -441,10 +420,10 @@ fn normals(s: &Batch) -> Normals {
     }
 }
 
-/// Metric entries (e1·e1, e1·e2, e2·e2).
+/// Metric entries (e1·e1, e1·e2, e2·e2) ([`metric_of`]).
 #[inline(always)]
 fn metric(e1: &V3, e2: &V3) -> Sym {
-    [e1.dot(e1), e1.dot(e2), e2.dot(e2)]
+    metric_of(&e1.arr(), &e2.arr())
 }
 
 /// Faces `first + lane` of a chunk of `count` faces (lanes past the end repeat its last face,
@@ -558,10 +537,8 @@ struct DirectorEdge {
 #[inline(always)]
 fn director(s: &Batch, variant: DirectorVariant) -> Director {
     let x = &s.x;
-    let cf = (x[1] - x[0]).cross(&(x[2] - x[0]));
-    let area2 = cf.norm();
+    let (nf, area2) = (x[1] - x[0]).cross(&(x[2] - x[0])).unit();
     let inv_area2 = area2.recip();
-    let nf = cf.scale(inv_area2);
     // Written out per edge: `from_fn` with this closure is not inlined.
     let edge = [
         director_edge(s, variant, &nf, area2, 0),
@@ -572,7 +549,7 @@ fn director(s: &Batch, variant: DirectorVariant) -> Director {
     Director {
         nf,
         inv_area2,
-        b: [-(ii[0] + ii[1]), -ii[0], -(ii[0] + ii[2])],
+        b: b_of_moments(&ii),
         edge,
     }
 }
@@ -591,9 +568,8 @@ fn director_edge(
     let e = x[c] - x[b];
     let le = e.norm();
     let inv_le = le.recip();
-    let ng_raw = (x[b] - x[c]).cross(&(x[q] - x[c]));
-    let inv_lg = ng_raw.norm().recip();
-    let ng = ng_raw.scale(inv_lg);
+    let (ng, lg) = (x[b] - x[c]).cross(&(x[q] - x[c])).unit();
+    let inv_lg = lg.recip();
     let eh = e.scale(inv_le);
     let sn = nf.cross(&ng).dot(&eh);
     let cs = nf.dot(&ng);
@@ -674,9 +650,7 @@ fn director_reverse(s: &Batch, dr: &Director, w: &Sym, g: &mut [V3; 9]) {
         g[b] += uf + ug - w2;
     }
     let nu = dr.nf.scale(g_area);
-    g[0] += (x[1] - x[2]).cross(&nu);
-    g[1] += (x[2] - x[0]).cross(&nu);
-    g[2] += nu.cross(&(x[1] - x[0]));
+    add_cross_pullback(x, [0, 1, 2], &nu, g);
 }
 
 /// Energies of a batch (`eval_face_energy` for StVK and the mid-edge average).
@@ -694,22 +668,23 @@ fn energy(inp: &Inputs<'_>, s: &Batch, r: &Rest) -> [Lanes; 3] {
             Form::EdgeDirector(variant, _) => director(s, variant).b,
         }
     };
+    let (ha, beta) = (k.half_alpha, k.beta);
     let stretch = if t.stretch {
-        sv_norm_sq(k, &r.a_bar_inv, &sub3(&a, &r.a_bar)) * r.area * k.h_8
+        sv_energy_of(k.h_8, r.area, &r.a_bar_inv, ha, beta, &sub3(&a, &r.a_bar))
     } else {
         Lanes::zero()
     };
     let bend = if t.bend {
-        sv_norm_sq(k, &r.a_bar_inv, &sub3(&b, &r.b_bar)) * r.area * k.h3_24
+        sv_energy_of(k.h3_24, r.area, &r.a_bar_inv, ha, beta, &sub3(&b, &r.b_bar))
     } else {
         Lanes::zero()
     };
+    // `damping_energy`'s order.
     let damping = match &r.prev {
         Some((inv, ap, bp)) => {
-            let c = r.area * k.damping;
-            (sv_norm_sq(k, inv, &sub3(&a, ap)) * k.h_8
-                + sv_norm_sq(k, inv, &sub3(&b, bp)) * k.h3_24)
-                * c
+            let c = Lanes::splat(k.damping) * r.area;
+            c * (Lanes::splat(k.h_8) * sv_norm_sq_of(inv, ha, beta, &sub3(&a, ap))
+                + Lanes::splat(k.h3_24) * sv_norm_sq_of(inv, ha, beta, &sub3(&b, bp)))
         }
         None => Lanes::zero(),
     };
@@ -719,17 +694,27 @@ fn energy(inp: &Inputs<'_>, s: &Batch, r: &Rest) -> [Lanes; 3] {
 /// Energy d·Kd of one SV quadratic (scale `c`); adds its gradient 2Kd to `g`.
 #[inline(always)]
 fn quadratic(k: &Constants, inv: &Sym, c: Lanes, d: &Sym, g: &mut Sym) -> Lanes {
-    let kd = sv_times(k, inv, c, d);
+    let kd = sv_quadratic_times_of(inv, k.alpha, k.beta, c, d);
     for i in 0..3 {
         g[i] += kd[i] * 2.0;
     }
     d[0] * kd[0] + d[1] * kd[1] + d[2] * kd[2]
 }
 
-/// Pull a vector back through m = u/|u|: (I − m mᵀ) v / |u|.
+/// Pull a vector back through m = u/|u|: (I − m mᵀ) v / |u| ([`pull_of`]).
 #[inline(always)]
 fn pull(m: &V3, len: Lanes, v: &V3) -> V3 {
-    (*v - m.scale(m.dot(v))).scale(len.recip())
+    V3::from_arr(pull_of(&m.arr(), len, &v.arr()))
+}
+
+/// ∇ of ν·((q1 − q0) × (q2 − q0)) added to the blocks `idx` of `g` ([`cross_pullback_of`]).
+#[inline(always)]
+fn add_cross_pullback(x: &[V3; 6], idx: [usize; 3], nu: &V3, g: &mut [V3; 9]) {
+    let q = idx.map(|i| x[i].arr());
+    let d = cross_pullback_of([&q[0], &q[1], &q[2]], &nu.arr());
+    for (&i, v) in idx.iter().zip(d) {
+        g[i] += V3::from_arr(v);
+    }
 }
 
 /// A bending form's forward pass, kept for its reverse pass.
@@ -770,16 +755,10 @@ impl Forward for Normals {
             let flap = &s.flap[e];
             mu_f += V3::select(flap, &mu_s, &p);
             let nu = V3::select(flap, &nu, &V3::zero());
-            let [i0, i1, i2] = NEIGHBOUR[e];
-            let (q0, q1, q2) = (x[i0], x[i1], x[i2]);
-            g[i0] += (q1 - q2).cross(&nu);
-            g[i1] += (q2 - q0).cross(&nu);
-            g[i2] += nu.cross(&(q1 - q0));
+            add_cross_pullback(x, NEIGHBOUR[e], &nu, g);
         }
         let nu = pull(&self.nf, self.lf, &mu_f);
-        g[0] += (x[1] - x[2]).cross(&nu);
-        g[1] += (x[2] - x[0]).cross(&nu);
-        g[2] += nu.cross(&(x[1] - x[0]));
+        add_cross_pullback(x, [0, 1, 2], &nu, g);
     }
 }
 
@@ -858,11 +837,10 @@ fn energy_gradient_with<F: Forward>(
         fwd.reverse(s, &gb, g);
     }
     if uses_a {
-        let g1 = e1.scale(ga[0] * 2.0) + e2.scale(ga[1]);
-        let g2 = e1.scale(ga[1]) + e2.scale(ga[2] * 2.0);
-        g[0] += V3::zero() - (g1 + g2);
-        g[1] += g1;
-        g[2] += g2;
+        let [g0, g1, g2] = metric_gradient_of(&ga, &e1.arr(), &e2.arr());
+        g[0] += V3::from_arr(g0);
+        g[1] += V3::from_arr(g1);
+        g[2] += V3::from_arr(g2);
     }
     energies
 }

@@ -30,7 +30,7 @@
 
 use crate::dofs::DofMap;
 use crate::error::EnergyError;
-use crate::stencils::Stencils;
+use crate::stencil_table::Stencils;
 use faer::sparse::SymbolicSparseColMat;
 
 /// Flag bit in a contribution: read the face block transposed.

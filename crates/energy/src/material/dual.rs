@@ -3,8 +3,9 @@
 //! its exact derivatives follow. The material laws use N = 6 (the form entries a11, a12, a22,
 //! b11, b12, b22, [`Dual`]); the contact distances use N = 12 (four points).
 
+use crate::real::Real;
 use nalgebra::{SMatrix, SVector};
-use std::ops::{Add, Mul, Sub};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A scalar function of N variables with its gradient and Hessian (also used by the contact
 /// crate's distances, N = 12).
@@ -134,18 +135,10 @@ pub(crate) fn mat_mul(p: &DualMat, q: &DualMat) -> DualMat {
     std::array::from_fn(|i| std::array::from_fn(|j| p[i][0] * q[0][j] + p[i][1] * q[1][j]))
 }
 
-/// The arithmetic that formulas written once for values and derivatives need: f64 for values,
-/// [`Dual1`] for exact gradients, [`DualN`] for exact gradients and Hessians (the free-edge fit, the SV norm of a general
-/// matrix).
-pub(crate) trait Scalar:
-    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self>
-{
-    /// The constant c.
-    fn cst(c: f64) -> Self;
-    /// 1/x.
-    fn recip(self) -> Self;
-    /// √x.
-    fn sqrt(self) -> Self;
+/// What formulas written once for values and derivatives need beyond [`Real`]'s arithmetic:
+/// f64 for values, [`Dual1`] for exact gradients, [`DualN`] for exact gradients and Hessians
+/// (the free-edge fit, the SV norm of a general matrix).
+pub(crate) trait Scalar: Real {
     /// c·x.
     fn scale(self, c: f64) -> Self;
     /// g(x) for g with value f0, first derivative f1, second derivative f2 at x.
@@ -155,18 +148,6 @@ pub(crate) trait Scalar:
 }
 
 impl Scalar for f64 {
-    #[inline]
-    fn cst(c: f64) -> Self {
-        c
-    }
-    #[inline]
-    fn recip(self) -> Self {
-        1.0 / self
-    }
-    #[inline]
-    fn sqrt(self) -> Self {
-        f64::sqrt(self)
-    }
     #[inline]
     fn scale(self, c: f64) -> Self {
         self * c
@@ -181,7 +162,7 @@ impl Scalar for f64 {
     }
 }
 
-impl<const N: usize> Scalar for DualN<N> {
+impl<const N: usize> Real for DualN<N> {
     #[inline]
     fn cst(c: f64) -> Self {
         DualN::constant(c)
@@ -194,6 +175,28 @@ impl<const N: usize> Scalar for DualN<N> {
     fn sqrt(self) -> Self {
         DualN::sqrt(self)
     }
+}
+
+impl<const N: usize> Div for DualN<N> {
+    type Output = Self;
+    #[allow(clippy::suspicious_arithmetic_impl)] // x/y = x·(1/y): the chain rule through 1/y
+    fn div(self, o: Self) -> Self {
+        self * o.recip()
+    }
+}
+
+impl<const N: usize> Neg for DualN<N> {
+    type Output = Self;
+    fn neg(self) -> Self {
+        DualN {
+            v: -self.v,
+            g: -self.g,
+            h: -self.h,
+        }
+    }
+}
+
+impl<const N: usize> Scalar for DualN<N> {
     #[inline]
     fn scale(self, c: f64) -> Self {
         DualN::scale(self, c)
@@ -255,7 +258,7 @@ impl<const N: usize> Mul for Dual1<N> {
     }
 }
 
-impl<const N: usize> Scalar for Dual1<N> {
+impl<const N: usize> Real for Dual1<N> {
     #[inline]
     fn cst(c: f64) -> Self {
         Dual1 {
@@ -273,6 +276,27 @@ impl<const N: usize> Scalar for Dual1<N> {
         let s = self.v.sqrt();
         self.apply(s, 0.5 / s, 0.0)
     }
+}
+
+impl<const N: usize> Div for Dual1<N> {
+    type Output = Self;
+    #[allow(clippy::suspicious_arithmetic_impl)] // x/y = x·(1/y): the chain rule through 1/y
+    fn div(self, o: Self) -> Self {
+        self * o.recip()
+    }
+}
+
+impl<const N: usize> Neg for Dual1<N> {
+    type Output = Self;
+    fn neg(self) -> Self {
+        Dual1 {
+            v: -self.v,
+            g: -self.g,
+        }
+    }
+}
+
+impl<const N: usize> Scalar for Dual1<N> {
     #[inline]
     fn scale(self, c: f64) -> Self {
         Dual1 {

@@ -3,18 +3,21 @@
 //! each model implements ([`ElasticLaw`]): the face's elastic energy as a function of the six
 //! form entries (a11, a12, a22, b11, b12, b22), with gradient and Hessian.
 //!
-//! One file per model: [`StVK`] (the paper's, model.md §2), [`NeoHookean`] and [`Bilayer`]
-//! (model.md §2.1–2.2). Adding a model is one new file implementing [`ElasticLaw`] plus a
+//! One file per model: [`StVK`] (the paper's, model.md §2), [`NeoHookean`], [`Bilayer`] and
+//! [`TensionField`] (model.md §2.1–2.3). Adding a model is one new file implementing [`ElasticLaw`] plus a
 //! [`MaterialModel`] variant.
 
 mod bilayer;
 pub mod dual;
 mod neo_hookean;
 mod stvk;
+mod tension_field;
 
 pub use bilayer::{Bilayer, Layer};
 pub use neo_hookean::NeoHookean;
 pub use stvk::StVK;
+pub(crate) use stvk::sv_energy_of;
+pub use tension_field::TensionField;
 
 use crate::error::EnergyError;
 use crate::terms::Terms;
@@ -175,11 +178,14 @@ pub enum MaterialModel {
     NeoHookean,
     /// Two bonded layers with their own moduli and eigenstrains ([`Bilayer`], `"bilayer"`).
     Bilayer(Bilayer),
+    /// StVK stretching with the compressive stress relaxed (wrinkling), no bending
+    /// ([`TensionField`], `"tension_field"`).
+    TensionField,
 }
 
 impl MaterialModel {
     /// Scene names of the models, in declaration order.
-    pub const NAMES: [&'static str; 3] = ["stvk", "neo_hookean", "bilayer"];
+    pub const NAMES: [&'static str; 4] = ["stvk", "neo_hookean", "bilayer", "tension_field"];
 
     /// The model's law.
     pub fn law(&self) -> &dyn ElasticLaw {
@@ -187,10 +193,11 @@ impl MaterialModel {
             MaterialModel::StVK => &StVK,
             MaterialModel::NeoHookean => &NeoHookean,
             MaterialModel::Bilayer(b) => b,
+            MaterialModel::TensionField => &TensionField,
         }
     }
 
-    /// Scene name (`stvk`, `neo_hookean`, `bilayer`).
+    /// Scene name (`stvk`, `neo_hookean`, `bilayer`, `tension_field`).
     pub fn name(&self) -> &'static str {
         self.law().name()
     }
@@ -211,13 +218,17 @@ impl MaterialModel {
             MaterialModel::StVK => StVK.energy(material, constants, face, a, b, terms),
             MaterialModel::NeoHookean => NeoHookean.energy(material, constants, face, a, b, terms),
             MaterialModel::Bilayer(l) => l.energy(material, constants, face, a, b, terms),
+            MaterialModel::TensionField => {
+                TensionField.energy(material, constants, face, a, b, terms)
+            }
         }
     }
 }
 
 /// Material parameters (SI units) and the elastic model.
 ///
-/// `thickness`, `young` and `poisson` are the elastic constants of [`StVK`] and [`NeoHookean`];
+/// `thickness`, `young` and `poisson` are the elastic constants of [`StVK`], [`NeoHookean`] and
+/// [`TensionField`];
 /// for every model they also set the Kelvin–Voigt damping (η/E, α, β) and, with `density`, the
 /// mass. A [`Bilayer`] carries its layers' own constants; [`Material::bilayer`] sets the
 /// shared ones from them.

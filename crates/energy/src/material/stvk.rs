@@ -1,7 +1,8 @@
 //! St. Venant–Kirchhoff shell (model.md §2): the quadratic SV-norm energies of the paper.
 
 use super::{ElasticLaw, EnergyConstants, FaceGeometry, LawEval, Material, Order};
-use crate::stvk_quadratic::{sv_norm_sq_entries, sv_quadratic, sv_quadratic_times};
+use crate::real::{Real, Vec3};
+use crate::stvk_quadratic::{inv_entries, sv_norm_sq_of, sv_quadratic, sv_quadratic_times};
 use crate::terms::Terms;
 use nalgebra::Vector3;
 
@@ -12,7 +13,7 @@ use nalgebra::Vector3;
 /// - bend = h³/24 · ‖ā⁻¹(b − b̄)‖²_SV · A.
 ///
 /// Each is a quadratic dᵀKd in the three form entries ([`crate::stvk_quadratic`]); no a–b
-/// coupling. The energy alone is the SV norm written out ([`sv_norm_sq_entries`]), the gradient
+/// coupling. The energy alone is the SV norm written out (`sv_energy_of`), the gradient
 /// 2Kd without forming K, the Hessian 2K.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct StVK;
@@ -69,7 +70,7 @@ impl ElasticLaw for StVK {
         }
     }
 
-    /// The SV norms written out, no 3×3 matrices ([`sv_norm_sq_entries`]).
+    /// The SV norms written out, no 3×3 matrices (`sv_energy_of`, shared with the batched pass).
     #[inline]
     fn energy(
         &self,
@@ -80,17 +81,35 @@ impl ElasticLaw for StVK {
         b: &Vector3<f64>,
         terms: Terms,
     ) -> (f64, f64) {
-        let norm = |d: Vector3<f64>| sv_norm_sq_entries(&face.a_bar_inv, k.half_alpha, k.beta, &d);
+        let inv = inv_entries(&face.a_bar_inv);
+        let term = |scale: f64, d: Vector3<f64>| {
+            sv_energy_of(scale, face.area, &inv, k.half_alpha, k.beta, &d.into())
+        };
         let stretch = if terms.stretch {
-            k.h_8 * face.area * norm(a - face.a_bar)
+            term(k.h_8, a - face.a_bar)
         } else {
             0.0
         };
         let bend = if terms.bend {
-            k.h3_24 * face.area * norm(b - face.b_bar)
+            term(k.h3_24, b - face.b_bar)
         } else {
             0.0
         };
         (stretch, bend)
     }
+}
+
+/// One StVK energy term `scale`·A·‖ā⁻¹D‖²_SV (J) from ā⁻¹'s entries `inv` and D's entries `d`,
+/// over any [`Real`]: the energy-only kernel's and the batched pass's one definition
+/// (`scale` = h/8 for stretching, h³/24 for bending).
+#[inline(always)]
+pub(crate) fn sv_energy_of<T: Real>(
+    scale: f64,
+    area: T,
+    inv: &Vec3<T>,
+    half_alpha: f64,
+    beta: f64,
+    d: &Vec3<T>,
+) -> T {
+    T::cst(scale) * area * sv_norm_sq_of(inv, half_alpha, beta, d)
 }

@@ -11,9 +11,12 @@
 // Index loops over the stencil's vertex blocks mirror the block formulas in the comments.
 #![allow(clippy::needless_range_loop)]
 
-use super::normals::{add_cross_hess, cross_normal, normalize_hess, normalize_jac};
+use super::normals::{
+    add_cross_hess, cross_normal, cross_pullback_of, normalize_hess, normalize_jac, pull_of, unit,
+};
 use super::{SecondFundamentalForm, SffDerivatives};
-use crate::stencil::{EdgeClamp, FaceStencil};
+use crate::face_stencil::{EdgeClamp, FaceStencil};
+use crate::real::Real;
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
 /// Normalised average of the two unit face normals per interior edge; face normal on a boundary
@@ -35,6 +38,18 @@ fn edge_weights(w: &Vector3<f64>, e: usize) -> (f64, f64) {
     (0..3).fold((0.0, 0.0), |(a, b), k| {
         (a + w[k] * COEF[k][e].0, b + w[k] * COEF[k][e].1)
     })
+}
+
+/// b's entries from the products d1_e = n_e·e1, d2_e = n_e·e2 ([`COEF`] written out:
+/// b11 = 2 (n1 − n0)·e1, b12 = (n1 − n0)·e2 + (n2 − n0)·e1, b22 = 2 (n2 − n0)·e2), over any
+/// [`Real`] (the per-face form and the batched pass).
+#[inline(always)]
+pub(crate) fn b_of_products<T: Real>(d1: &[T; 3], d2: &[T; 3]) -> [T; 3] {
+    [
+        T::cst(2.0) * (d1[1] - d1[0]),
+        (d2[1] - d2[0]) + (d1[2] - d1[0]),
+        T::cst(2.0) * (d2[2] - d2[0]),
+    ]
 }
 
 /// The unit normal p of the symmetry plane of boundary edge e when it is a mirror edge.
@@ -91,28 +106,23 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
     fn b(&self, s: &FaceStencil) -> Matrix2<f64> {
         let x = &s.x;
         let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
-        let cf = e1.cross(&e2);
-        let nf = cf * (1.0 / cf.norm());
+        let (nf, _) = unit(&e1.cross(&e2));
         let mut d1 = [0.0; 3];
         let mut d2 = [0.0; 3];
         for e in 0..3 {
             let n = if s.flap[e] {
                 let [i0, i1, i2] = neighbour_blocks(e);
-                let cg = (x[i1] - x[i0]).cross(&(x[i2] - x[i0]));
-                let sum = nf + cg * (1.0 / cg.norm());
-                sum * (1.0 / sum.norm())
+                let (ng, _) = unit(&(x[i1] - x[i0]).cross(&(x[i2] - x[i0])));
+                unit(&(nf + ng)).0
             } else if let Some(p) = mirror_of(s, e) {
-                let sp = project(&p, &nf);
-                sp * (1.0 / sp.norm())
+                unit(&project(&p, &nf)).0
             } else {
                 nf
             };
             d1[e] = n.dot(&e1);
             d2[e] = n.dot(&e2);
         }
-        let b11 = 2.0 * (d1[1] - d1[0]);
-        let b12 = (d2[1] - d2[0]) + (d1[2] - d1[0]);
-        let b22 = 2.0 * (d2[2] - d2[0]);
+        let [b11, b12, b22] = b_of_products(&d1, &d2);
         Matrix2::new(b11, b12, b12, b22)
     }
 
@@ -127,9 +137,7 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
     ) -> (Matrix2<f64>, Vector3<f64>, SVector<f64, 18>) {
         let x = &s.x;
         let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
-        let cf = e1.cross(&e2);
-        let lf = cf.norm();
-        let nf = cf * (1.0 / lf);
+        let (nf, lf) = unit(&e1.cross(&e2));
         // Interior edges: (s = n_f + n_g, |s|, n_g, |c_g|).
         let mut inner: [Option<InteriorEdge>; 3] = [None; 3];
         // Mirror edges: (plane normal p, |P n_f|).
@@ -137,35 +145,39 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
         let mut n = [nf; 3];
         for e in 0..3 {
             if let Some(p) = mirror_of(s, e) {
-                let sp = project(&p, &nf);
-                let ls = sp.norm();
-                n[e] = sp * (1.0 / ls);
+                let (ne, ls) = unit(&project(&p, &nf));
+                n[e] = ne;
                 mirrored[e] = Some((p, ls));
             }
             if s.flap[e] {
                 let gi = neighbour_blocks(e);
-                let cg = (x[gi[1]] - x[gi[0]]).cross(&(x[gi[2]] - x[gi[0]]));
-                let lg = cg.norm();
-                let ng = cg * (1.0 / lg);
-                let sum = nf + ng;
-                let ls = sum.norm();
-                n[e] = sum * (1.0 / ls);
+                let (ng, lg) = unit(&(x[gi[1]] - x[gi[0]]).cross(&(x[gi[2]] - x[gi[0]])));
+                let (ne, ls) = unit(&(nf + ng));
+                n[e] = ne;
                 inner[e] = Some((n[e], ls, ng, lg));
             }
         }
         // b from n_e·e1, n_e·e2 as in `b` ([`COEF`] written out).
         let d1: [f64; 3] = std::array::from_fn(|e| n[e].dot(&e1));
         let d2: [f64; 3] = std::array::from_fn(|e| n[e].dot(&e2));
-        let b12 = (d2[1] - d2[0]) + (d1[2] - d1[0]);
-        let b = Matrix2::new(2.0 * (d1[1] - d1[0]), b12, b12, 2.0 * (d2[2] - d2[0]));
+        let [b11, b12, b22] = b_of_products(&d1, &d2);
+        let b = Matrix2::new(b11, b12, b12, b22);
         let w = weights(&b);
         let mut g = SVector::<f64, 18>::zeros();
         let add = |g: &mut SVector<f64, 18>, blk: usize, v: &Vector3<f64>| {
             let mut r = g.fixed_rows_mut::<3>(3 * blk);
             r += v;
         };
-        // Pull a vector back through m = u/|u|: (I − m mᵀ) v / |u|.
-        let pull = |m: &Vector3<f64>, len: f64, v: &Vector3<f64>| (v - m * m.dot(v)) * (1.0 / len);
+        let pull = |m: &Vector3<f64>, len: f64, v: &Vector3<f64>| {
+            Vector3::from(pull_of(&(*m).into(), len, &(*v).into()))
+        };
+        let cross_pullback = |q: [&Vector3<f64>; 3], nu: &Vector3<f64>| {
+            cross_pullback_of(
+                [&(*q[0]).into(), &(*q[1]).into(), &(*q[2]).into()],
+                &(*nu).into(),
+            )
+            .map(Vector3::from)
+        };
         let mut mu_f = Vector3::zeros();
         for e in 0..3 {
             let (ca, cb) = edge_weights(&w, e);
@@ -188,18 +200,20 @@ impl SecondFundamentalForm<18> for MidEdgeAverage {
                     mu_f += mu_s;
                     let nu = pull(&ng, lg, &mu_s);
                     let gi = neighbour_blocks(e);
-                    let (q0, q1, q2) = (x[gi[0]], x[gi[1]], x[gi[2]]);
-                    // ∇ of ν·((q1 − q0) × (q2 − q0)) w.r.t. q0, q1, q2.
-                    add(&mut g, gi[0], &(q1 - q2).cross(&nu));
-                    add(&mut g, gi[1], &(q2 - q0).cross(&nu));
-                    add(&mut g, gi[2], &nu.cross(&(q1 - q0)));
+                    let dq = cross_pullback([&x[gi[0]], &x[gi[1]], &x[gi[2]]], &nu);
+                    for (&blk, v) in gi.iter().zip(&dq) {
+                        add(&mut g, blk, v);
+                    }
                 }
             }
         }
         let nu = pull(&nf, lf, &mu_f);
-        add(&mut g, 0, &(x[1] - x[2]).cross(&nu));
-        add(&mut g, 1, &(x[2] - x[0]).cross(&nu));
-        add(&mut g, 2, &nu.cross(&(x[1] - x[0])));
+        for (blk, v) in cross_pullback([&x[0], &x[1], &x[2]], &nu)
+            .iter()
+            .enumerate()
+        {
+            add(&mut g, blk, v);
+        }
         (b, w, g)
     }
 

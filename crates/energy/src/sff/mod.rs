@@ -1,14 +1,14 @@
 //! Second fundamental form discretisations.
 
-mod edge_director;
-mod mid_edge_average;
+pub(crate) mod edge_director;
+pub(crate) mod mid_edge_average;
 pub(crate) mod normals;
 
 pub use edge_director::{DIRECTOR_DOFS, DirectorVariant, EdgeDirector};
 pub(crate) use edge_director::{fit_quality, fitted_edge_angle};
 pub use mid_edge_average::MidEdgeAverage;
 
-use crate::stencil::FaceStencil;
+use crate::face_stencil::FaceStencil;
 use nalgebra::{Matrix2, SMatrix, SVector, Vector3};
 
 /// Output of [`SecondFundamentalForm::b_derivatives`].

@@ -3,7 +3,43 @@
 //! normalisation u ↦ u/|u| with its Jacobian and contracted Hessian. A unit normal n = c/|c|
 //! and its derivatives follow by the chain rule through these.
 
+use crate::real::{Real, Vec3, cross, dot, scale, sub};
 use nalgebra::{Matrix3, SMatrix, Vector3};
+
+// The values, written once over [`Real`] for the per-face forms (f64) and the batched pass
+// (one SIMD lane per face): unit vectors, the pull-back through a normalisation and through a
+// cross product.
+
+/// (u/|u|, |u|): one reciprocal, then a product per entry.
+#[inline(always)]
+pub(crate) fn unit_of<T: Real>(u: &Vec3<T>) -> (Vec3<T>, T) {
+    let len = dot(u, u).sqrt();
+    (scale(u, len.recip()), len)
+}
+
+/// [`unit_of`] of a nalgebra vector.
+#[inline]
+pub(crate) fn unit(u: &Vector3<f64>) -> (Vector3<f64>, f64) {
+    let (m, len) = unit_of(&(*u).into());
+    (m.into(), len)
+}
+
+/// v pulled back through u ↦ m = u/|u| (m and `len` = |u| given): (I − m mᵀ) v / |u|.
+#[inline(always)]
+pub(crate) fn pull_of<T: Real>(m: &Vec3<T>, len: T, v: &Vec3<T>) -> Vec3<T> {
+    scale(&sub(v, &scale(m, dot(m, v))), len.recip())
+}
+
+/// The gradient of ν·((q1 − q0) × (q2 − q0)) w.r.t. q0, q1, q2:
+/// ((q1 − q2) × ν, (q2 − q0) × ν, ν × (q1 − q0)).
+#[inline(always)]
+pub(crate) fn cross_pullback_of<T: Real>(q: [&Vec3<T>; 3], nu: &Vec3<T>) -> [Vec3<T>; 3] {
+    [
+        cross(&sub(q[1], q[2]), nu),
+        cross(&sub(q[2], q[0]), nu),
+        cross(nu, &sub(q[1], q[0])),
+    ]
+}
 
 /// The cross-product matrix [v]×: [v]× w = v × w.
 #[inline]

@@ -9,7 +9,7 @@ use super::problem::{Check, absent, finite, positive, problem};
 /// Material parameters, SI units (`docs/scenes.md`, `[material]`).
 ///
 /// `thickness`, `young` and `poisson` belong to the single-layer models (`stvk`,
-/// `neo_hookean`); `bottom` and `top` to `bilayer`, which takes its thickness and moduli from
+/// `neo_hookean`, `tension_field`); `bottom` and `top` to `bilayer`, which takes its thickness and moduli from
 /// its layers. Keys of one model are refused for another (`validate`).
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -83,6 +83,9 @@ pub enum MaterialModelName {
     NeoHookean,
     /// Two bonded layers with their own moduli and eigenstrains (§2.2): keys `bottom`, `top`.
     Bilayer,
+    /// StVK stretching with the compressive stress relaxed (wrinkling membrane), no bending
+    /// (§2.3).
+    TensionField,
 }
 
 impl MaterialModelName {
@@ -92,6 +95,7 @@ impl MaterialModelName {
             MaterialModelName::Stvk => "stvk",
             MaterialModelName::NeoHookean => "neo_hookean",
             MaterialModelName::Bilayer => "bilayer",
+            MaterialModelName::TensionField => "tension_field",
         }
     }
 }
@@ -187,6 +191,7 @@ pub fn build(mat: &MaterialSpec) -> Result<Material, EnergyError> {
     let material = match mat.model {
         MaterialModelName::Stvk => single(MaterialModel::StVK),
         MaterialModelName::NeoHookean => single(MaterialModel::NeoHookean),
+        MaterialModelName::TensionField => single(MaterialModel::TensionField),
         MaterialModelName::Bilayer => {
             // Scene validation requires both layers; a missing one is still a typed error.
             let layer = |name: &'static str, l: &Option<LayerSpec>| {

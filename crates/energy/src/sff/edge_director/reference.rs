@@ -5,8 +5,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::{C, DirectorVariant, hinge_blocks, local_to_face};
+use crate::face_stencil::{EdgeAngles, FaceStencil};
 use crate::sff::normals::{add_cross_hess, cross_normal, normalize_hess, normalize_jac, skew};
-use crate::stencil::{EdgeAngles, FaceStencil};
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
 const LOCAL: usize = 13;

@@ -2,8 +2,8 @@
 //! orientation signs for edge-director unknowns) from the mesh topology, built once.
 
 use crate::EnergyError;
+use crate::face_stencil::{EdgeAngles, EdgeClamp, FaceStencil, edge_signs};
 use crate::sff::{fit_quality, fitted_edge_angle};
-use crate::stencil::{EdgeAngles, EdgeClamp, FaceStencil, edge_signs};
 use nalgebra::Vector3;
 use thinshell_mesh::{EdgeId, FaceId, Mesh, VertexId};
 

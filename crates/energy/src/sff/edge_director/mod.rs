@@ -32,8 +32,9 @@
 
 use super::normals::{add_cross_hess, cross_normal, normalize_jac, skew};
 use super::{SecondFundamentalForm, SffDerivatives};
+use crate::face_stencil::{EdgeAngles, EdgeClamp, FaceStencil};
 use crate::material::dual::{Dual1, DualN, Scalar};
-use crate::stencil::{EdgeAngles, EdgeClamp, FaceStencil};
+use crate::real::Real;
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector3};
 
 mod boundary;
@@ -573,8 +574,15 @@ fn local_to_face(i: usize) -> [usize; POS + 1] {
 /// b = −[[II_0 + II_1, II_0], [II_0, II_0 + II_2]].
 #[inline]
 fn form_of(ii: &[f64; 3]) -> Matrix2<f64> {
-    let b12 = -ii[0];
-    Matrix2::new(-(ii[0] + ii[1]), b12, b12, -(ii[0] + ii[2]))
+    let [b11, b12, b22] = b_of_moments(ii);
+    Matrix2::new(b11, b12, b12, b22)
+}
+
+/// b's entries (b11, b12, b22) = −(II_0 + II_1, II_0, II_0 + II_2) over any [`Real`] (the
+/// per-face form and the batched pass).
+#[inline(always)]
+pub(crate) fn b_of_moments<T: Real>(ii: &[T; 3]) -> [T; 3] {
+    [-(ii[0] + ii[1]), -ii[0], -(ii[0] + ii[2])]
 }
 
 impl SecondFundamentalForm<DIRECTOR_DOFS> for EdgeDirector {

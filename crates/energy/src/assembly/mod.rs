@@ -24,18 +24,18 @@
 mod batch;
 mod pattern;
 
+use crate::damping::FaceDamping;
 use crate::dofs::{DofMap, check_len};
 use crate::error::EnergyError;
-use crate::kernel::{
-    EnergyConstants, EnergyTerms, FaceDamping, FaceEval, FaceRest, HessianMode, Terms, Want,
-    eval_face, eval_face_energy,
-};
-use crate::linalg::ProjectPsd;
+use crate::kernel::{FaceEval, FaceRest, Want, eval_face, eval_face_energy};
+use crate::material::EnergyConstants;
 use crate::material::MaterialModel;
+use crate::model::ShellModel;
 use crate::rest::{DampingState, RestState};
 use crate::sff::{EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind};
-use crate::shell::ShellModel;
-use crate::stencils::Stencils;
+use crate::small_matrix::ProjectPsd;
+use crate::stencil_table::Stencils;
+use crate::terms::{EnergyTerms, HessianMode, Terms};
 use faer::sparse::SparseColMat;
 use nalgebra::{SMatrix, Vector3};
 use pattern::{NONE, Pattern, TRANSPOSED, pair};
