@@ -96,11 +96,6 @@ pub mod stvk_quadratic;
 // Private: its types have one public path, the crate root.
 mod terms;
 
-// `contact/` (moving to its own crate, #45) still imports the PSD projection by its old path.
-mod linalg {
-    pub(crate) use crate::small_matrix::project_psd;
-}
-
 pub use assembly::{Assembler, EvalOutput};
 pub use damping::FaceDamping;
 pub use dofs::DofMap;
