@@ -798,6 +798,36 @@ impl Assembler {
         &self.energies
     }
 
+    /// Elastic energy terms (J; stretch and bend, damping 0) of every face at positions `x` (m)
+    /// and edge angles `phi` against `rest`, in face order, with their sum: the one per-face
+    /// energy function (energy maps, `Simulation::face_energies`, `ShellSystem::face_energies`).
+    /// The assembler must be built for `model`'s terms without damping
+    /// ([`ShellModel::elastic`]); errors as [`Assembler::evaluate_with_angles`].
+    ///
+    /// **Edge angles.** With edge unknowns `phi` holds one angle per edge (rad), and an
+    /// **empty `phi` means every φ_e = 0**: the value the angles start at, which a state keeps
+    /// until its first solve (model.md §1.1). A caller that means "the angles that minimise the
+    /// energy at `x`" solves for them and passes them (`ShellSystem::face_energies` does that
+    /// for an empty `phi`). Without edge unknowns `phi` must be empty.
+    pub fn elastic_face_energies(
+        &mut self,
+        model: &ShellModel,
+        x: &[Vector3<f64>],
+        phi: &[f64],
+        rest: &RestState,
+    ) -> Result<(EnergyTerms, &[EnergyTerms]), EnergyError> {
+        let model = model.elastic();
+        let zeros;
+        let phi = if phi.is_empty() && self.has_edge_unknowns() {
+            zeros = vec![0.0; self.n_edges];
+            &zeros[..]
+        } else {
+            phi
+        };
+        let total = self.evaluate_with_angles(&model, x, phi, rest, None, EvalOutput::default())?;
+        Ok((total, &self.energies))
+    }
+
     /// Adds the symmetric part `(B + Bᵀ)/2` of a 9×9 block `B` over face `f`'s three vertices
     /// (dofs `x_i, x_j, x_k`, 3 coordinates each, N/m) to `hessian`'s lower triangle; pinned
     /// coordinates are skipped. For per-face loads such as pressure.

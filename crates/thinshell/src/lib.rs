@@ -12,7 +12,7 @@
 //! load ramps, growth with mass uptake.
 
 pub mod atomic;
-mod face_fields;
+pub mod fields;
 pub mod mesh_info;
 pub mod modes;
 pub mod output;
