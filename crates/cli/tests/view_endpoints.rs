@@ -250,6 +250,8 @@ fn missing_and_malformed_frames_are_named() {
         points: small.positions(),
         point_vectors: vec![],
         cell_scalars: vec![],
+        point_scalars: vec![],
+        cell_vectors: vec![],
     };
     std::fs::write(
         other.join("frame_000002.vtu"),

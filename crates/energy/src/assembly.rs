@@ -23,6 +23,9 @@
 
 mod batch;
 mod pattern;
+mod per_face;
+
+pub use per_face::FaceForms;
 
 use crate::dofs::{DofMap, check_len};
 use crate::error::EnergyError;
@@ -796,36 +799,6 @@ impl Assembler {
     /// Per-face energies (J) of the last evaluation, in face order.
     pub fn face_energies(&self) -> &[EnergyTerms] {
         &self.energies
-    }
-
-    /// Elastic energy terms (J; stretch and bend, damping 0) of every face at positions `x` (m)
-    /// and edge angles `phi` against `rest`, in face order, with their sum: the one per-face
-    /// energy function (energy maps, `Simulation::face_energies`, `ShellSystem::face_energies`).
-    /// The assembler must be built for `model`'s terms without damping
-    /// ([`ShellModel::elastic`]); errors as [`Assembler::evaluate_with_angles`].
-    ///
-    /// **Edge angles.** With edge unknowns `phi` holds one angle per edge (rad), and an
-    /// **empty `phi` means every φ_e = 0**: the value the angles start at, which a state keeps
-    /// until its first solve (model.md §1.1). A caller that means "the angles that minimise the
-    /// energy at `x`" solves for them and passes them (`ShellSystem::face_energies` does that
-    /// for an empty `phi`). Without edge unknowns `phi` must be empty.
-    pub fn elastic_face_energies(
-        &mut self,
-        model: &ShellModel,
-        x: &[Vector3<f64>],
-        phi: &[f64],
-        rest: &RestState,
-    ) -> Result<(EnergyTerms, &[EnergyTerms]), EnergyError> {
-        let model = model.elastic();
-        let zeros;
-        let phi = if phi.is_empty() && self.has_edge_unknowns() {
-            zeros = vec![0.0; self.n_edges];
-            &zeros[..]
-        } else {
-            phi
-        };
-        let total = self.evaluate_with_angles(&model, x, phi, rest, None, EvalOutput::default())?;
-        Ok((total, &self.energies))
     }
 
     /// Adds the symmetric part `(B + Bᵀ)/2` of a 9×9 block `B` over face `f`'s three vertices

@@ -95,7 +95,7 @@ pub mod stencils;
 pub mod stvk_quadratic;
 pub mod terms;
 
-pub use assembly::{Assembler, EvalOutput};
+pub use assembly::{Assembler, EvalOutput, FaceForms};
 pub use damping::FaceDamping;
 pub use dofs::DofMap;
 pub use error::EnergyError;

@@ -95,7 +95,9 @@ impl Frames {
         if let Some(series) = &mut self.vtk {
             let FrameFields {
                 point_vectors,
+                point_scalars,
                 cell_scalars,
+                cell_vectors,
                 missing: m,
             } = self.fields.evaluate(sim);
             missing = m;
@@ -107,6 +109,14 @@ impl Frames {
                     .map(|(name, v)| (*name, v.as_slice()))
                     .collect(),
                 cell_scalars,
+                point_scalars: point_scalars
+                    .iter()
+                    .map(|(name, v)| (*name, v.as_slice()))
+                    .collect(),
+                cell_vectors: cell_vectors
+                    .iter()
+                    .map(|(name, v)| (*name, v.as_slice()))
+                    .collect(),
             };
             series
                 .write(&format!("frame_{step:06}.vtu"), sim.time(), &frame)
