@@ -133,7 +133,8 @@ fn push_shell_fields(fields: &mut FrameFields, sim: &Simulation, faces: &[shell:
         .point_scalars
         .push(("gaussian_curvature", vertex.gaussian));
     let column = |f: fn(&shell::FaceFields) -> f64| faces.iter().map(f).collect::<Vec<f64>>();
-    let cells: [(&'static str, fn(&shell::FaceFields) -> f64); 10] = [
+    type Column = (&'static str, fn(&shell::FaceFields) -> f64);
+    let cells: [Column; 10] = [
         ("principal_curvature_1", |f| f.curvatures[0]),
         ("principal_curvature_2", |f| f.curvatures[1]),
         ("face_mean_curvature", |f| f.mean_curvature()),
