@@ -157,7 +157,7 @@ impl PyScene {
     /// The 64-bit fingerprint of the scene after its overrides, as checkpoints store it.
     #[getter]
     fn scene_hash(&self) -> u64 {
-        thinshell::sim::scene_hash(&self.inner)
+        thinshell::output::scene_hash(&self.inner)
     }
 
     /// The files a simulation of this scene reads (absolute or relative to the working

@@ -240,6 +240,12 @@ impl PySimulation {
             }
             (Some(w), Err(e)) => w.finish(&inner.sim, RunStatus::Failed, Some(e)),
         };
+        if let Some(w) = &mut inner.output {
+            // The writer prints nothing; its notices go to stderr, as the CLI's do.
+            for notice in w.take_notices() {
+                eprintln!("{notice}");
+            }
+        }
         if let Err(f) = written {
             if let Ok(r) = &result {
                 inner.record(r);
@@ -309,7 +315,7 @@ impl PySimulation {
     }
 
     fn scene_hash(&self) -> u64 {
-        thinshell::sim::scene_hash(&self.scene.inner)
+        thinshell::output::scene_hash(&self.scene.inner)
     }
 
     /// Restores checkpoint bytes; `origin` names them in errors.
@@ -339,7 +345,7 @@ impl PySimulation {
         let inner = self.lock()?;
         if inner.sim.is_path_following() {
             return Err(errors::simulation(
-                thinshell::sim::CheckpointError::PathFollowing,
+                thinshell::output::CheckpointError::PathFollowing,
             ));
         }
         let attachment = serde_json::to_vec(&inner.totals)
@@ -372,10 +378,14 @@ impl PySimulation {
             .detach(|| Simulation::build(built))
             .map_err(build_error)?;
         let writer = match &output {
-            Some(dir) => Some(
-                OutputWriter::create(built, &sim, dir, &scene.origin_text())
-                    .map_err(|f| errors::scene(failure_message(f)))?,
-            ),
+            Some(dir) => {
+                let mut w = OutputWriter::create(built, &sim, dir, &scene.origin_text())
+                    .map_err(|f| errors::scene(failure_message(f)))?;
+                for notice in w.take_notices() {
+                    eprintln!("{notice}");
+                }
+                Some(w)
+            }
             None => None,
         };
         Self::build(scene, threads, sim, writer)

@@ -90,15 +90,26 @@ struct Terminal {
     steps_done: Arc<AtomicUsize>,
 }
 
+impl Terminal {
+    /// Prints the writer's notices above the progress bar (or to stderr).
+    fn show_notices(&mut self) {
+        for notice in self.writer.take_notices() {
+            crate::resume::say(self.bar.as_ref(), &notice.to_string());
+        }
+    }
+}
+
 impl Observer for Terminal {
     fn start(&mut self, sim: &Simulation) {
         self.writer.start(sim);
+        self.show_notices();
     }
 
     fn step(&mut self, sim: &Simulation, record: &StepRecord) {
         self.steps_done
             .store(sim.steps_done(), std::sync::atomic::Ordering::Relaxed);
         self.writer.step(sim, record);
+        self.show_notices();
         if let Some(bar) = &self.bar {
             bar.set_position(sim.steps_done() as u64);
             bar.set_message(format!("E = {:.4e} J", record.energy.elastic()));
@@ -138,7 +149,7 @@ pub fn run_with(
     if options.checkpoint_every.is_some() && sim.is_path_following() {
         return Err(Failure::BadInput(format!(
             "--checkpoint-every: {}",
-            thinshell::sim::CheckpointError::PathFollowing
+            thinshell::output::CheckpointError::PathFollowing
         )));
     }
     let dir = out
@@ -200,10 +211,6 @@ fn drive(
         bar,
         steps_done,
     };
-    let notice_bar = terminal.bar.clone();
-    terminal.writer.set_notify(Box::new(move |line| {
-        crate::resume::say(notice_bar.as_ref(), line)
-    }));
     // Ctrl-C also cancels a long Newton solve between its iterations (the step is not taken).
     sim.set_cancel(Some(Arc::clone(stop)));
     let result = sim.run(&mut terminal, stop);
@@ -220,7 +227,11 @@ fn drive(
         Ok(_) => RunStatus::Completed,
         Err(_) => RunStatus::Failed,
     };
-    writer.finish(&sim, status, result.as_ref().err())?;
+    let finished = writer.finish(&sim, status, result.as_ref().err());
+    // The last good state of a failed run is written as a frame, which may have notices.
+    terminal.show_notices();
+    finished?;
+    let writer = &terminal.writer;
     let s = match result {
         Err(e) => {
             return match crate::resume::memory_refusal(&e, &sim) {

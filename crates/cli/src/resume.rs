@@ -29,11 +29,11 @@ pub(crate) fn reopen(
             path.display()
         )));
     }
-    let info = thinshell::sim::read_checkpoint_info(&path).map_err(|e| bad(e.to_string()))?;
+    let info = thinshell::output::read_checkpoint_info(&path).map_err(|e| bad(e.to_string()))?;
     let record: RunRecord = serde_json::from_slice(&info.attachment)
         .map_err(|e| bad(format!("{}: unreadable run record: {e}", path.display())))?;
     let (scene, mut sim) = crate::load::load(&record.scene, &record.overrides)?;
-    let hash = thinshell::sim::scene_hash(&scene);
+    let hash = thinshell::output::scene_hash(&scene);
     sim.restore(&path, hash).map_err(|e| bad(e.to_string()))?;
     let checkpoint_every = checkpoint_every.or_else(|| {
         record

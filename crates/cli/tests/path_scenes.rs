@@ -292,11 +292,11 @@ fn path_runs_refuse_checkpoints_clearly() {
     let sim = Simulation::build(&scene).unwrap();
     let file = temp_dir("path-scene-checkpoint-lib").join("checkpoint.bin");
     let err = sim
-        .save(&file, thinshell::sim::scene_hash(&scene))
+        .save(&file, thinshell::output::scene_hash(&scene))
         .unwrap_err();
     assert!(matches!(
         err,
-        thinshell::sim::CheckpointError::PathFollowing
+        thinshell::output::CheckpointError::PathFollowing
     ));
     assert!(!file.exists());
 }

@@ -648,6 +648,8 @@ fn bench_playback_20k_faces() {
                 ("stretch_density", density.clone()),
                 ("bend_density", density),
             ],
+            point_scalars: vec![],
+            cell_vectors: vec![],
         };
         series
             .write(&format!("frame_{k:06}.vtu"), k as f64 * 1e-3, &frame)

@@ -113,7 +113,17 @@ fn run_list_frames_and_fields() {
             "mean_curvature",
             "gaussian_curvature",
             "stretch_density",
-            "bend_density"
+            "bend_density",
+            "principal_curvature_1",
+            "principal_curvature_2",
+            "face_mean_curvature",
+            "face_gaussian_curvature",
+            "membrane_strain_1",
+            "membrane_strain_2",
+            "stress_resultant_1",
+            "stress_resultant_2",
+            "bending_moment_1",
+            "bending_moment_2"
         ]
     );
     assert_eq!(run["fields"][4]["unit"], "J/m²");
@@ -131,7 +141,8 @@ fn frame_bytes_hold_the_positions_and_fields_of_the_frame() {
     );
     let v = f32s(&r.body);
     let (nv, nf) = (18, 20);
-    assert_eq!(v.len(), 3 * nv + 3 * nv + 2 * nf);
+    // Positions, then displacement, H and K per vertex, then 12 face fields.
+    assert_eq!(v.len(), 3 * nv + 3 * nv + 12 * nf);
     // Positions: those of the OBJ written at the same step (an independent writer).
     let text = std::fs::read(dir.join("frame_000004.obj")).expect("obj");
     let (x, _) = thinshell_mesh::io::read_obj_raw(&text[..]).expect("obj parse");
@@ -147,9 +158,20 @@ fn frame_bytes_hold_the_positions_and_fields_of_the_frame() {
     for (k, p0) in reference.positions().iter().enumerate() {
         assert!((disp[k] as f64 - (x[k] - p0).norm()).abs() <= 1e-6 * (1e-6 + (x[k] - p0).norm()));
     }
+    // Vertex mean curvature is the frame's own array (the viewer computes no curvature).
+    let frame = thinshell_cli::view::frame::read(&dir.join("frame_000004.vtu")).expect("vtu");
+    let h = &frame
+        .vertex_fields
+        .iter()
+        .find(|(k, _)| k == "mean_curvature")
+        .expect("mean_curvature")
+        .1;
+    for (k, h) in h.iter().enumerate() {
+        assert_eq!(v[4 * nv + k], *h as f32);
+    }
     // Energy densities: the bent strip has positive bending energy density; density × rest area
     // sums to the step's bending energy in steps.csv (5 significant digits at f32).
-    let bend = &v[6 * nv + nf..];
+    let bend = &v[6 * nv + nf..6 * nv + 2 * nf];
     assert!(bend.iter().all(|b| *b >= 0.0) && bend.iter().any(|b| *b > 0.0));
     let area = 0.1 * 0.04 / nf as f64;
     let total: f64 = bend.iter().map(|b| *b as f64 * area).sum();
@@ -190,14 +212,12 @@ fn steps_are_read_by_column_name_and_extra_columns_are_kept() {
 }
 
 #[test]
-fn obj_only_runs_have_the_geometric_fields_and_times_from_steps_csv() {
+fn obj_only_runs_have_the_displacement_and_times_from_steps_csv() {
     let viewer = Viewer::load(&[&root().join("obj")]).expect("load");
     let run = &viewer.runs()[0];
     let keys: Vec<&str> = run.fields.iter().map(|f| f.key).collect();
-    assert_eq!(
-        keys,
-        ["displacement", "mean_curvature", "gaussian_curvature"]
-    );
+    // OBJ frames carry no arrays: the displacement (from the first frame) is the one field.
+    assert_eq!(keys, ["displacement"]);
     assert!(run.fields.iter().all(|f| f.location == Location::Vertex));
     let times: Vec<f64> = run.frames.iter().map(|f| f.time).collect();
     assert!(
@@ -206,7 +226,7 @@ fn obj_only_runs_have_the_geometric_fields_and_times_from_steps_csv() {
     );
     let r = viewer.respond("/api/run/0/frame/1");
     assert_eq!(r.status, 200);
-    assert_eq!(r.body.len(), 4 * (3 * 18 + 3 * 18));
+    assert_eq!(r.body.len(), 4 * (3 * 18 + 18));
 }
 
 #[test]
@@ -250,6 +270,8 @@ fn missing_and_malformed_frames_are_named() {
         points: small.positions(),
         point_vectors: vec![],
         cell_scalars: vec![],
+        point_scalars: vec![],
+        cell_vectors: vec![],
     };
     std::fs::write(
         other.join("frame_000002.vtu"),
@@ -317,7 +339,7 @@ fn served_over_http_on_loopback() {
         + 4;
     let head = String::from_utf8_lossy(&frame[..head_end]);
     assert!(
-        head.contains(&format!("Content-Length: {}", 4 * (6 * 18 + 2 * 20))),
+        head.contains(&format!("Content-Length: {}", 4 * (6 * 18 + 12 * 20))),
         "{head}"
     );
     assert!(String::from_utf8_lossy(&get("/api/run/0/frame/x")).starts_with("HTTP/1.1 404"));

@@ -41,6 +41,8 @@ fn vtu_round_trips_points_cells_and_arrays() {
         points: &x,
         point_vectors: vec![("velocity", &v)],
         cell_scalars: vec![("s", (0..mesh.n_faces()).map(|f| f as f64 * 0.1).collect())],
+        point_scalars: vec![],
+        cell_vectors: vec![],
     })
     .unwrap();
     let doc = roxmltree::Document::parse(&text).unwrap();
@@ -78,6 +80,8 @@ fn vtu_round_trips_points_cells_and_arrays() {
         points: &bad,
         point_vectors: vec![],
         cell_scalars: vec![],
+        point_scalars: vec![],
+        cell_vectors: vec![],
     })
     .unwrap_err();
     assert!(matches!(e, VtkError::NonFinite { index: 4, .. }), "{e}");
@@ -93,6 +97,8 @@ fn pvd_lists_exactly_the_frames_written() {
         points: x,
         point_vectors: vec![],
         cell_scalars: vec![],
+        point_scalars: vec![],
+        cell_vectors: vec![],
     };
     let x: &'static [Vector3<f64>] = Box::leak(mesh.positions().to_vec().into_boxed_slice());
     series.write("a.vtu", 0.0, &frame(x)).unwrap();

@@ -96,7 +96,7 @@ pub mod stvk_quadratic;
 // Private: its types have one public path, the crate root.
 mod terms;
 
-pub use assembly::{Assembler, EvalOutput};
+pub use assembly::{Assembler, EvalOutput, FaceForms};
 pub use damping::FaceDamping;
 pub use dofs::DofMap;
 pub use error::EnergyError;

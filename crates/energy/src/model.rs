@@ -23,4 +23,16 @@ impl ShellModel {
     pub fn has_edge_unknowns(&self) -> bool {
         self.sff.director().is_some() && self.terms.bend
     }
+
+    /// This model without its damping term: the elastic energy of one configuration (damping
+    /// needs the previous step's forms and is not an energy of a state).
+    pub fn elastic(&self) -> ShellModel {
+        ShellModel {
+            terms: Terms {
+                damping: false,
+                ..self.terms
+            },
+            ..*self
+        }
+    }
 }

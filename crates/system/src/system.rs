@@ -459,7 +459,9 @@ impl ShellSystem {
     /// Elastic energy terms (J; no damping) of every face, in face order, at positions `x`
     /// and edge angles `phi` (rad, one per edge; empty: the minimising angles at `x`, as in
     /// [`ShellSystem::energy`]); they sum to [`ShellSystem::energy_at`]. For energy maps and
-    /// per-face studies.
+    /// per-face studies. Evaluated by the one per-face energy function,
+    /// [`Assembler::elastic_face_energies`] (which reads an empty `phi` as all 0: this method
+    /// passes it the minimising angles instead).
     pub fn face_energies(
         &mut self,
         x: &[Vector3<f64>],
@@ -503,19 +505,10 @@ impl ShellSystem {
             own = self.assembler_for(&model)?;
             &mut own
         };
-        let e = assembler.evaluate_with_angles(
-            &model,
-            x,
-            phi,
-            &self.rest,
-            None,
-            EvalOutput::default(),
-        )?;
-        let per_face = if faces {
-            assembler.face_energies().to_vec()
-        } else {
-            Vec::new()
-        };
+        // An empty `phi` was resolved to the minimising angles above, so the assembler's own
+        // reading of an empty `phi` (all 0) does not apply here.
+        let (e, per_face) = assembler.elastic_face_energies(&model, x, phi, &self.rest)?;
+        let per_face = if faces { per_face.to_vec() } else { Vec::new() };
         Ok((e, per_face))
     }
 

@@ -85,6 +85,8 @@ pub fn write_modes(dir: &Path, sim: &Simulation, modes: &Modes) -> Result<(), St
                 points: x,
                 point_vectors: vec![("displacement", &zero)],
                 cell_scalars: Vec::new(),
+                point_scalars: vec![],
+                cell_vectors: vec![],
             },
         )
         .map_err(|e| e.to_string())?;
@@ -102,6 +104,8 @@ pub fn write_modes(dir: &Path, sim: &Simulation, modes: &Modes) -> Result<(), St
                     points: &points,
                     point_vectors: vec![("displacement", &d)],
                     cell_scalars: Vec::new(),
+                    point_scalars: vec![],
+                    cell_vectors: vec![],
                 },
             )
             .map_err(|e| e.to_string())?;

@@ -1,12 +1,9 @@
 //! VTK output: one XML UnstructuredGrid (`.vtu`) per frame and a `.pvd` collection indexing them
 //! by time (opens in ParaView; Blender reads the `.vtu` files with an importer).
 //!
-//! Frames are ASCII, positions in m, triangles as VTK cell type 5. Point data: `displacement`
-//! (m, from the reference configuration) and `velocity` (m/s); cell data: the energy densities
-//! `stretch_density` and `bend_density` (J/m², computed in `face_fields.rs`) and the stimulus at the
-//! top and bottom surfaces when the scene has growth; with contact, the point field
-//! `contact_force` (N) and the cell field `contact_gap` (m, the smallest gap of the face's
-//! vertices' contact pairs, capped at d̂). The `.pvd` index is rewritten after every
+//! Frames are ASCII, positions in m, triangles as VTK cell type 5, with named per-vertex and
+//! per-face arrays of scalars and 3-vectors (a run's frames: [`crate::fields`] says which). The
+//! `.pvd` index is rewritten after every
 //! frame through a temporary file and a rename, so an interrupted or failed run always leaves a
 //! valid index of exactly the frames written.
 
@@ -57,6 +54,41 @@ pub struct Frame<'a> {
     pub point_vectors: Vec<(&'a str, &'a [Vector3<f64>])>,
     /// Per-face scalars (name, values).
     pub cell_scalars: Vec<(&'a str, Vec<f64>)>,
+    /// Per-vertex scalars (name, values), written after the point vectors.
+    pub point_scalars: Vec<(&'a str, &'a [f64])>,
+    /// Per-face 3-vectors (name, values), written after the cell scalars.
+    pub cell_vectors: Vec<(&'a str, &'a [Vector3<f64>])>,
+}
+
+impl<'a> Frame<'a> {
+    /// A frame of `mesh` at `points` without arrays.
+    pub fn new(mesh: &'a Mesh, points: &'a [Vector3<f64>]) -> Frame<'a> {
+        Frame {
+            mesh,
+            points,
+            point_vectors: Vec::new(),
+            cell_scalars: Vec::new(),
+            point_scalars: Vec::new(),
+            cell_vectors: Vec::new(),
+        }
+    }
+}
+
+fn check_scalars(name: &str, v: &[f64], n: usize) -> Result<(), VtkError> {
+    if v.len() != n {
+        return Err(VtkError::Length {
+            array: name.into(),
+            expected: n,
+            got: v.len(),
+        });
+    }
+    match v.iter().position(|c| !c.is_finite()) {
+        Some(index) => Err(VtkError::NonFinite {
+            array: name.into(),
+            index,
+        }),
+        None => Ok(()),
+    }
 }
 
 fn check_vectors(name: &str, v: &[Vector3<f64>], n: usize) -> Result<(), VtkError> {
@@ -83,20 +115,14 @@ pub fn vtu_string(frame: &Frame) -> Result<String, VtkError> {
     for (name, v) in &frame.point_vectors {
         check_vectors(name, v, nv)?;
     }
+    for (name, v) in &frame.point_scalars {
+        check_scalars(name, v, nv)?;
+    }
     for (name, v) in &frame.cell_scalars {
-        if v.len() != nf {
-            return Err(VtkError::Length {
-                array: (*name).into(),
-                expected: nf,
-                got: v.len(),
-            });
-        }
-        if let Some(index) = v.iter().position(|c| !c.is_finite()) {
-            return Err(VtkError::NonFinite {
-                array: (*name).into(),
-                index,
-            });
-        }
+        check_scalars(name, v, nf)?;
+    }
+    for (name, v) in &frame.cell_vectors {
+        check_vectors(name, v, nf)?;
     }
     // `write!` into a String cannot fail; the results are ignored on purpose.
     let mut s = String::with_capacity(64 * (nv + nf));
@@ -123,28 +149,42 @@ pub fn vtu_string(frame: &Frame) -> Result<String, VtkError> {
     }
     s.push_str("\n</DataArray>\n</Cells>\n<PointData>\n");
     for (name, v) in &frame.point_vectors {
-        let _ = writeln!(
-            s,
-            "<DataArray type=\"Float64\" Name=\"{name}\" NumberOfComponents=\"3\" format=\"ascii\">"
-        );
-        for p in *v {
-            let _ = writeln!(s, "{:e} {:e} {:e}", p.x, p.y, p.z);
-        }
-        s.push_str("</DataArray>\n");
+        write_vectors(&mut s, name, v);
+    }
+    for (name, v) in &frame.point_scalars {
+        write_scalars(&mut s, name, v);
     }
     s.push_str("</PointData>\n<CellData>\n");
     for (name, v) in &frame.cell_scalars {
-        let _ = writeln!(
-            s,
-            "<DataArray type=\"Float64\" Name=\"{name}\" format=\"ascii\">"
-        );
-        for c in v {
-            let _ = writeln!(s, "{c:e}");
-        }
-        s.push_str("</DataArray>\n");
+        write_scalars(&mut s, name, v);
+    }
+    for (name, v) in &frame.cell_vectors {
+        write_vectors(&mut s, name, v);
     }
     s.push_str("</CellData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n");
     Ok(s)
+}
+
+fn write_vectors(s: &mut String, name: &str, v: &[Vector3<f64>]) {
+    let _ = writeln!(
+        s,
+        "<DataArray type=\"Float64\" Name=\"{name}\" NumberOfComponents=\"3\" format=\"ascii\">"
+    );
+    for p in v {
+        let _ = writeln!(s, "{:e} {:e} {:e}", p.x, p.y, p.z);
+    }
+    s.push_str("</DataArray>\n");
+}
+
+fn write_scalars(s: &mut String, name: &str, v: &[f64]) {
+    let _ = writeln!(
+        s,
+        "<DataArray type=\"Float64\" Name=\"{name}\" format=\"ascii\">"
+    );
+    for c in v {
+        let _ = writeln!(s, "{c:e}");
+    }
+    s.push_str("</DataArray>\n");
 }
 
 fn write_atomic(path: &Path, text: &str) -> Result<(), VtkError> {

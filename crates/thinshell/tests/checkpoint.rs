@@ -6,8 +6,9 @@
 
 use std::path::Path;
 
+use thinshell::output::{CheckpointError, scene_hash};
 use thinshell::scene::Scene;
-use thinshell::sim::{CheckpointError, Simulation, scene_hash};
+use thinshell::sim::Simulation;
 
 fn scene(name: &str, overrides: &[&str]) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -141,7 +141,7 @@ steps = 1
 #[test]
 fn contact_scene_resumes_bit_for_bit() {
     let scene = Scene::load(&data_path("scenes/sheet_on_sphere.toml")).unwrap();
-    let hash = thinshell::sim::scene_hash(&scene);
+    let hash = thinshell::output::scene_hash(&scene);
     let (split, total) = (25, 40);
     let mut straight = Simulation::build(&scene).unwrap();
     for _ in 0..total {

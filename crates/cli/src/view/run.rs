@@ -33,8 +33,10 @@ pub struct Field {
     pub signed: bool,
 }
 
-/// The per-face arrays a VTK frame may carry, in the order the page lists them.
-pub const FACE_FIELDS: [Field; 5] = [
+/// The per-face arrays a VTK frame may carry (`thinshell::fields` computes them; docs/scenes.md
+/// lists them), in the order the page lists them. Curvatures are signed as the frames are:
+/// κ = eigenvalues of −a⁻¹b, positive where the surface bends away from its normal.
+pub const FACE_FIELDS: [Field; 15] = [
     Field {
         key: "stretch_density",
         label: "stretching energy density",
@@ -70,32 +72,105 @@ pub const FACE_FIELDS: [Field; 5] = [
         location: Location::Face,
         signed: false,
     },
-];
-
-/// Fields every run has (computed from the positions).
-pub const VERTEX_FIELDS: [Field; 3] = [
     Field {
-        key: "displacement",
-        label: "displacement magnitude",
-        unit: "m",
-        location: Location::Vertex,
-        signed: false,
+        key: "principal_curvature_1",
+        label: "larger principal curvature κ₁ (per face)",
+        unit: "1/m",
+        location: Location::Face,
+        signed: true,
     },
     Field {
+        key: "principal_curvature_2",
+        label: "smaller principal curvature κ₂ (per face)",
+        unit: "1/m",
+        location: Location::Face,
+        signed: true,
+    },
+    Field {
+        key: "face_mean_curvature",
+        label: "mean curvature (per face)",
+        unit: "1/m",
+        location: Location::Face,
+        signed: true,
+    },
+    Field {
+        key: "face_gaussian_curvature",
+        label: "Gaussian curvature (per face)",
+        unit: "1/m²",
+        location: Location::Face,
+        signed: true,
+    },
+    Field {
+        key: "membrane_strain_1",
+        label: "larger principal membrane strain (Green–Lagrange)",
+        unit: "1",
+        location: Location::Face,
+        signed: true,
+    },
+    Field {
+        key: "membrane_strain_2",
+        label: "smaller principal membrane strain (Green–Lagrange)",
+        unit: "1",
+        location: Location::Face,
+        signed: true,
+    },
+    Field {
+        key: "stress_resultant_1",
+        label: "larger principal membrane stress resultant",
+        unit: "N/m",
+        location: Location::Face,
+        signed: true,
+    },
+    Field {
+        key: "stress_resultant_2",
+        label: "smaller principal membrane stress resultant",
+        unit: "N/m",
+        location: Location::Face,
+        signed: true,
+    },
+    Field {
+        key: "bending_moment_1",
+        label: "larger principal bending moment",
+        unit: "N·m/m",
+        location: Location::Face,
+        signed: true,
+    },
+    Field {
+        key: "bending_moment_2",
+        label: "smaller principal bending moment",
+        unit: "N·m/m",
+        location: Location::Face,
+        signed: true,
+    },
+];
+
+/// The per-vertex arrays a VTK frame may carry, in the order the page lists them.
+pub const VERTEX_FIELDS: [Field; 2] = [
+    Field {
         key: "mean_curvature",
-        label: "mean curvature (cotangent Laplacian)",
+        label: "mean curvature H (per vertex)",
         unit: "1/m",
         location: Location::Vertex,
         signed: true,
     },
     Field {
         key: "gaussian_curvature",
-        label: "Gaussian curvature (angle defect)",
+        label: "Gaussian curvature K (per vertex)",
         unit: "1/m²",
         location: Location::Vertex,
         signed: true,
     },
 ];
+
+/// The displacement magnitude, a field of every run (VTK point data, or from the positions of
+/// OBJ frames).
+pub const DISPLACEMENT: Field = Field {
+    key: "displacement",
+    label: "displacement magnitude",
+    unit: "m",
+    location: Location::Vertex,
+    signed: false,
+};
 
 /// One frame of a run.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -133,11 +208,10 @@ pub struct Run {
     pub faces: Vec<[u32; 3]>,
     /// Vertices per frame.
     pub n_vertices: usize,
-    /// Vertices on the boundary (an edge with one face), where curvature is not defined.
-    pub boundary: Vec<bool>,
     /// Positions of the first frame, m: the reference for displacements of OBJ frames.
     pub first_positions: Vec<[f64; 3]>,
-    /// Colour fields: [`VERTEX_FIELDS`], then the [`FACE_FIELDS`] the first frame has.
+    /// Colour fields: [`DISPLACEMENT`], then the [`VERTEX_FIELDS`] and [`FACE_FIELDS`] the
+    /// first frame has.
     pub fields: Vec<Field>,
     /// `steps.csv`.
     pub steps: Steps,
@@ -311,7 +385,13 @@ impl Run {
             .map_err(|e| format!("{}: the first frame cannot be read: {e}", dir.display()))?;
         let n_vertices = first.positions.len();
         let faces = first.faces.clone();
-        let mut fields = VERTEX_FIELDS.to_vec();
+        let mut fields = vec![DISPLACEMENT];
+        fields.extend(
+            VERTEX_FIELDS
+                .iter()
+                .filter(|f| first.vertex_fields.iter().any(|(k, _)| k == f.key))
+                .cloned(),
+        );
         fields.extend(
             FACE_FIELDS
                 .iter()
@@ -321,7 +401,6 @@ impl Run {
         Ok(Run {
             dir: dir.to_path_buf(),
             name,
-            boundary: frame::boundary_vertices(n_vertices, &faces),
             first_positions: first.positions,
             frames,
             faces,
@@ -365,7 +444,6 @@ impl Run {
         }
         let mut out: Vec<f32> = Vec::with_capacity(3 * self.n_vertices + 4 * self.faces.len());
         out.extend(data.positions.iter().flat_map(|p| p.map(|c| c as f32)));
-        let curvature = frame::curvatures(&data.positions, &self.faces, &self.boundary);
         for field in &self.fields {
             match field.key {
                 "displacement" => {
@@ -376,16 +454,17 @@ impl Run {
                         )),
                     }
                 }
-                "mean_curvature" => out.extend(curvature.mean.iter().map(|&v| v as f32)),
-                "gaussian_curvature" => out.extend(curvature.gaussian.iter().map(|&v| v as f32)),
                 key => {
-                    let values = data
-                        .face_fields
+                    let (arrays, what) = match field.location {
+                        Location::Vertex => (&data.vertex_fields, "point"),
+                        Location::Face => (&data.face_fields, "cell"),
+                    };
+                    let values = arrays
                         .iter()
                         .find(|(k, _)| k == key)
                         .map(|(_, v)| v)
                         .ok_or_else(|| {
-                            format!("cell array {key} is missing (the first frame has it)")
+                            format!("{what} array {key} is missing (the first frame has it)")
                         })?;
                     out.extend(values.iter().map(|&v| v as f32));
                 }

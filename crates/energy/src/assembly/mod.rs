@@ -23,6 +23,9 @@
 
 mod batch;
 mod pattern;
+mod per_face;
+
+pub use per_face::FaceForms;
 
 use crate::damping::FaceDamping;
 use crate::dofs::{DofMap, check_len};

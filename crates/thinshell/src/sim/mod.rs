@@ -14,7 +14,6 @@
 //! ```
 
 mod build;
-mod checkpoint;
 mod describe;
 mod error;
 mod path;
@@ -34,9 +33,6 @@ use thinshell_solver::{IterationHessian, Origin, SolverError, State, StepKind};
 use thinshell_system::{ShellIntegrator, ShellProblem, ShellSystem};
 
 pub use build::SimulationBuilder;
-pub use checkpoint::{
-    CHECKPOINT_VERSION, CheckpointError, CheckpointInfo, read_checkpoint_info, scene_hash,
-};
 pub use error::BuildError;
 pub use path::{Monitor, PathRecord};
 pub use rest_edit::RestEditError;
@@ -168,31 +164,6 @@ impl ContactTotals {
         self.approximated_steps += usize::from(c.approximated_pairs > 0);
         self.pattern_rebuilds = c.pattern_rebuilds;
     }
-}
-
-/// The `steps.csv` columns after the common ones: a path-following run's (see
-/// `path.rs`), then, with the `contact` effect, `contact_pairs`, `contact_min_gap_m` (empty
-/// without active self pairs and obstacles), `contact_energy_J`, `contact_approximated_pairs` and
-/// `contact_pattern_rebuilds`. Empty or starting with a comma.
-pub fn csv_extra_header(sim: &Simulation) -> String {
-    let mut h = path::path_csv_header(sim.is_path_following().then(|| sim.path_monitors()));
-    if sim.system().contact().is_some() {
-        h += ",contact_pairs,contact_min_gap_m,contact_energy_J,contact_approximated_pairs,contact_pattern_rebuilds";
-    }
-    h
-}
-
-/// The values of [`csv_extra_header`]'s columns for one step.
-pub fn csv_extra_row(r: &StepRecord) -> String {
-    let mut row = path::path_csv_row(r.stable, r.path.as_ref());
-    if let Some(c) = &r.contact {
-        let gap = c.min_gap.map(|g| format!("{g:e}")).unwrap_or_default();
-        row += &format!(
-            ",{},{gap},{:e},{},{}",
-            c.active_pairs, c.energy, c.approximated_pairs, c.pattern_rebuilds
-        );
-    }
-    row
 }
 
 impl StepRecord {

@@ -22,10 +22,9 @@ pub struct Monitor {
 }
 
 impl Monitor {
-    /// The `steps.csv` column: `u_<vertex>_<x|y|z>_m`, the displacement (m) of that coordinate
-    /// from the start state.
+    /// The `steps.csv` column ([`crate::output::csv::monitor_column`]).
     pub fn column(&self) -> String {
-        format!("u_{}_{}_m", self.vertex, ["x", "y", "z"][self.axis.min(2)])
+        crate::output::csv::monitor_column(self)
     }
 }
 
@@ -152,49 +151,4 @@ pub(crate) fn build(
         x_start: x.to_vec(),
         started: false,
     })
-}
-
-/// The `steps.csv` columns a path-following run adds after the common ones
-/// ([`crate::output::STEPS_CSV_COLUMNS`]; other runs add none), before contact's: `stable` (1 / 0),
-/// `negative_eigenvalues` (of the Hessian at fixed load; empty where singular),
-/// `load_increment`, `step_length`, `cutbacks`, `potential_J` and one `u_<vertex>_<axis>_m`
-/// per monitored coordinate (`monitors`: `None` for a run that does not follow a path). Empty or
-/// starting with a comma.
-pub(crate) fn path_csv_header(monitors: Option<&[Monitor]>) -> String {
-    let Some(monitors) = monitors else {
-        return String::new();
-    };
-    let mut h = String::from(
-        ",stable,negative_eigenvalues,load_increment,step_length,cutbacks,potential_J",
-    );
-    for m in monitors {
-        h.push(',');
-        h += &m.column();
-    }
-    h
-}
-
-/// The values of [`path_csv_header`]'s columns for one step, from its stability and path record
-/// (`StepRecord::stable`, `StepRecord::path`; empty or starting with a comma).
-pub(crate) fn path_csv_row(stable: Option<bool>, path: Option<&PathRecord>) -> String {
-    let Some(p) = path else {
-        return String::new();
-    };
-    let stable = match stable {
-        Some(true) => "1",
-        Some(false) => "0",
-        None => "",
-    };
-    let negative = p
-        .negative_eigenvalues
-        .map(|n| n.to_string())
-        .unwrap_or_default();
-    let mut row = format!(
-        ",{stable},{negative},{:e},{:e},{},{:e}",
-        p.load_increment, p.step_length, p.cutbacks, p.potential
-    );
-    for u in &p.monitors {
-        row += &format!(",{u:e}");
-    }
-    row
 }

@@ -4,7 +4,7 @@
 //! `set_stimulus` / `face_energies` are these functions.
 
 use nalgebra::Vector3;
-use thinshell_energy::{EnergyError, EnergyTerms, EvalOutput, RestState, ShellModel, Terms};
+use thinshell_energy::{EnergyError, EnergyTerms, RestState};
 use thinshell_growth::{FaceStimulus, GrowthError};
 use thinshell_system::ShellSystem;
 
@@ -134,36 +134,20 @@ fn check_vectors(what: &'static str, v: &[Vector3<f64>], n: usize) -> Result<(),
     }
 }
 
-/// Stretching and bending energy (J) of `x` and edge angles `phi` (empty = all 0) against
+/// Stretching and bending energy (J) of `x` and edge angles `phi` (the state's: empty before
+/// its first solve, meaning all 0 as [`Assembler::elastic_face_energies`] reads it) against
 /// `rest` with `system`'s mesh, model and clamps, in total and per face, without damping (which
 /// needs a previous state).
+///
+/// [`Assembler::elastic_face_energies`]: thinshell_energy::Assembler::elastic_face_energies
 fn elastic_faces(
     system: &ShellSystem,
     rest: &RestState,
     x: &[Vector3<f64>],
     phi: &[f64],
 ) -> Result<(EnergyTerms, Vec<EnergyTerms>), EnergyError> {
-    let model = ShellModel {
-        terms: Terms {
-            damping: false,
-            ..system.model().terms
-        },
-        ..*system.model()
-    };
-    let n_angles = if ShellSystem::has_edge_unknowns_for(&model) {
-        system.mesh().n_edges()
-    } else {
-        0
-    };
-    let zeros;
-    let phi = if phi.is_empty() {
-        zeros = vec![0.0; n_angles];
-        &zeros
-    } else {
-        phi
-    };
+    let model = system.model().elastic();
     let mut assembler = system.assembler_for(&model)?;
-    let total =
-        assembler.evaluate_with_angles(&model, x, phi, rest, None, EvalOutput::default())?;
-    Ok((total, assembler.face_energies().to_vec()))
+    let (total, faces) = assembler.elastic_face_energies(&model, x, phi, rest)?;
+    Ok((total, faces.to_vec()))
 }

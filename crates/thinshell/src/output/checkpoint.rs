@@ -1,5 +1,7 @@
 //! Checkpoints: [`Simulation::save`] writes the whole state a run needs to continue bit for bit,
-//! [`Simulation::restore`] reads it back into a simulation built from the same scene.
+//! [`Simulation::restore`] reads it back into a simulation built from the same scene. A run's
+//! `checkpoint.bin` ([`CHECKPOINT_FILE`], written as often as [`CheckpointEvery`] says) carries
+//! the output writer's [`RunRecord`] as its attachment.
 //!
 //! # Format (version [`CHECKPOINT_VERSION`], little-endian throughout)
 //!
@@ -35,19 +37,102 @@
 //! terms, boundary conditions, settings, the symbolic factorisation), which is why a checkpoint
 //! only restores into a simulation built from the scene with the same hash.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use nalgebra::{Matrix2, Vector3};
+use serde::{Deserialize, Serialize};
 use thinshell_energy::{EnergyTerms, RestState};
 use thinshell_growth::GrowthState;
 use thinshell_solver::{IterationHessian, KeptFactor, RegularizationKind};
 
-use super::Simulation;
+use super::writer::Totals;
 use crate::scene::Scene;
+use crate::sim::Simulation;
 
 /// Version of the checkpoint format this build writes (it also reads version 1, which has no
 /// kept factor).
 pub const CHECKPOINT_VERSION: u32 = 2;
+
+/// Name of the checkpoint file in the output directory.
+pub const CHECKPOINT_FILE: &str = "checkpoint.bin";
+
+/// How often a run writes `checkpoint.bin` (`thinshell run --checkpoint-every`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CheckpointEvery {
+    /// After every N-th step (`--checkpoint-every 100`).
+    Steps(usize),
+    /// After the first step that ends at least this many seconds after the last checkpoint
+    /// (`--checkpoint-every 30s`).
+    Seconds(f64),
+}
+
+impl std::str::FromStr for CheckpointEvery {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let bad = || format!("`{s}`: expected a number of steps (e.g. 100) or seconds (e.g. 30s)");
+        match s.trim().strip_suffix('s') {
+            Some(secs) => match secs.trim().parse::<f64>() {
+                Ok(v) if v.is_finite() && v > 0.0 => Ok(CheckpointEvery::Seconds(v)),
+                _ => Err(bad()),
+            },
+            None => match s.trim().parse::<usize>() {
+                Ok(n) if n > 0 => Ok(CheckpointEvery::Steps(n)),
+                _ => Err(bad()),
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for CheckpointEvery {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CheckpointEvery::Steps(n) => write!(f, "{n}"),
+            CheckpointEvery::Seconds(s) => write!(f, "{s}s"),
+        }
+    }
+}
+
+/// The bookkeeping stored in every checkpoint (JSON in the checkpoint's attachment), so that a
+/// resumed run continues the same files.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RunRecord {
+    /// The scene file (absolute path).
+    pub scene: PathBuf,
+    /// The scene as the user named it (for `summary.json`).
+    pub scene_origin: String,
+    /// Its `--set` overrides.
+    pub overrides: Vec<String>,
+    /// Rows of `steps.csv` after the header at the checkpoint.
+    pub csv_rows: usize,
+    /// Frames counted so far.
+    pub frames: usize,
+    /// Step of the last frame.
+    pub last_frame: Option<usize>,
+    /// The `.pvd` list: time (f64 bit pattern, so that it round-trips exactly) and file.
+    pub pvd: Vec<(u64, String)>,
+    /// Run totals so far.
+    pub totals: Totals,
+    /// The run's `--checkpoint-every`, kept by `resume`.
+    pub checkpoint_every: Option<String>,
+}
+
+impl RunRecord {
+    /// The record of a run that has not started: `scene` (absolute path) with `overrides`,
+    /// named `scene_origin` in `summary.json`.
+    pub fn new(scene: PathBuf, scene_origin: String, overrides: Vec<String>) -> RunRecord {
+        RunRecord {
+            scene,
+            scene_origin,
+            overrides,
+            csv_rows: 0,
+            frames: 0,
+            last_frame: None,
+            pvd: Vec::new(),
+            totals: Totals::default(),
+            checkpoint_every: None,
+        }
+    }
+}
 
 const MAGIC: [u8; 8] = *b"TSHELLCK";
 const HEADER_LEN: usize = 8 + 4 + 8 + 8 + 4;
@@ -696,5 +781,22 @@ impl Simulation {
             kept_factor,
             contact,
         })
+    }
+}
+
+#[cfg(test)]
+mod interval_tests {
+    use super::*;
+
+    #[test]
+    fn checkpoint_intervals_parse_steps_and_seconds() {
+        assert_eq!("100".parse(), Ok(CheckpointEvery::Steps(100)));
+        assert_eq!("30s".parse(), Ok(CheckpointEvery::Seconds(30.0)));
+        assert_eq!("0.5s".parse(), Ok(CheckpointEvery::Seconds(0.5)));
+        for bad in ["0", "-3", "0s", "abc", "s", "infs"] {
+            assert!(bad.parse::<CheckpointEvery>().is_err(), "{bad}");
+        }
+        assert_eq!(CheckpointEvery::Seconds(30.0).to_string(), "30s");
+        assert_eq!(CheckpointEvery::Steps(7).to_string(), "7");
     }
 }

@@ -1,13 +1,6 @@
-//! Run output: what `thinshell run` and the Python package write while a [`Simulation`] runs —
-//! OBJ/VTK frames with `frames.pvd`, `steps.csv` (its common columns from one table,
-//! [`STEPS_CSV_COLUMNS`], then the path-following and contact columns of
-//! [`crate::sim::csv_extra_header`]), `summary.json` (one [`Summary`]), the run [`Totals`] and,
-//! for resumable runs, `checkpoint.bin` with its [`RunRecord`].
-//!
-//! [`OutputWriter`] is the one writer; it is an [`Observer`], so [`Simulation::run`] drives it,
-//! or a caller that steps the simulation itself calls [`OutputWriter::step`] after every step.
-//! The command-line tool (crate `thinshell-cli`) adds the progress bar, Ctrl-C and `resume` on
-//! top of it.
+//! [`OutputWriter`]: a run's `steps.csv` rows ([`super::csv`]), frames (`frames`),
+//! checkpoints ([`super::checkpoint`]) and `summary.json` ([`Summary`], [`Totals`]), with the
+//! [`Notice`]s a caller may want to show (the writer prints nothing).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -16,175 +9,12 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 use thinshell_solver::SolverError;
 
+use super::Failure;
+use super::checkpoint::{CHECKPOINT_FILE, CheckpointEvery, RunRecord, scene_hash};
+use super::csv;
+use super::frames::Frames;
 use crate::scene::Scene;
-use crate::scene::schema::Format;
 use crate::sim::{EnergyTerms, Observer, Simulation, StepError, StepFailure, StepRecord};
-
-/// Why writing a run (or the run itself) failed; the command-line tool maps it to its exit
-/// code.
-#[derive(Debug)]
-pub enum Failure {
-    /// Bad input: scene, mesh, arguments, an output directory that cannot be created (the
-    /// command-line tool's exit code 2).
-    BadInput(String),
-    /// The simulation or its output failed after starting (exit code 1); the last good state
-    /// was written.
-    Simulation(String),
-}
-
-impl std::fmt::Display for Failure {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Failure::BadInput(m) | Failure::Simulation(m) => f.write_str(m),
-        }
-    }
-}
-
-impl std::error::Error for Failure {}
-
-/// Name of the checkpoint file in the output directory.
-pub const CHECKPOINT_FILE: &str = "checkpoint.bin";
-
-/// How often a run writes `checkpoint.bin` (`thinshell run --checkpoint-every`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum CheckpointEvery {
-    /// After every N-th step (`--checkpoint-every 100`).
-    Steps(usize),
-    /// After the first step that ends at least this many seconds after the last checkpoint
-    /// (`--checkpoint-every 30s`).
-    Seconds(f64),
-}
-
-impl std::str::FromStr for CheckpointEvery {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let bad = || format!("`{s}`: expected a number of steps (e.g. 100) or seconds (e.g. 30s)");
-        match s.trim().strip_suffix('s') {
-            Some(secs) => match secs.trim().parse::<f64>() {
-                Ok(v) if v.is_finite() && v > 0.0 => Ok(CheckpointEvery::Seconds(v)),
-                _ => Err(bad()),
-            },
-            None => match s.trim().parse::<usize>() {
-                Ok(n) if n > 0 => Ok(CheckpointEvery::Steps(n)),
-                _ => Err(bad()),
-            },
-        }
-    }
-}
-
-impl std::fmt::Display for CheckpointEvery {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            CheckpointEvery::Steps(n) => write!(f, "{n}"),
-            CheckpointEvery::Seconds(s) => write!(f, "{s}s"),
-        }
-    }
-}
-
-/// One of the common columns of `steps.csv`: its name, whether it is a wall time (those vary
-/// from run to run; every other column is deterministic) and its value in a step's row.
-#[derive(Clone, Copy)]
-pub struct Column {
-    /// The header name (units as a suffix: `_J`, `_s`).
-    pub name: &'static str,
-    /// A wall time (not reproducible between runs).
-    pub timing: bool,
-    /// The cell of one step.
-    pub value: fn(&StepRecord) -> String,
-}
-
-impl std::fmt::Debug for Column {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Column")
-            .field("name", &self.name)
-            .field("timing", &self.timing)
-            .finish()
-    }
-}
-
-macro_rules! column {
-    ($name:literal, $timing:literal, |$r:ident| $value:expr) => {
-        Column {
-            name: $name,
-            timing: $timing,
-            value: |$r: &StepRecord| $value,
-        }
-    };
-}
-
-/// The common columns of `steps.csv`, in order: the one table that names them and formats their
-/// cells. Floats are written with `{:e}` (round-trip exact). `wall_s` = `assembly_s +
-/// factorization_s + solve_s + line_search_s + growth_s + output_s + other_s`.
-pub const STEPS_CSV_COLUMNS: [Column; 24] = [
-    column!("step", false, |r| r.step.to_string()),
-    column!("time_s", false, |r| format!("{:e}", r.time)),
-    column!("stretch_J", false, |r| format!("{:e}", r.energy.stretch)),
-    column!("bend_J", false, |r| format!("{:e}", r.energy.bend)),
-    column!("damping_J", false, |r| format!("{:e}", r.energy.damping)),
-    column!("kinetic_J", false, |r| format!("{:e}", r.kinetic)),
-    column!("newton_iterations", false, |r| r
-        .newton_iterations
-        .to_string()),
-    column!("backtracks", false, |r| r.backtracks.to_string()),
-    column!("regularizations", false, |r| r.regularizations.to_string()),
-    column!("residual", false, |r| format!("{:e}", r.residual)),
-    column!("wall_s", true, |r| format!("{:e}", r.wall_s)),
-    column!("assembly_s", true, |r| format!("{:e}", r.assembly_s)),
-    column!("factorization_s", true, |r| format!(
-        "{:e}",
-        r.factorization_s
-    )),
-    column!("solve_s", true, |r| format!("{:e}", r.solve_s)),
-    column!("load_factor", false, |r| r.load_factor.to_string()),
-    column!("line_search_s", true, |r| format!("{:e}", r.line_search_s)),
-    column!("growth_s", true, |r| format!("{:e}", r.growth_s)),
-    column!("output_s", true, |r| format!("{:e}", r.output_s)),
-    column!("other_s", true, |r| format!("{:e}", r.other_s)),
-    column!("gauss_newton_iterations", false, |r| r
-        .gauss_newton_iterations
-        .to_string()),
-    column!("shifted_iterations", false, |r| r
-        .shifted_iterations
-        .to_string()),
-    column!("negative_curvature_iterations", false, |r| r
-        .negative_curvature_iterations
-        .to_string()),
-    column!("rejected_steps", false, |r| r.rejected_steps.to_string()),
-    column!("min_eigenvalue", false, |r| r
-        .min_eigenvalue
-        .map(|v| format!("{v:e}"))
-        .unwrap_or_default()),
-];
-
-/// The common part of `steps.csv`'s header (the names of [`STEPS_CSV_COLUMNS`]).
-pub fn steps_csv_header() -> String {
-    STEPS_CSV_COLUMNS.map(|c| c.name).join(",")
-}
-
-/// The names of the common columns that are wall times.
-pub fn steps_csv_timing_columns() -> Vec<&'static str> {
-    STEPS_CSV_COLUMNS
-        .iter()
-        .filter(|c| c.timing)
-        .map(|c| c.name)
-        .collect()
-}
-
-/// The full header of `sim`'s `steps.csv` (common columns, then path following and contact).
-fn full_header(sim: &Simulation) -> String {
-    format!(
-        "{}{}",
-        steps_csv_header(),
-        crate::sim::csv_extra_header(sim)
-    )
-}
-
-/// One row of `steps.csv` (no newline).
-fn steps_csv_row(r: &StepRecord) -> String {
-    let mut row = STEPS_CSV_COLUMNS.map(|c| (c.value)(r)).join(",");
-    row += &crate::sim::csv_extra_row(r);
-    row
-}
 
 /// Totals over a whole run, across resumes (what `summary.json` reports).
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
@@ -299,50 +129,58 @@ pub fn residual_history(e: &StepError) -> Option<Vec<f64>> {
     }
 }
 
-/// The bookkeeping stored in every checkpoint (JSON in the checkpoint's attachment), so that a
-/// resumed run continues the same files.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct RunRecord {
-    /// The scene file (absolute path).
-    pub scene: PathBuf,
-    /// The scene as the user named it (for `summary.json`).
-    pub scene_origin: String,
-    /// Its `--set` overrides.
-    pub overrides: Vec<String>,
-    /// Rows of `steps.csv` after the header at the checkpoint.
-    pub csv_rows: usize,
-    /// Frames counted so far.
-    pub frames: usize,
-    /// Step of the last frame.
-    pub last_frame: Option<usize>,
-    /// The `.pvd` list: time (f64 bit pattern, so that it round-trips exactly) and file.
-    pub pvd: Vec<(u64, String)>,
-    /// Run totals so far.
-    pub totals: Totals,
-    /// The run's `--checkpoint-every`, kept by `resume`.
-    pub checkpoint_every: Option<String>,
+/// Something the writer noticed that its caller may want to show (the command-line tool prints
+/// it as one line: its [`Display`](std::fmt::Display)); collected by
+/// [`OutputWriter::take_notices`]. None of them is an error of the run.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Notice {
+    /// The Cholesky factor did not fit in the memory budget: Newton solves use preconditioned
+    /// CG from this step on (given once per writer).
+    IterativeFallback {
+        /// The first step that used it.
+        step: usize,
+        /// CG iterations of that step.
+        cg_iterations: usize,
+    },
+    /// A static step's equilibrium is not a minimum (the exact Hessian is not positive
+    /// definite).
+    Unstable {
+        /// The step.
+        step: usize,
+    },
+    /// A frame was written without some of its fields.
+    FieldsMissing {
+        /// The frame's step.
+        step: usize,
+        /// Why, and which fields.
+        reason: String,
+    },
 }
 
-impl RunRecord {
-    /// The record of a run that has not started: `scene` (absolute path) with `overrides`,
-    /// named `scene_origin` in `summary.json`.
-    pub fn new(scene: PathBuf, scene_origin: String, overrides: Vec<String>) -> RunRecord {
-        RunRecord {
-            scene,
-            scene_origin,
-            overrides,
-            csv_rows: 0,
-            frames: 0,
-            last_frame: None,
-            pvd: Vec::new(),
-            totals: Totals::default(),
-            checkpoint_every: None,
+impl std::fmt::Display for Notice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Notice::IterativeFallback {
+                step,
+                cg_iterations,
+            } => write!(
+                f,
+                "notice: step {step}: the Cholesky factor does not fit in the memory budget; \
+                 Newton solves use preconditioned CG ({cg_iterations} CG iterations in this \
+                 step; convergence is checked as usual)"
+            ),
+            Notice::Unstable { step } => write!(
+                f,
+                "warning: step {step}: the equilibrium is not a minimum (the exact Hessian is \
+                 not positive definite: a saddle, unstable under perturbation)"
+            ),
+            Notice::FieldsMissing { step, reason } => {
+                write!(f, "warning: frame at step {step}: {reason}")
+            }
         }
     }
 }
-
-/// A sink for the writer's one-line notices (the iterative fallback, an unstable equilibrium).
-pub type Notify = Box<dyn Fn(&str) + Send + Sync>;
 
 /// Writes a run's outputs (the scene's `[output]`: OBJ/VTK frames with `frames.pvd`,
 /// `steps.csv`, `summary.json`, and `checkpoint.bin` when asked) while a [`Simulation`] runs.
@@ -355,16 +193,9 @@ pub type Notify = Box<dyn Fn(&str) + Send + Sync>;
 pub struct OutputWriter {
     dir: PathBuf,
     every: usize,
-    obj: bool,
-    vtk: Option<crate::vtk::Series>,
+    frames: Frames,
     csv: std::io::BufWriter<std::fs::File>,
     error: Option<String>,
-    frames: usize,
-    /// The step of the last frame counted, so that rewriting it (the failure path writes the
-    /// last good state, which may already be a frame) does not count it twice.
-    last_frame: Option<usize>,
-    /// Built at the first VTK frame.
-    densities: Option<crate::face_fields::FaceEnergyDensity>,
     /// Rows of `steps.csv` written (after the header).
     csv_rows: usize,
     /// The notice that Newton solves fell back to CG has been given.
@@ -385,7 +216,8 @@ pub struct OutputWriter {
     resumed: bool,
     /// The scene as the user named it (`summary.json`).
     scene_origin: String,
-    notify: Notify,
+    /// Notices not yet taken by the caller.
+    notices: Vec<Notice>,
 }
 
 impl OutputWriter {
@@ -434,7 +266,7 @@ impl OutputWriter {
         let mut csv = std::io::BufWriter::new(
             std::fs::File::create(&csv_path).map_err(|e| io(e, &csv_path))?,
         );
-        writeln!(csv, "{}", full_header(sim)).map_err(|e| io(e, &csv_path))?;
+        writeln!(csv, "{}", csv::header(sim)).map_err(|e| io(e, &csv_path))?;
         Ok(OutputWriter::with_csv(
             scene,
             dir,
@@ -461,7 +293,7 @@ impl OutputWriter {
         let io = |e: std::io::Error| bad(format!("{}: {e}", csv_path.display()));
         let text = std::fs::read_to_string(&csv_path).map_err(io)?;
         let mut lines = text.lines();
-        let header = full_header(sim);
+        let header = csv::header(sim);
         if lines.next() != Some(header.as_str()) {
             return Err(bad(format!(
                 "{}: not the steps.csv of this version (header differs)",
@@ -509,46 +341,32 @@ impl OutputWriter {
         resumed: bool,
     ) -> OutputWriter {
         let output = &scene.file.output;
-        let vtk = output.formats.contains(&Format::Vtk).then(|| {
-            let mut s = crate::vtk::Series::new(dir, "frames");
-            s.set_entries(
-                record
-                    .pvd
-                    .iter()
-                    .map(|(t, f)| (f64::from_bits(*t), f.clone()))
-                    .collect(),
-            );
-            s
-        });
         OutputWriter {
             dir: dir.to_path_buf(),
             every: output.every,
-            obj: output.formats.contains(&Format::Obj),
-            vtk,
+            frames: Frames::new(dir, output, record.frames, record.last_frame, &record.pvd),
             csv,
             error: None,
-            densities: None,
-            frames: record.frames,
-            last_frame: record.last_frame,
             csv_rows: record.csv_rows,
             iterative_noticed: false,
             unstable_path_noticed: false,
             totals: record.totals,
             checkpoint_every,
-            scene_hash: crate::sim::scene_hash(scene),
+            scene_hash: scene_hash(scene),
             scene_path: record.scene,
             overrides: record.overrides,
             last_checkpoint: Instant::now(),
             pending_output: 0.0,
             resumed,
             scene_origin: record.scene_origin,
-            notify: Box::new(|line| eprintln!("{line}")),
+            notices: Vec::new(),
         }
     }
 
-    /// Where the one-line notices go (default: stderr).
-    pub fn set_notify(&mut self, notify: Notify) {
-        self.notify = notify;
+    /// The notices collected since the last call, oldest first (the writer prints nothing:
+    /// the command-line tool shows them as lines above its progress bar).
+    pub fn take_notices(&mut self) -> Vec<Notice> {
+        std::mem::take(&mut self.notices)
     }
 
     /// The output directory.
@@ -565,80 +383,13 @@ impl OutputWriter {
         if self.error.is_some() {
             return;
         }
-        let step = sim.steps_done();
-        if self.obj {
-            let path = self.dir.join(format!("frame_{step:06}.obj"));
-            let mut text = Vec::new();
-            if let Err(e) = thinshell_mesh::io::write_obj(sim.mesh(), sim.positions(), &mut text)
-                .map_err(|e| e.to_string())
-                .and_then(|_| crate::atomic::write_atomic(&path, &text).map_err(|e| e.to_string()))
-            {
-                self.error = Some(format!("{}: {e}", path.display()));
-                return;
-            }
-        }
-        if let Some(series) = &mut self.vtk {
-            let displacement: Vec<_> = sim
-                .positions()
-                .iter()
-                .zip(sim.reference_positions())
-                .map(|(x, x0)| x - x0)
-                .collect();
-            let mut cell_scalars = Vec::new();
-            // Per-face energy densities (J/m²) for energy maps (`thinshell view`).
-            let densities = match self.densities.take() {
-                Some(d) => Ok(d),
-                None => crate::face_fields::FaceEnergyDensity::new(sim),
-            }
-            .and_then(|mut d| {
-                let values = d.evaluate(sim);
-                self.densities = Some(d);
-                values
-            });
-            match densities {
-                Ok(d) => {
-                    cell_scalars.push(("stretch_density", d.stretch));
-                    cell_scalars.push(("bend_density", d.bend));
-                }
-                // Not fatal: the frame (the last good state after a failure, say) is still
-                // worth writing; the viewer names the frame that lacks the arrays.
-                Err(e) => eprintln!(
-                    "warning: frame at step {step}: {e}; written without energy densities"
-                ),
-            }
-            if let Some(g) = sim.growth() {
-                cell_scalars.push(("stimulus_top", g.stimulus().iter().map(|m| m.top).collect()));
-                cell_scalars.push((
-                    "stimulus_bottom",
-                    g.stimulus().iter().map(|m| m.bottom).collect(),
-                ));
-            }
-            let contact_force = sim.system().contact().map(|c| c.forces(sim.positions()));
-            if let Some(c) = sim.system().contact() {
-                // Per-face smallest contact gap (m, capped at d̂) for `thinshell view`.
-                cell_scalars.push(("contact_gap", c.face_gaps(sim.positions())));
-            }
-            let mut point_vectors = vec![
-                ("displacement", displacement.as_slice()),
-                ("velocity", sim.velocities()),
-            ];
-            if let Some(f) = &contact_force {
-                point_vectors.push(("contact_force", f));
-            }
-            let frame = crate::vtk::Frame {
-                mesh: sim.mesh(),
-                points: sim.positions(),
-                point_vectors,
-                cell_scalars,
-            };
-            if let Err(e) = series.write(&format!("frame_{step:06}.vtu"), sim.time(), &frame) {
-                self.error = Some(e.to_string());
-                return;
-            }
-        }
-        if (self.obj || self.vtk.is_some()) && self.last_frame != Some(step) {
-            self.frames += 1;
-            self.last_frame = Some(step);
+        match self.frames.write(sim) {
+            Ok(None) => {}
+            Ok(Some(reason)) => self.notices.push(Notice::FieldsMissing {
+                step: sim.steps_done(),
+                reason,
+            }),
+            Err(e) => self.error = Some(e),
         }
     }
 
@@ -649,18 +400,9 @@ impl OutputWriter {
             scene_origin: self.scene_origin.clone(),
             overrides: self.overrides.clone(),
             csv_rows: self.csv_rows,
-            frames: self.frames,
-            last_frame: self.last_frame,
-            pvd: self
-                .vtk
-                .as_ref()
-                .map(|s| {
-                    s.entries()
-                        .iter()
-                        .map(|(t, f)| (t.to_bits(), f.clone()))
-                        .collect()
-                })
-                .unwrap_or_default(),
+            frames: self.frames.count(),
+            last_frame: self.frames.last(),
+            pvd: self.frames.pvd(),
             totals: self.totals.clone(),
             checkpoint_every: self.checkpoint_every.map(|c| c.to_string()),
         }
@@ -716,7 +458,7 @@ impl OutputWriter {
         }
         r.add_output(t.elapsed().as_secs_f64());
         self.totals.add(&r);
-        let mut row = steps_csv_row(&r);
+        let mut row = csv::row(&r);
         row.push('\n');
         if let Err(e) = self
             .csv
@@ -731,30 +473,13 @@ impl OutputWriter {
         }
         if r.iterative && !self.iterative_noticed {
             self.iterative_noticed = true;
-            (self.notify)(&format!(
-                "notice: step {}: the Cholesky factor does not fit in the memory budget; Newton \
-                 solves use preconditioned CG ({} CG iterations in this step; convergence is \
-                 checked as usual)",
-                r.step, r.cg_iterations
-            ));
+            self.notices.push(Notice::IterativeFallback {
+                step: r.step,
+                cg_iterations: r.cg_iterations,
+            });
         }
-        if r.stable == Some(false) && sim.is_path_following() {
-            // Tracing a path past a limit point is asked for: its unstable branch is
-            // information (each point's stability is in steps.csv), said once.
-            if !self.unstable_path_noticed {
-                self.unstable_path_noticed = true;
-                (self.notify)(&format!(
-                    "note: step {}: the traced path continues through unstable equilibria \
-                     (saddles, as past a limit point); steps.csv's `stable` column has each point",
-                    r.step
-                ));
-            }
-        } else if r.stable == Some(false) {
-            (self.notify)(&format!(
-                "warning: step {}: the equilibrium is not a minimum (the exact Hessian is not \
-                 positive definite: a saddle, unstable under perturbation)",
-                r.step
-            ));
+        if r.stable == Some(false) {
+            self.notices.push(Notice::Unstable { step: r.step });
         }
     }
 
@@ -772,7 +497,7 @@ impl OutputWriter {
             .map_err(|e| Failure::Simulation(format!("writing output: steps.csv: {e}")))?;
         if failed.is_some() {
             // The last good state, for inspection.
-            self.obj = true;
+            self.frames.add_obj();
             self.frame(sim);
         }
         let summary = Summary {
@@ -786,7 +511,7 @@ impl OutputWriter {
             steps_requested: sim.steps_total(),
             time_s: sim.time(),
             energy: sim.energy(),
-            frames: self.frames,
+            frames: self.frames.count(),
             load_factor: sim.load_factor(),
             totals: self.totals.clone(),
         };
@@ -816,44 +541,5 @@ impl Observer for OutputWriter {
 
     fn step(&mut self, sim: &Simulation, record: &StepRecord) {
         OutputWriter::step(self, sim, record);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn checkpoint_intervals_parse_steps_and_seconds() {
-        assert_eq!("100".parse(), Ok(CheckpointEvery::Steps(100)));
-        assert_eq!("30s".parse(), Ok(CheckpointEvery::Seconds(30.0)));
-        assert_eq!("0.5s".parse(), Ok(CheckpointEvery::Seconds(0.5)));
-        for bad in ["0", "-3", "0s", "abc", "s", "infs"] {
-            assert!(bad.parse::<CheckpointEvery>().is_err(), "{bad}");
-        }
-        assert_eq!(CheckpointEvery::Seconds(30.0).to_string(), "30s");
-        assert_eq!(CheckpointEvery::Steps(7).to_string(), "7");
-    }
-
-    /// The header as it was written out by hand before the table (the format readers rely on).
-    #[test]
-    fn the_column_table_gives_the_documented_header() {
-        assert_eq!(
-            steps_csv_header(),
-            "step,time_s,stretch_J,bend_J,damping_J,kinetic_J,newton_iterations,backtracks,regularizations,residual,wall_s,assembly_s,factorization_s,solve_s,load_factor,line_search_s,growth_s,output_s,other_s,gauss_newton_iterations,shifted_iterations,negative_curvature_iterations,rejected_steps,min_eigenvalue"
-        );
-        assert_eq!(
-            steps_csv_timing_columns(),
-            [
-                "wall_s",
-                "assembly_s",
-                "factorization_s",
-                "solve_s",
-                "line_search_s",
-                "growth_s",
-                "output_s",
-                "other_s"
-            ]
-        );
     }
 }
