@@ -107,7 +107,7 @@ impl FieldEvaluator {
                 stimulus.iter().map(|m| m.bottom).collect(),
             ));
         }
-        if let Some(c) = &sim.system().contact {
+        if let Some(c) = sim.system().contact() {
             fields
                 .cell_scalars
                 .push(("contact_gap", c.face_gaps(sim.positions())));
@@ -190,7 +190,7 @@ impl ElasticEval {
     /// The values at `sim`'s current state (its edge angles: empty before the first solve,
     /// all 0 then, as the assembler reads them).
     fn evaluate(&mut self, sim: &Simulation) -> Result<ShellValues, String> {
-        let rest = &sim.system().rest;
+        let rest = sim.system().rest();
         let (x, phi) = (sim.positions(), sim.edge_angles());
         let (_, energies) = self
             .assembler
@@ -251,7 +251,7 @@ mod tests {
         let mut sim = Simulation::build(&scene)?;
         sim.step()?;
         let d = ElasticEval::new(&sim)?.evaluate(&sim)?;
-        let rest = &sim.system().rest;
+        let rest = sim.system().rest();
         let area = |a: &nalgebra::Matrix2<f64>| 0.5 * a.determinant().sqrt();
         let s: f64 = d
             .stretch

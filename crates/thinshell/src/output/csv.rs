@@ -141,7 +141,7 @@ pub fn header(sim: &Simulation) -> String {
             h += &monitor_column(m);
         }
     }
-    if sim.system().contact.is_some() {
+    if sim.system().contact().is_some() {
         for c in CONTACT_COLUMNS {
             h.push(',');
             h.push_str(c);

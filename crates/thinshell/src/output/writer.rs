@@ -149,6 +149,12 @@ pub enum Notice {
         /// The step.
         step: usize,
     },
+    /// A traced path (`[path]`) continues through unstable equilibria, as it does past a limit
+    /// point: information, said once per run (each point's stability is in `steps.csv`).
+    UnstableBranch {
+        /// The first unstable point's step.
+        step: usize,
+    },
     /// A frame was written without some of its fields.
     FieldsMissing {
         /// The frame's step.
@@ -174,6 +180,11 @@ impl std::fmt::Display for Notice {
                 f,
                 "warning: step {step}: the equilibrium is not a minimum (the exact Hessian is \
                  not positive definite: a saddle, unstable under perturbation)"
+            ),
+            Notice::UnstableBranch { step } => write!(
+                f,
+                "note: step {step}: the traced path continues through unstable equilibria \
+                 (saddles, as past a limit point); steps.csv's `stable` column has each point"
             ),
             Notice::FieldsMissing { step, reason } => {
                 write!(f, "warning: frame at step {step}: {reason}")
@@ -478,7 +489,14 @@ impl OutputWriter {
                 cg_iterations: r.cg_iterations,
             });
         }
-        if r.stable == Some(false) {
+        if r.stable == Some(false) && sim.is_path_following() {
+            // Tracing a path past a limit point is asked for: its unstable branch is
+            // information, said once.
+            if !self.unstable_path_noticed {
+                self.unstable_path_noticed = true;
+                self.notices.push(Notice::UnstableBranch { step: r.step });
+            }
+        } else if r.stable == Some(false) {
             self.notices.push(Notice::Unstable { step: r.step });
         }
     }
