@@ -14,13 +14,14 @@
 
 mod dense;
 mod error;
+mod multifrontal;
 mod regularise;
 mod split;
 mod symbolic;
 
 use std::time::{Duration, Instant};
 
-use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltError as DenseLltError;
 use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, SymbolicCholeskyRaw};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
@@ -28,6 +29,7 @@ use faer::{Conj, MatMut, Par, Side};
 
 use crate::SolverError;
 use crate::ordering::Ordering;
+use multifrontal::Plan;
 use split::SplitFactor;
 
 pub use error::FactorError;
@@ -84,6 +86,9 @@ enum Engine {
     /// One faer supernodal factorisation, sequential.
     Whole {
         symbolic: SymbolicCholesky<usize>,
+        /// The multifrontal driver ([`multifrontal`]); `None`: faer's (a simplicial symbolic
+        /// factor, or [`SparseCholesky::use_faer_driver`]).
+        multifrontal: Option<Multifrontal>,
         l_values: Vec<f64>,
         factor_mem: MemBuffer,
         solve_mem: MemBuffer,
@@ -159,18 +164,34 @@ impl SparseCholesky {
                 (Engine::Split(Box::new(f)), estimate)
             }
             None => {
-                let factor_req =
-                    symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
+                let multifrontal = Multifrontal::new(&symbolic, pattern);
+                let factor_req = symbolic
+                    .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
+                    .or(multifrontal.as_ref().map_or(StackReq::EMPTY, |m| m.scratch()));
                 let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
+                let stack = multifrontal.as_ref().map_or(0, |m| m.plan.stack_len());
+                check_budget(
+                    symbolic.nrows(),
+                    factor_memory_estimate(
+                        factor_len + stack,
+                        factor_req.size_bytes(),
+                        solve_req.size_bytes(),
+                    ),
+                )?;
                 let (factor_mem, solve_mem, estimate) = scratch(&symbolic, factor_req, solve_req)?;
+                let multifrontal = multifrontal.map(|mut m| {
+                    m.stack = vec![0.0; stack];
+                    m
+                });
                 (
                     Engine::Whole {
                         l_values: vec![0.0; factor_len],
                         symbolic,
+                        multifrontal,
                         factor_mem,
                         solve_mem,
                     },
-                    estimate,
+                    estimate + (stack * std::mem::size_of::<f64>()) as u64,
                 )
             }
         };
@@ -218,6 +239,26 @@ impl SparseCholesky {
         same_pattern(h, &self.col_ptr, &self.row_idx).map_err(FactorError::Other)?;
         match &mut self.engine {
             Engine::Whole {
+                multifrontal: Some(m),
+                l_values,
+                factor_mem,
+                ..
+            } => {
+                l_values.fill(0.0);
+                for (&dst, &v) in m.map.iter().zip(h.val()) {
+                    l_values[dst] = v;
+                }
+                let stop = m.plan.len();
+                multifrontal::factorize(
+                    &m.plan,
+                    l_values,
+                    &mut m.stack,
+                    stop,
+                    MemStack::new(factor_mem),
+                )
+                .map_err(|pivot| FactorError::NotPositiveDefinite { pivot })?;
+            }
+            Engine::Whole {
                 symbolic,
                 l_values,
                 factor_mem,
@@ -244,6 +285,16 @@ impl SparseCholesky {
         }
         self.factorized = true;
         Ok(())
+    }
+
+    /// Makes an unsplit factorisation use faer's left-looking supernodal driver instead of the
+    /// multifrontal one (for measurements against it; no effect on a split factorisation).
+    #[doc(hidden)]
+    pub fn use_faer_driver(&mut self) {
+        if let Engine::Whole { multifrontal, .. } = &mut self.engine {
+            *multifrontal = None;
+        }
+        self.factorized = false;
     }
 
     /// Whether the factorisation is split at the top-level dissection (described at
@@ -287,6 +338,57 @@ impl SparseCholesky {
             Engine::Split(f) => f.solve_in_place(rhs),
         }
         Ok(())
+    }
+}
+
+/// The multifrontal driver's schedule, the positions of the matrix's entries in the factor and
+/// the update stack.
+struct Multifrontal {
+    plan: Plan,
+    /// Offset in the factor's values of each stored entry of the (unpermuted) matrix.
+    map: Vec<usize>,
+    stack: Vec<f64>,
+}
+
+impl Multifrontal {
+    /// `None` for a simplicial symbolic factor (or a supernodal one the plan does not accept).
+    fn new(
+        symbolic: &SymbolicCholesky<usize>,
+        pattern: SymbolicSparseColMatRef<'_, usize>,
+    ) -> Option<Multifrontal> {
+        let SymbolicCholeskyRaw::Supernodal(sn) = symbolic.raw() else {
+            return None;
+        };
+        let plan = Plan::new(sn)?;
+        let identity: Vec<usize>;
+        let inv = match symbolic.perm() {
+            Some(p) => p.arrays().1,
+            None => {
+                identity = (0..pattern.ncols()).collect();
+                &identity
+            }
+        };
+        let mut map = Vec::with_capacity(pattern.row_idx().len());
+        for j in 0..pattern.ncols() {
+            for &i in pattern.row_idx_of_col_raw(j) {
+                let (a, b) = (inv[i], inv[j]);
+                map.push(plan.position(a.max(b), a.min(b))?);
+            }
+        }
+        Some(Multifrontal {
+            plan,
+            map,
+            stack: Vec::new(),
+        })
+    }
+
+    /// faer's dense Cholesky scratch for the widest supernode.
+    fn scratch(&self) -> StackReq {
+        faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
+            self.plan.max_width(),
+            Par::Seq,
+            Default::default(),
+        )
     }
 }
 

@@ -15,10 +15,11 @@ use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
     factorize_symbolic_cholesky,
 };
-use faer::sparse::{SparseColMat, SymbolicSparseColMat, SymbolicSparseColMatRef};
+use faer::sparse::{SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Accum, Conj, Mat, MatMut, Par, Side};
 
 use super::dense::{self, cholesky_blocked};
+use super::multifrontal::{self, Plan};
 use super::error::FactorError;
 use crate::SolverError;
 use crate::ordering::inverse_permutation;
@@ -78,9 +79,11 @@ pub(super) struct SplitFactor {
 /// only).
 struct Half {
     symbolic: SymbolicCholesky<usize>,
-    /// `M` with zeros in the tail's columns (`tail..`).
-    matrix: SparseColMat<usize, f64>,
-    /// (position in `h`'s value array, position in `matrix`'s), columns before the tail.
+    /// The multifrontal schedule of `symbolic`.
+    plan: Plan,
+    /// The multifrontal update stack.
+    stack: Vec<f64>,
+    /// (position in `h`'s value array, position in `l_values`), columns before the tail.
     scatter: Vec<(usize, usize)>,
     /// (position in `h`'s value array, row, column in the tail block): the entries of the
     /// tail's columns of `X` (those of `S × S` are added once, to the Schur complement).
@@ -172,30 +175,37 @@ impl Half {
         if tail > first {
             return Ok(None);
         }
+        let Some(plan) = Plan::new(sn) else {
+            return Ok(None);
+        };
         let mut scatter = Vec::new();
         let mut tail_scatter = Vec::new();
-        for (q, &(col, row, p)) in entries.iter().enumerate() {
+        for &(col, row, p) in &entries {
             if col < tail {
+                let Some(q) = plan.position(row, col) else {
+                    return Ok(None);
+                };
                 scatter.push((p, q));
             } else if col < first {
                 tail_scatter.push((p, row - tail, col - tail));
             }
         }
         let factor_mem = MemBuffer::try_new(
-            faer::sparse::linalg::cholesky::supernodal::factorize_supernodal_numeric_llt_scratch::<
-                usize,
-                f64,
-            >(sn, Par::Seq, Default::default()),
+            faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
+                plan.max_width().max(m),
+                Par::Seq,
+                Default::default(),
+            ),
         )
         .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
         let solve_mem = MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq))
             .map_err(|_| SolverError::Linear("out of memory for solve scratch".into()))?;
         let tail_offset = sn.col_ptr_for_val()[last];
-        let nnz = structure.row_idx().len();
         Ok(Some(Half {
             l_values: vec![0.0; symbolic.len_val()],
             symbolic,
-            matrix: SparseColMat::new(structure, vec![0.0; nnz]),
+            stack: vec![0.0; plan.stack_len()],
+            plan,
             scatter,
             tail_scatter,
             tail,
@@ -229,29 +239,19 @@ impl Half {
     /// `T_X = −L_SX L_SXᵀ` into `product` (see [`SplitFactor`]). Errors with the failing pivot
     /// in `M`'s numbering.
     fn factorize(&mut self, h: &[f64], product: &mut Mat<f64>) -> Result<(), usize> {
-        let val = self.matrix.val_mut();
+        self.l_values.fill(0.0);
         for &(src, dst) in &self.scatter {
-            val[dst] = h[src];
+            self.l_values[dst] = h[src];
         }
-        let Some(sn) = supernodal(&self.symbolic) else {
-            return Err(0);
-        };
-        // faer's driver on M directly (M is already in its own order: no permuted copy).
-        match faer::sparse::linalg::cholesky::supernodal::factorize_supernodal_numeric_llt(
+        // Every supernode but the tail, whose columns then hold −Σ L Lᵀ of the others.
+        let last = self.plan.len() - 1;
+        multifrontal::factorize(
+            &self.plan,
             &mut self.l_values,
-            self.matrix.as_ref(),
-            Default::default(),
-            sn,
-            Par::Seq,
+            &mut self.stack,
+            last,
             MemStack::new(&mut self.factor_mem),
-            Default::default(),
-        ) {
-            // The planned stop at the tail's first pivot (0 − Σ l², see `SplitFactor`).
-            Err(DenseLltError::NonPositivePivot { index }) if index == self.tail => {}
-            Err(DenseLltError::NonPositivePivot { index }) => return Err(index),
-            // Unreachable: that pivot cannot be positive.
-            Ok(_) => return Err(self.tail),
-        }
+        )?;
         let m = self.rhs.len();
         let s = self.s;
         let (w, k) = (m - self.tail, m - s - self.tail);
@@ -397,7 +397,7 @@ impl SplitFactor {
         let halves: usize = self
             .halves
             .iter()
-            .map(|h| 8 * (h.l_values.len() + h.matrix.val().len()))
+            .map(|h| 8 * (h.l_values.len() + h.stack.len()))
             .sum();
         (halves + 16 * s * s) as u64
     }

@@ -1,0 +1,156 @@
+//! The one-thread factorisation rate on the shrinking sphere's Hessian pattern (both forms):
+//! the library's default unsplit driver (multifrontal), faer's left-looking supernodal driver
+//! and the split factorisation on a one-thread pool, interleaved rounds, medians, with the
+//! predicted flops and GFlop/s, and faer's dense matrix product on one core as the limit.
+//!
+//! Run: `cargo run --release -p thinshell-solver --example factor_rate -- 5 [rounds] [forms]`
+//! (icosphere levels, comma-separated; rounds, default 5; forms `both` (default), `average`,
+//! `tan`). `-- gemm` prints only the dense product's rate.
+#![allow(clippy::unwrap_used, missing_docs)]
+use std::time::Instant;
+
+use faer::sparse::SparseColMat;
+use faer::{Mat, Par};
+use thinshell_energy::{Assembler, SffKind};
+use thinshell_solver::{Ordering, SparseCholesky};
+use thinshell_testkit::fixtures::shrinking_sphere;
+
+/// A diagonally dominant SPD matrix on `h`'s pattern (the values do not change the work).
+fn spd(h: &mut SparseColMat<usize, f64>) {
+    let n = h.ncols();
+    let (cp, rows) = (
+        h.symbolic().col_ptr().to_vec(),
+        h.symbolic().row_idx().to_vec(),
+    );
+    let mut off = vec![0.0; n];
+    for j in 0..n {
+        for &i in &rows[cp[j]..cp[j + 1]] {
+            if i != j {
+                off[i] += 1.0;
+                off[j] += 1.0;
+            }
+        }
+    }
+    let val = h.val_mut();
+    for j in 0..n {
+        for (k, &i) in rows[cp[j]..cp[j + 1]].iter().enumerate() {
+            val[cp[j] + k] = if i == j {
+                off[j] + 1.0 + (j % 7) as f64 * 0.1
+            } else {
+                -1.0
+            };
+        }
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// faer's one-thread dense product `C += A B` of n × n matrices, best of 5, GFlop/s.
+fn gemm_rate(n: usize) -> f64 {
+    let a = Mat::<f64>::from_fn(n, n, |i, j| ((i + 3 * j) % 7) as f64);
+    let b = a.clone();
+    let mut c = Mat::<f64>::zeros(n, n);
+    let mut best = f64::INFINITY;
+    for _ in 0..5 {
+        let t = Instant::now();
+        faer::linalg::matmul::matmul(
+            c.as_mut(),
+            faer::Accum::Add,
+            a.as_ref(),
+            b.as_ref(),
+            1.0,
+            Par::Seq,
+        );
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    2.0 * (n as f64).powi(3) / best / 1e9
+}
+
+fn main() {
+    let arg = std::env::args().nth(1).unwrap_or_else(|| "5".into());
+    if arg == "gemm" {
+        for n in [256, 512, 1024, 2048] {
+            println!("dense product n = {n}: {:.1} GFlop/s", gemm_rate(n));
+        }
+        return;
+    }
+    let levels: Vec<usize> = arg.split(',').map(|x| x.parse().unwrap()).collect();
+    let rounds: usize = std::env::args()
+        .nth(2)
+        .map(|s| s.parse().unwrap())
+        .unwrap_or(5);
+    let forms = match std::env::args().nth(3).as_deref() {
+        Some("average") => vec![SffKind::MidEdgeAverage],
+        Some("tan") => vec![SffKind::default()],
+        _ => vec![SffKind::MidEdgeAverage, SffKind::default()],
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    println!("dense product n = 1024, one thread: {:.1} GFlop/s", gemm_rate(1024));
+    for &level in &levels {
+        for &sff in &forms {
+            let (sys, _) = shrinking_sphere(level, sff);
+            let asm = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model()).unwrap();
+            let mut h = asm.hessian_template();
+            spd(&mut h);
+            let mut mf = SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::Seq).unwrap();
+            let mut faer_driver =
+                SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::Seq).unwrap();
+            faer_driver.use_faer_driver();
+            let mut split = pool
+                .install(|| SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::rayon(1)))
+                .unwrap();
+            let flops = mf.stats().flops;
+            let mut times = [Vec::new(), Vec::new(), Vec::new()];
+            // Warm-up, then interleaved rounds.
+            for round in 0..=rounds {
+                let t = Instant::now();
+                mf.factorize(h.as_ref()).unwrap();
+                let a = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                faer_driver.factorize(h.as_ref()).unwrap();
+                let b = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                pool.install(|| split.factorize(h.as_ref())).unwrap();
+                let c = t.elapsed().as_secs_f64();
+                if round > 0 {
+                    times[0].push(a);
+                    times[1].push(b);
+                    times[2].push(c);
+                }
+            }
+            // Same solution from both drivers.
+            let n = h.ncols();
+            let b: Vec<f64> = (0..n).map(|i| (i % 11) as f64 - 5.0).collect();
+            let (mut x1, mut x2, mut x3) = (b.clone(), b.clone(), b.clone());
+            mf.solve_in_place(&mut x1).unwrap();
+            faer_driver.solve_in_place(&mut x2).unwrap();
+            pool.install(|| split.solve_in_place(&mut x3)).unwrap();
+            let diff = |x: &[f64], y: &[f64]| {
+                x.iter().zip(y).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
+                    / y.iter().map(|a| a.abs()).fold(0.0, f64::max)
+            };
+            let [t_mf, t_faer, t_split] = times.map(median);
+            println!(
+                "L{level} {:>18} faces {:>6} n {:>7} flops {flops:.3e} split {}: multifrontal {:.1} ms ({:.1} GFlop/s), faer {:.1} ms ({:.1}), split 1t {:.1} ms ({:.1}); |x_mf − x_faer| {:.1e}, |x_split − x_faer| {:.1e}",
+                sff.name(),
+                sys.mesh().n_faces(),
+                n,
+                split.is_split(),
+                t_mf * 1e3,
+                flops / t_mf / 1e9,
+                t_faer * 1e3,
+                flops / t_faer / 1e9,
+                t_split * 1e3,
+                flops / t_split / 1e9,
+                diff(&x1, &x2),
+                diff(&x3, &x2),
+            );
+        }
+    }
+}

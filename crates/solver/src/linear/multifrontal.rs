@@ -1,0 +1,342 @@
+//! The numeric supernodal factorisation, multifrontal, on faer's dense kernels.
+//!
+//! faer's own supernodal driver is left-looking: each supernode gathers the update of every
+//! descendant by one small product whose inner dimension is the descendant's width and whose
+//! output is scattered tile by tile into the supernode (docs/performance.md, "Where the
+//! factorisation time goes"). Here each supernode, once factorised, forms its whole update
+//! matrix `U = −L₂₁ L₂₁ᵀ` (plus its children's updates) by one symmetric product and hands it
+//! to its parent, which adds it entry by entry (extend-add): one large product per supernode
+//! instead of one small one per (descendant, ancestor) pair. The factor's layout is faer's
+//! ([`SymbolicSupernodalCholesky`]), so faer's supernodal solves read it unchanged.
+//!
+//! The supernodes are numbered children first (faer's symbolic analysis orders them so;
+//! [`Plan::new`] checks it); where each pending update matrix lives is planned once.
+//! Everything runs on the calling thread in a fixed order: the result does not depend on the
+//! thread pool.
+
+use faer::dyn_stack::MemStack;
+use faer::linalg::cholesky::llt::factor::{LltError, cholesky_in_place};
+use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::reborrow::{Reborrow, ReborrowMut};
+use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
+use faer::{Accum, MatMut, Par};
+
+/// A floating-point type the factorisation runs in (f64, or f32 for mixed precision).
+pub trait Real: faer::traits::RealField + Copy + Send + Sync + 'static {
+    /// `x` rounded to this type.
+    fn of(x: f64) -> Self;
+    /// The value as f64 (exact).
+    fn wide(self) -> f64;
+}
+
+impl Real for f64 {
+    fn of(x: f64) -> Self {
+        x
+    }
+    fn wide(self) -> f64 {
+        self
+    }
+}
+
+impl Real for f32 {
+    fn of(x: f64) -> Self {
+        x as f32
+    }
+    fn wide(self) -> f64 {
+        self as f64
+    }
+}
+
+/// The multifrontal schedule of a supernodal symbolic factor: per supernode its columns, the
+/// rows below them, its children and where their update matrices sit.
+#[derive(Debug)]
+pub(super) struct Plan {
+    /// First column of each supernode, and `n` at the end.
+    begin: Vec<usize>,
+    /// Rows of each supernode's pattern below its columns (`r`).
+    rows: Vec<usize>,
+    /// Offset of each supernode's `(w + r) × w` block in the factor's values.
+    val: Vec<usize>,
+    /// Row indices (factor numbering) of each supernode's pattern, `pat[pat_ptr[s]..pat_ptr[s + 1]]`.
+    pat_ptr: Vec<usize>,
+    pat: Vec<usize>,
+    /// Children of each supernode, ascending.
+    child_ptr: Vec<usize>,
+    children: Vec<usize>,
+    /// Position of each pattern row of a supernode in its parent's front (`< w_parent`: one of
+    /// the parent's columns), `rel[pat_ptr[s]..pat_ptr[s + 1]]`.
+    rel: Vec<usize>,
+    /// How many of a supernode's pattern rows are its parent's columns.
+    split: Vec<usize>,
+    /// Where each supernode's update matrix (r × r, column-major) is formed and waits for its
+    /// parent (regions of a supernode and its children never overlap).
+    stack_at: Vec<usize>,
+    /// Length of the update stack (values).
+    stack_len: usize,
+    /// The supernode of each column.
+    col_sn: Vec<usize>,
+    /// Largest width of a supernode (faer's dense Cholesky scratch).
+    max_width: usize,
+}
+
+impl Plan {
+    /// The schedule of `sn`, or `None` when its structure is not what the numeric phase relies
+    /// on (supernodes numbered children first, a child's rows contained in its parent's front;
+    /// faer's symbolic analysis always gives that, checked anyway).
+    pub(super) fn new(sn: &SymbolicSupernodalCholesky<usize>) -> Option<Plan> {
+        let ns = sn.n_supernodes();
+        let n = sn.nrows();
+        let mut begin = sn.supernode_begin().to_vec();
+        begin.push(n);
+        if begin.len() != ns + 1 || sn.supernode_end()[..ns] != begin[1..] {
+            return None;
+        }
+        let val = sn.col_ptr_for_val().to_vec();
+        let mut col_sn = vec![0; n];
+        let mut max_width = 0;
+        for s in 0..ns {
+            col_sn[begin[s]..begin[s + 1]].fill(s);
+            max_width = max_width.max(begin[s + 1] - begin[s]);
+        }
+        let mut pat_ptr = vec![0];
+        let mut pat = Vec::new();
+        let mut rows = Vec::with_capacity(ns);
+        for s in 0..ns {
+            let p = sn.supernode(s).pattern();
+            if p.windows(2).any(|w| w[0] >= w[1]) || p.first().is_some_and(|&r| r < begin[s + 1])
+            {
+                return None;
+            }
+            pat.extend_from_slice(p);
+            pat_ptr.push(pat.len());
+            rows.push(p.len());
+        }
+        let parent = |s: usize| pat.get(pat_ptr[s]).filter(|_| rows[s] > 0).map(|&r| col_sn[r]);
+        let mut child_ptr = vec![0usize; ns + 1];
+        for s in 0..ns {
+            if let Some(p) = parent(s) {
+                child_ptr[p + 1] += 1;
+            }
+        }
+        for s in 0..ns {
+            child_ptr[s + 1] += child_ptr[s];
+        }
+        let mut fill = child_ptr.clone();
+        let mut children = vec![0; child_ptr[ns]];
+        let mut rel = vec![0; pat.len()];
+        let mut split = vec![0; ns];
+        for s in 0..ns {
+            let Some(p) = parent(s) else { continue };
+            if p <= s {
+                return None;
+            }
+            children[fill[p]] = s;
+            fill[p] += 1;
+            let (pb, pe) = (begin[p], begin[p + 1]);
+            let ppat = &pat[pat_ptr[p]..pat_ptr[p + 1]];
+            for q in pat_ptr[s]..pat_ptr[s + 1] {
+                let g = pat[q];
+                rel[q] = if g < pe {
+                    split[s] += 1;
+                    g - pb
+                } else {
+                    // The child's rows beyond the parent's columns are in the parent's pattern.
+                    (pe - pb) + ppat.binary_search(&g).ok()?
+                };
+            }
+        }
+        // Where the update matrices live: each from its supernode's factorisation to its
+        // parent's, placed first-fit (in a postorder this is a stack; faer's supernode order is
+        // topological but need not be one), all planned here so that the numeric phase only
+        // reads offsets.
+        let mut stack_at = vec![0; ns];
+        let mut free: Vec<(usize, usize)> = Vec::new();
+        let mut end = 0usize;
+        for s in 0..ns {
+            let len = rows[s] * rows[s];
+            if len > 0 {
+                stack_at[s] = match free.iter().position(|&(_, l)| l >= len) {
+                    Some(k) => {
+                        let (o, l) = free[k];
+                        if l == len {
+                            free.remove(k);
+                        } else {
+                            free[k] = (o + len, l - len);
+                        }
+                        o
+                    }
+                    None => {
+                        let o = match free.last() {
+                            Some(&(o, l)) if o + l == end => {
+                                free.pop();
+                                o
+                            }
+                            _ => end,
+                        };
+                        end = o + len;
+                        o
+                    }
+                };
+            }
+            for &c in &children[child_ptr[s]..child_ptr[s + 1]] {
+                let (o, l) = (stack_at[c], rows[c] * rows[c]);
+                let k = free.partition_point(|&(fo, _)| fo < o);
+                free.insert(k, (o, l));
+                // Merge with the neighbours.
+                if k + 1 < free.len() && free[k].0 + free[k].1 == free[k + 1].0 {
+                    free[k].1 += free[k + 1].1;
+                    free.remove(k + 1);
+                }
+                if k > 0 && free[k - 1].0 + free[k - 1].1 == free[k].0 {
+                    free[k - 1].1 += free[k].1;
+                    free.remove(k);
+                }
+            }
+        }
+        Some(Plan {
+            begin,
+            rows,
+            val,
+            pat_ptr,
+            pat,
+            child_ptr,
+            children,
+            rel,
+            split,
+            stack_at,
+            stack_len: end,
+            col_sn,
+            max_width,
+        })
+    }
+
+    /// Number of supernodes.
+    pub(super) fn len(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// Values of the update stack the factorisation needs.
+    pub(super) fn stack_len(&self) -> usize {
+        self.stack_len
+    }
+
+    /// Widest supernode (the scratch of faer's dense Cholesky is sized for it).
+    pub(super) fn max_width(&self) -> usize {
+        self.max_width
+    }
+
+    /// Offset in the factor's values of entry (`row`, `col`) of L (factor numbering,
+    /// `row ≥ col`), `None` when it is not in the factor's pattern.
+    pub(super) fn position(&self, row: usize, col: usize) -> Option<usize> {
+        let s = self.col_sn[col];
+        let (b, e) = (self.begin[s], self.begin[s + 1]);
+        let ld = (e - b) + self.rows[s];
+        let local = if row < e {
+            row.checked_sub(b)?
+        } else {
+            (e - b) + self.pat[self.pat_ptr[s]..self.pat_ptr[s + 1]].binary_search(&row).ok()?
+        };
+        Some(self.val[s] + (col - b) * ld + local)
+    }
+
+    /// Widths `w` and pattern lengths `r` of every supernode (for the flops by size class).
+    pub(super) fn shapes(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        (0..self.len()).map(|s| (self.begin[s + 1] - self.begin[s], self.rows[s]))
+    }
+}
+
+/// Factorises in place the supernodes `0..stop` of the factor whose values `l` hold the
+/// matrix's lower triangle at [`Plan::position`] (zeros elsewhere); supernodes from `stop` on
+/// only receive their children's updates (the split's tail, which must have no rows below its
+/// columns). Per supernode, in order: the children's updates are added to its columns, its
+/// diagonal block is factorised (faer's dense Cholesky), its rows below solved (triangular
+/// solve), and its update matrix formed (`−L₂₁ L₂₁ᵀ`, lower triangle) with the children's
+/// remaining entries added. `stack`: [`Plan::stack_len`] values; `mem`: faer's dense Cholesky
+/// scratch for [`Plan::max_width`] columns. Errors with the first non-positive pivot (factor
+/// numbering).
+pub(super) fn factorize<T: Real>(
+    plan: &Plan,
+    l: &mut [T],
+    stack: &mut [T],
+    stop: usize,
+    mem: &mut MemStack,
+) -> Result<(), usize> {
+    for s in 0..plan.len() {
+        let (b, e) = (plan.begin[s], plan.begin[s + 1]);
+        let (w, r) = (e - b, plan.rows[s]);
+        let ld = w + r;
+        let kids = &plan.children[plan.child_ptr[s]..plan.child_ptr[s + 1]];
+        let front = &mut l[plan.val[s]..plan.val[s] + ld * w];
+        for &c in kids {
+            let rc = plan.rows[c];
+            let rel = &plan.rel[plan.pat_ptr[c]..plan.pat_ptr[c + 1]];
+            let u = &stack[plan.stack_at[c]..plan.stack_at[c] + rc * rc];
+            for jj in 0..plan.split[c] {
+                let dst = &mut front[rel[jj] * ld..];
+                let src = &u[jj * rc..(jj + 1) * rc];
+                for ii in jj..rc {
+                    dst[rel[ii]] += src[ii];
+                }
+            }
+        }
+        if s >= stop {
+            // Only a root (no rows below) may stay unfactorised: its update matrix is empty.
+            if r > 0 {
+                return Err(b);
+            }
+            continue;
+        }
+        let f = MatMut::from_column_major_slice_mut(front, ld, w);
+        let (mut top, mut bot) = f.split_at_row_mut(w);
+        cholesky_in_place(
+            top.rb_mut(),
+            Default::default(),
+            Par::Seq,
+            mem,
+            Default::default(),
+        )
+        .map_err(|LltError::NonPositivePivot { index }| b + index)?;
+        if r == 0 {
+            continue;
+        }
+        solve_lower_triangular_in_place(top.rb(), bot.rb_mut().transpose_mut(), Par::Seq);
+        let at = plan.stack_at[s];
+        let (before, rest) = stack.split_at_mut(at);
+        let (u, after) = rest.split_at_mut(r * r);
+        let after = &*after;
+        // A child's update matrix lies wholly before or wholly after the supernode's.
+        let region = |o: usize, len: usize| -> &[T] {
+            if o < at {
+                &before[o..o + len]
+            } else {
+                &after[o - at - r * r..][..len]
+            }
+        };
+        triangular::matmul(
+            MatMut::from_column_major_slice_mut(u, r, r),
+            BlockStructure::TriangularLower,
+            Accum::Replace,
+            bot.rb(),
+            BlockStructure::Rectangular,
+            bot.rb().transpose(),
+            BlockStructure::Rectangular,
+            T::of(-1.0),
+            Par::Seq,
+        );
+        for &c in kids {
+            let rc = plan.rows[c];
+            let rel = &plan.rel[plan.pat_ptr[c]..plan.pat_ptr[c + 1]];
+            let src = region(plan.stack_at[c], rc * rc);
+            for jj in plan.split[c]..rc {
+                let dst = &mut u[(rel[jj] - w) * r..];
+                let col = &src[jj * rc..(jj + 1) * rc];
+                for ii in jj..rc {
+                    dst[rel[ii] - w] += col[ii];
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
