@@ -5,7 +5,9 @@
 //!
 //! Run: `cargo run --release -p thinshell-solver --example factor_rate -- 5 [rounds] [forms]`
 //! (icosphere levels, comma-separated; rounds, default 5; forms `both` (default), `average`,
-//! `tan`). `-- gemm` prints only the dense product's rate.
+//! `tan`); a fourth argument `profile` prints instead the multifrontal driver's time per
+//! stage and supernode width class (medians over the rounds). `-- gemm` prints only the dense
+//! product's rate.
 #![allow(clippy::unwrap_used, missing_docs)]
 use std::time::Instant;
 
@@ -75,6 +77,9 @@ fn main() {
         for n in [256, 512, 1024, 2048] {
             println!("dense product n = {n}: {:.1} GFlop/s", gemm_rate(n));
         }
+        for (r, w) in [(300, 100), (600, 200), (150, 30), (60, 8)] {
+            kernels(r, w);
+        }
         return;
     }
     let levels: Vec<usize> = arg.split(',').map(|x| x.parse().unwrap()).collect();
@@ -82,6 +87,7 @@ fn main() {
         .nth(2)
         .map(|s| s.parse().unwrap())
         .unwrap_or(5);
+    let profile = std::env::args().nth(4).as_deref() == Some("profile");
     let forms = match std::env::args().nth(3).as_deref() {
         Some("average") => vec![SffKind::MidEdgeAverage],
         Some("tan") => vec![SffKind::default()],
@@ -106,6 +112,10 @@ fn main() {
                 .install(|| SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::rayon(1)))
                 .unwrap();
             let flops = mf.stats().flops;
+            if profile {
+                print_profile(&mut mf, &h, rounds, level, sff);
+                continue;
+            }
             let mut times = [Vec::new(), Vec::new(), Vec::new()];
             // Warm-up, then interleaved rounds.
             for round in 0..=rounds {
@@ -153,4 +163,128 @@ fn main() {
             );
         }
     }
+}
+
+/// Medians over `rounds` profiled factorisations, per width class and stage.
+fn print_profile(
+    mf: &mut SparseCholesky,
+    h: &SparseColMat<usize, f64>,
+    rounds: usize,
+    level: usize,
+    sff: SffKind,
+) {
+    let mut runs = Vec::new();
+    for _ in 0..rounds.max(1) {
+        runs.push(mf.factorize_profiled(h.as_ref()).unwrap().unwrap());
+    }
+    println!(
+        "L{level} {}: class, supernodes, flops share, extend-add / cholesky / solve / update / other ms, GFlop/s",
+        sff.name()
+    );
+    let total_flops: f64 = runs[0].classes.iter().map(|c| c.flops).sum();
+    let names = ["1-3", "4-15", "16-63", "64-255", "256-1023", ">=1024"];
+    let mut total = [0.0; 5];
+    for (k, name) in names.iter().enumerate() {
+        let med = |f: &dyn Fn(&thinshell_solver::linear::ClassProfile) -> f64| {
+            median(runs.iter().map(|r| f(&r.classes[k])).collect())
+        };
+        let c = runs[0].classes[k];
+        let t = [
+            med(&|c| c.extend_add),
+            med(&|c| c.cholesky),
+            med(&|c| c.solve),
+            med(&|c| c.update),
+            med(&|c| c.other),
+        ];
+        for (a, b) in total.iter_mut().zip(t) {
+            *a += b;
+        }
+        let sum: f64 = t.iter().sum();
+        println!(
+            "  {name:>9} {:>6} {:>5.1} % | {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>6.2} ms | {:>5.1} GFlop/s",
+            c.supernodes,
+            100.0 * c.flops / total_flops,
+            t[0] * 1e3,
+            t[1] * 1e3,
+            t[2] * 1e3,
+            t[3] * 1e3,
+            t[4] * 1e3,
+            c.flops / sum / 1e9
+        );
+    }
+    let sum: f64 = total.iter().sum();
+    println!(
+        "  {:>9} {:>6} {:>5.1} % | {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>6.2} ms | {:>5.1} GFlop/s",
+        "all",
+        runs[0].classes.iter().map(|c| c.supernodes).sum::<usize>(),
+        100.0,
+        total[0] * 1e3,
+        total[1] * 1e3,
+        total[2] * 1e3,
+        total[3] * 1e3,
+        total[4] * 1e3,
+        total_flops / sum / 1e9
+    );
+}
+
+/// The rates of a front's three kernels for `w` columns and `r` rows below: the Cholesky of
+/// the w × w block, the triangular solve of the r × w block, the r × r symmetric update.
+fn kernels(r: usize, w: usize) {
+    use faer::linalg::matmul::triangular::{self, BlockStructure};
+    let reps = (2e9 / ((r * r * w) as f64)).max(3.0) as usize;
+    let b = Mat::<f64>::from_fn(r, w, |i, j| ((i * 7 + j * 3) % 11) as f64 * 0.01);
+    let mut l = Mat::<f64>::from_fn(w, w, |i, j| if i == j { 2.0 } else if i > j { 0.01 } else { 0.0 });
+    for i in 0..w {
+        l[(i, i)] = 2.0;
+    }
+    let mut x = b.clone();
+    let mut u = Mat::<f64>::zeros(r, r);
+    let time = |f: &mut dyn FnMut()| {
+        let mut best = f64::INFINITY;
+        for _ in 0..3 {
+            let t = Instant::now();
+            for _ in 0..reps {
+                f();
+            }
+            best = best.min(t.elapsed().as_secs_f64() / reps as f64);
+        }
+        best
+    };
+    let t_solve = time(&mut || {
+        faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+            l.as_ref(),
+            x.as_mut().transpose_mut(),
+            Par::Seq,
+        )
+    });
+    let t_update = time(&mut || {
+        triangular::matmul(
+            u.as_mut(),
+            BlockStructure::TriangularLower,
+            faer::Accum::Replace,
+            b.as_ref(),
+            BlockStructure::Rectangular,
+            b.as_ref().transpose(),
+            BlockStructure::Rectangular,
+            -1.0,
+            Par::Seq,
+        )
+    });
+    let t_gemm = time(&mut || {
+        faer::linalg::matmul::matmul(
+            u.as_mut(),
+            faer::Accum::Replace,
+            b.as_ref(),
+            b.as_ref().transpose(),
+            -1.0,
+            Par::Seq,
+        )
+    });
+    let (r, w) = (r as f64, w as f64);
+    println!(
+        "r {r} w {w}: solve {:.1} GFlop/s, lower update {:.1} GFlop/s, full product {:.1} GFlop/s",
+        r * w * w / t_solve / 1e9,
+        r * r * w / t_update / 1e9,
+        2.0 * r * r * w / t_gemm / 1e9
+    );
 }

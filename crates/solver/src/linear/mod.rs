@@ -33,6 +33,8 @@ use multifrontal::Plan;
 use split::SplitFactor;
 
 pub use error::FactorError;
+#[doc(hidden)]
+pub use multifrontal::{ClassProfile, FactorProfile};
 
 pub use regularise::{FactorOutcome, RegularizationKind, RegularizationParams};
 pub use split::SPLIT_MIN_FLOPS;
@@ -235,6 +237,33 @@ impl SparseCholesky {
     /// Numeric factorisation of `h` (same pattern as given to [`new`](Self::new), lower
     /// triangle). Allocates nothing.
     pub fn factorize(&mut self, h: SparseColMatRef<'_, usize, f64>) -> Result<(), FactorError> {
+        self.factorize_with(h, None)
+    }
+
+    /// [`factorize`](Self::factorize) timing each stage of the multifrontal driver by
+    /// supernode width class (a measurement aid; `None` when another driver ran).
+    #[doc(hidden)]
+    pub fn factorize_profiled(
+        &mut self,
+        h: SparseColMatRef<'_, usize, f64>,
+    ) -> Result<Option<FactorProfile>, FactorError> {
+        let mut profile = FactorProfile::default();
+        self.factorize_with(h, Some(&mut profile))?;
+        let used = matches!(
+            self.engine,
+            Engine::Whole {
+                multifrontal: Some(_),
+                ..
+            }
+        );
+        Ok(used.then_some(profile))
+    }
+
+    fn factorize_with(
+        &mut self,
+        h: SparseColMatRef<'_, usize, f64>,
+        profile: Option<&mut FactorProfile>,
+    ) -> Result<(), FactorError> {
         self.factorized = false;
         same_pattern(h, &self.col_ptr, &self.row_idx).map_err(FactorError::Other)?;
         match &mut self.engine {
@@ -255,6 +284,7 @@ impl SparseCholesky {
                     &mut m.stack,
                     stop,
                     MemStack::new(factor_mem),
+                    profile,
                 )
                 .map_err(|pivot| FactorError::NotPositiveDefinite { pivot })?;
             }

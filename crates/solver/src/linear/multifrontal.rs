@@ -21,6 +21,7 @@ use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 use faer::{Accum, MatMut, Par};
+use std::time::Instant;
 
 /// A floating-point type the factorisation runs in (f64, or f32 for mixed precision).
 pub trait Real: faer::traits::RealField + Copy + Send + Sync + 'static {
@@ -67,6 +68,9 @@ pub(super) struct Plan {
     /// Position of each pattern row of a supernode in its parent's front (`< w_parent`: one of
     /// the parent's columns), `rel[pat_ptr[s]..pat_ptr[s + 1]]`.
     rel: Vec<usize>,
+    /// End (exclusive, local to the supernode's pattern) of the run of consecutive `rel` values each entry
+    /// belongs to: the extend-add adds whole runs as slices (vectorised).
+    run_end: Vec<usize>,
     /// How many of a supernode's pattern rows are its parent's columns.
     split: Vec<usize>,
     /// Where each supernode's update matrix (r × r, column-major) is formed and waits for its
@@ -146,6 +150,17 @@ impl Plan {
                 };
             }
         }
+        let mut run_end = vec![0; pat.len()];
+        for s in 0..ns {
+            let (a, b) = (pat_ptr[s], pat_ptr[s + 1]);
+            let mut end = b;
+            for q in (a..b).rev() {
+                if q + 1 < b && rel[q + 1] != rel[q] + 1 {
+                    end = q + 1;
+                }
+                run_end[q] = end - a;
+            }
+        }
         // Where the update matrices live: each from its supernode's factorisation to its
         // parent's, placed first-fit (in a postorder this is a stack; faer's supernode order is
         // topological but need not be one), all planned here so that the numeric phase only
@@ -203,6 +218,7 @@ impl Plan {
             child_ptr,
             children,
             rel,
+            run_end,
             split,
             stack_at,
             stack_len: end,
@@ -240,6 +256,13 @@ impl Plan {
         Some(self.val[s] + (col - b) * ld + local)
     }
 
+    /// A supernode's positions in its parent's front and the ends of their runs (local, from
+    /// 0).
+    fn runs(&self, c: usize) -> (&[usize], &[usize]) {
+        let (a, b) = (self.pat_ptr[c], self.pat_ptr[c + 1]);
+        (&self.rel[a..b], &self.run_end[a..b])
+    }
+
     /// Widths `w` and pattern lengths `r` of every supernode (for the flops by size class).
     pub(super) fn shapes(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
         (0..self.len()).map(|s| (self.begin[s + 1] - self.begin[s], self.rows[s]))
@@ -255,31 +278,39 @@ impl Plan {
 /// remaining entries added. `stack`: [`Plan::stack_len`] values; `mem`: faer's dense Cholesky
 /// scratch for [`Plan::max_width`] columns. Errors with the first non-positive pivot (factor
 /// numbering).
+/// `profile`: when given, the time of each stage is added to the supernode's width class.
 pub(super) fn factorize<T: Real>(
     plan: &Plan,
     l: &mut [T],
     stack: &mut [T],
     stop: usize,
     mem: &mut MemStack,
+    mut profile: Option<&mut FactorProfile>,
 ) -> Result<(), usize> {
+    let mut clock = Instant::now();
+    let mut lap = |profile: &mut Option<&mut FactorProfile>, w: usize, r: usize, stage: usize| {
+        if let Some(p) = profile {
+            let now = Instant::now();
+            p.add(w, r, stage, (now - clock).as_secs_f64());
+            clock = now;
+        }
+    };
     for s in 0..plan.len() {
         let (b, e) = (plan.begin[s], plan.begin[s + 1]);
         let (w, r) = (e - b, plan.rows[s]);
         let ld = w + r;
+        lap(&mut profile, w, r, 4);
         let kids = &plan.children[plan.child_ptr[s]..plan.child_ptr[s + 1]];
         let front = &mut l[plan.val[s]..plan.val[s] + ld * w];
         for &c in kids {
             let rc = plan.rows[c];
-            let rel = &plan.rel[plan.pat_ptr[c]..plan.pat_ptr[c + 1]];
+            let (rel, runs) = plan.runs(c);
             let u = &stack[plan.stack_at[c]..plan.stack_at[c] + rc * rc];
             for jj in 0..plan.split[c] {
-                let dst = &mut front[rel[jj] * ld..];
-                let src = &u[jj * rc..(jj + 1) * rc];
-                for ii in jj..rc {
-                    dst[rel[ii]] += src[ii];
-                }
+                add_column(&mut front[rel[jj] * ld..], &u[jj * rc..(jj + 1) * rc], jj, rel, runs, 0);
             }
         }
+        lap(&mut profile, w, r, 0);
         if s >= stop {
             // Only a root (no rows below) may stay unfactorised: its update matrix is empty.
             if r > 0 {
@@ -297,10 +328,12 @@ pub(super) fn factorize<T: Real>(
             Default::default(),
         )
         .map_err(|LltError::NonPositivePivot { index }| b + index)?;
+        lap(&mut profile, w, r, 1);
         if r == 0 {
             continue;
         }
         solve_lower_triangular_in_place(top.rb(), bot.rb_mut().transpose_mut(), Par::Seq);
+        lap(&mut profile, w, r, 2);
         let at = plan.stack_at[s];
         let (before, rest) = stack.split_at_mut(at);
         let (u, after) = rest.split_at_mut(r * r);
@@ -324,19 +357,96 @@ pub(super) fn factorize<T: Real>(
             T::of(-1.0),
             Par::Seq,
         );
+        lap(&mut profile, w, r, 3);
         for &c in kids {
             let rc = plan.rows[c];
-            let rel = &plan.rel[plan.pat_ptr[c]..plan.pat_ptr[c + 1]];
+            let (rel, runs) = plan.runs(c);
             let src = region(plan.stack_at[c], rc * rc);
             for jj in plan.split[c]..rc {
-                let dst = &mut u[(rel[jj] - w) * r..];
-                let col = &src[jj * rc..(jj + 1) * rc];
-                for ii in jj..rc {
-                    dst[rel[ii] - w] += col[ii];
-                }
+                add_column(&mut u[(rel[jj] - w) * r..], &src[jj * rc..(jj + 1) * rc], jj, rel, runs, w);
             }
         }
+        lap(&mut profile, w, r, 0);
     }
     Ok(())
+}
+
+/// Adds entries `jj..` of a child's update column `src` to the parent's front column `dst`,
+/// entry `i` at `rel[i] − shift`, a run of consecutive positions at a time.
+fn add_column<T: Real>(
+    dst: &mut [T],
+    src: &[T],
+    jj: usize,
+    rel: &[usize],
+    run_end: &[usize],
+    shift: usize,
+) {
+    let mut i = jj;
+    while i < src.len() {
+        let end = run_end[i];
+        let d = rel[i] - shift;
+        for (a, &b) in dst[d..d + (end - i)].iter_mut().zip(&src[i..end]) {
+            *a += b;
+        }
+        i = end;
+    }
+}
+
+/// Where a multifrontal factorisation's time goes, by supernode width class (a measurement
+/// aid: `SparseCholesky::factorize_profiled`).
+#[derive(Clone, Debug, Default)]
+pub struct FactorProfile {
+    /// Classes of widths `[1, 4)`, `[4, 16)`, `[16, 64)`, `[64, 256)`, `[256, 1024)`, `≥ 1024`.
+    pub classes: [ClassProfile; 6],
+}
+
+/// One width class of a [`FactorProfile`]; times in seconds.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ClassProfile {
+    /// Supernodes of the class.
+    pub supernodes: usize,
+    /// Their predicted flops (Σ over columns of (column count)², as `factor_flops`).
+    pub flops: f64,
+    /// Adding the children's update matrices (extend-add).
+    pub extend_add: f64,
+    /// Dense Cholesky of the diagonal blocks.
+    pub cholesky: f64,
+    /// Triangular solves of the rows below.
+    pub solve: f64,
+    /// The symmetric products forming the update matrices.
+    pub update: f64,
+    /// Loop overhead between supernodes.
+    pub other: f64,
+}
+
+impl FactorProfile {
+    /// The class of a supernode `w` columns wide.
+    pub fn class(w: usize) -> usize {
+        match w {
+            0..4 => 0,
+            4..16 => 1,
+            16..64 => 2,
+            64..256 => 3,
+            256..1024 => 4,
+            _ => 5,
+        }
+    }
+
+    /// Adds `t` seconds of `stage` (0 extend-add, 1 Cholesky, 2 solve, 3 update, 4 other) of a
+    /// `w`-wide supernode with `r` rows below; its flops are counted with its Cholesky.
+    fn add(&mut self, w: usize, r: usize, stage: usize, t: f64) {
+        let c = &mut self.classes[Self::class(w)];
+        match stage {
+            0 => c.extend_add += t,
+            1 => {
+                c.cholesky += t;
+                c.supernodes += 1;
+                c.flops += (1..=w).map(|k| ((k + r) as f64).powi(2)).sum::<f64>();
+            }
+            2 => c.solve += t,
+            3 => c.update += t,
+            _ => c.other += t,
+        }
+    }
 }
 

@@ -251,6 +251,7 @@ impl Half {
             &mut self.stack,
             last,
             MemStack::new(&mut self.factor_mem),
+            None,
         )?;
         let m = self.rhs.len();
         let s = self.s;
