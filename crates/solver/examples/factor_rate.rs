@@ -280,10 +280,43 @@ fn kernels(r: usize, w: usize) {
             Par::Seq,
         )
     });
+    let mut xt = Mat::<f64>::zeros(w, r);
+    let t_copy = time(&mut || {
+        xt.copy_from(x.as_ref().transpose());
+        faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+            l.as_ref(),
+            xt.as_mut(),
+            Par::Seq,
+        );
+        x.copy_from(xt.as_ref().transpose());
+    });
+    let mut linv = Mat::<f64>::zeros(w, w);
+    let mut tmp = Mat::<f64>::zeros(r, w);
+    let t_inv = time(&mut || {
+        faer::linalg::triangular_inverse::invert_lower_triangular(
+            linv.as_mut(),
+            l.as_ref(),
+            Par::Seq,
+        );
+        triangular::matmul(
+            tmp.as_mut(),
+            BlockStructure::Rectangular,
+            faer::Accum::Replace,
+            x.as_ref(),
+            BlockStructure::Rectangular,
+            linv.as_ref().transpose(),
+            BlockStructure::TriangularUpper,
+            1.0,
+            Par::Seq,
+        );
+        x.copy_from(tmp.as_ref());
+    });
     let (r, w) = (r as f64, w as f64);
     println!(
-        "r {r} w {w}: solve {:.1} GFlop/s, lower update {:.1} GFlop/s, full product {:.1} GFlop/s",
+        "r {r} w {w}: solve {:.1} GFlop/s (transposed copy {:.1}, inverse {:.1}), lower update {:.1} GFlop/s, full product {:.1} GFlop/s",
         r * w * w / t_solve / 1e9,
+        r * w * w / t_copy / 1e9,
+        r * w * w / t_inv / 1e9,
         r * r * w / t_update / 1e9,
         2.0 * r * r * w / t_gemm / 1e9
     );

@@ -13,7 +13,9 @@
 //! separator's blocked dense Cholesky); the type and its sequential engine are here.
 
 mod dense;
+mod engine;
 mod error;
+mod mixed;
 mod multifrontal;
 mod regularise;
 mod split;
@@ -21,21 +23,21 @@ mod symbolic;
 
 use std::time::{Duration, Instant};
 
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::linalg::cholesky::llt::factor::LltError as DenseLltError;
-use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, SymbolicCholeskyRaw};
+use faer::dyn_stack::MemBuffer;
+use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par, Side};
+use faer::Par;
 
 use crate::SolverError;
 use crate::ordering::Ordering;
-use multifrontal::Plan;
-use split::SplitFactor;
+use engine::Engine;
+use mixed::Mixed;
 
 pub use error::FactorError;
 #[doc(hidden)]
 pub use multifrontal::{ClassProfile, FactorProfile};
 
+pub use mixed::{PrecisionFallback, PrecisionStats};
 pub use regularise::{FactorOutcome, RegularizationKind, RegularizationParams};
 pub use split::SPLIT_MIN_FLOPS;
 pub(crate) use symbolic::analyse;
@@ -63,15 +65,22 @@ pub struct FactorStats {
     pub memory_estimate: u64,
 }
 
-/// Bytes of a factor with `len_val` values and the given scratch sizes.
-fn factor_memory_estimate(len_val: usize, factor_scratch: usize, solve_scratch: usize) -> u64 {
-    (len_val * std::mem::size_of::<f64>() + factor_scratch + solve_scratch) as u64
+/// Bytes of a factor with `len_val` values of `bytes` each and the given scratch sizes.
+fn factor_memory_estimate(
+    len_val: usize,
+    bytes: usize,
+    factor_scratch: usize,
+    solve_scratch: usize,
+) -> u64 {
+    (len_val * bytes + factor_scratch + solve_scratch) as u64
 }
 
 /// A sparse LLᵀ factorisation whose symbolic part, factor storage and scratch memory are reused
 /// for every matrix with the same pattern.
 pub struct SparseCholesky {
-    engine: Engine,
+    engine: Engine<f64>,
+    /// Mixed precision: the single-precision engine when enabled, and what it did.
+    mixed: Mixed,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     diag_offsets: Vec<usize>,
@@ -79,24 +88,6 @@ pub struct SparseCholesky {
     par: Par,
     stats: FactorStats,
     factorized: bool,
-}
-
-/// How the numeric factorisation runs (one per factorisation: the size difference of the
-/// variants does not matter).
-#[allow(clippy::large_enum_variant)]
-enum Engine {
-    /// One faer supernodal factorisation, sequential.
-    Whole {
-        symbolic: SymbolicCholesky<usize>,
-        /// The multifrontal driver ([`multifrontal`]); `None`: faer's (a simplicial symbolic
-        /// factor, or [`SparseCholesky::use_faer_driver`]).
-        multifrontal: Option<Multifrontal>,
-        l_values: Vec<f64>,
-        factor_mem: MemBuffer,
-        solve_mem: MemBuffer,
-    },
-    /// The two halves of the top nested-dissection split on two threads ([`SplitFactor`]).
-    Split(Box<SplitFactor>),
 }
 
 impl std::fmt::Debug for SparseCholesky {
@@ -143,60 +134,16 @@ impl SparseCholesky {
         let flops = factor_flops(&symbolic);
         let factor_len = symbolic.len_val();
         let supernodal = matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_));
-        let split = match split {
-            Some((perm, sizes))
-                if matches!(par, Par::Rayon(_))
-                    && flops >= SPLIT_MIN_FLOPS
-                    && sizes.iter().all(|&k| k > 0) =>
-            {
-                // The split holds about the whole factor, a second copy of the separator block
-                // (each half stores one) and two dense separator blocks: refuse it before
-                // allocating.
-                let [_, _, sep] = sizes;
-                let estimate = factor_memory_estimate(factor_len + 3 * sep * sep, 0, 0);
-                check_budget(symbolic.nrows(), estimate)?;
-                SplitFactor::new(pattern, perm, sizes, par)?
-            }
-            _ => None,
+        let split = split.filter(|(_, sizes)| {
+            matches!(par, Par::Rayon(_)) && flops >= SPLIT_MIN_FLOPS && sizes.iter().all(|&k| k > 0)
+        });
+        // The ordering, kept to build the single-precision engine on request.
+        let perm = match &split {
+            Some((perm, _)) => Some(perm.clone()),
+            None => symbolic.perm().map(|p| p.arrays().0.to_vec()),
         };
-        let (engine, estimate) = match split {
-            Some(f) => {
-                drop(symbolic);
-                let estimate = f.memory();
-                (Engine::Split(Box::new(f)), estimate)
-            }
-            None => {
-                let multifrontal = Multifrontal::new(&symbolic, pattern);
-                let factor_req = symbolic
-                    .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
-                    .or(multifrontal.as_ref().map_or(StackReq::EMPTY, |m| m.scratch()));
-                let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
-                let stack = multifrontal.as_ref().map_or(0, |m| m.plan.stack_len());
-                check_budget(
-                    symbolic.nrows(),
-                    factor_memory_estimate(
-                        factor_len + stack,
-                        factor_req.size_bytes(),
-                        solve_req.size_bytes(),
-                    ),
-                )?;
-                let (factor_mem, solve_mem, estimate) = scratch(&symbolic, factor_req, solve_req)?;
-                let multifrontal = multifrontal.map(|mut m| {
-                    m.stack = vec![0.0; stack];
-                    m
-                });
-                (
-                    Engine::Whole {
-                        l_values: vec![0.0; factor_len],
-                        symbolic,
-                        multifrontal,
-                        factor_mem,
-                        solve_mem,
-                    },
-                    estimate + (stack * std::mem::size_of::<f64>()) as u64,
-                )
-            }
-        };
+        let sizes = split.as_ref().map(|s| s.1);
+        let (engine, estimate) = Engine::<f64>::new(pattern, symbolic, split, par)?;
         let stats = FactorStats {
             n,
             nnz_lower: pattern.row_idx().len(),
@@ -209,6 +156,11 @@ impl SparseCholesky {
         };
         Ok(SparseCholesky {
             engine,
+            mixed: Mixed {
+                perm,
+                sizes,
+                ..Mixed::default()
+            },
             col_ptr: pattern.col_ptr().to_vec(),
             row_idx: pattern.row_idx().to_vec(),
             diag_backup: vec![0.0; n],
@@ -249,14 +201,7 @@ impl SparseCholesky {
     ) -> Result<Option<FactorProfile>, FactorError> {
         let mut profile = FactorProfile::default();
         self.factorize_with(h, Some(&mut profile))?;
-        let used = matches!(
-            self.engine,
-            Engine::Whole {
-                multifrontal: Some(_),
-                ..
-            }
-        );
-        Ok(used.then_some(profile))
+        Ok((self.engine.is_multifrontal() && !self.single_active()).then_some(profile))
     }
 
     fn factorize_with(
@@ -266,53 +211,12 @@ impl SparseCholesky {
     ) -> Result<(), FactorError> {
         self.factorized = false;
         same_pattern(h, &self.col_ptr, &self.row_idx).map_err(FactorError::Other)?;
-        match &mut self.engine {
-            Engine::Whole {
-                multifrontal: Some(m),
-                l_values,
-                factor_mem,
-                ..
-            } => {
-                l_values.fill(0.0);
-                for (&dst, &v) in m.map.iter().zip(h.val()) {
-                    l_values[dst] = v;
-                }
-                let stop = m.plan.len();
-                multifrontal::factorize(
-                    &m.plan,
-                    l_values,
-                    &mut m.stack,
-                    stop,
-                    MemStack::new(factor_mem),
-                    profile,
-                )
-                .map_err(|pivot| FactorError::NotPositiveDefinite { pivot })?;
-            }
-            Engine::Whole {
-                symbolic,
-                l_values,
-                factor_mem,
-                ..
-            } => {
-                let stack = MemStack::new(factor_mem);
-                symbolic
-                    .factorize_numeric_llt(
-                        l_values,
-                        h,
-                        Side::Lower,
-                        Default::default(),
-                        Par::Seq,
-                        stack,
-                        Default::default(),
-                    )
-                    // The low-level API reports the dense error type directly (not wrapped in
-                    // `sparse::linalg::LltError::Numeric` as the high-level `Llt` does).
-                    .map_err(|DenseLltError::NonPositivePivot { index }| {
-                        FactorError::NotPositiveDefinite { pivot: index }
-                    })?;
-            }
-            Engine::Split(f) => f.factorize(h.val())?,
+        if self.mixed.single.is_some() && !self.mixed.skip_single {
+            return self.factorize_mixed(h, profile);
         }
+        self.engine.factorize(h, profile)?;
+        self.mixed.last_single = false;
+        self.mixed.stats.double_factorizations += 1;
         self.factorized = true;
         Ok(())
     }
@@ -321,9 +225,7 @@ impl SparseCholesky {
     /// multifrontal one (for measurements against it; no effect on a split factorisation).
     #[doc(hidden)]
     pub fn use_faer_driver(&mut self) {
-        if let Engine::Whole { multifrontal, .. } = &mut self.engine {
-            *multifrontal = None;
-        }
+        self.engine.use_faer_driver(self.row_idx.len());
         self.factorized = false;
     }
 
@@ -339,86 +241,28 @@ impl SparseCholesky {
     /// the halves run concurrently, so the critical path is `max(A, B) + separator`, against
     /// [`FactorStats::flops`] (≈ A + B + separator) on one thread.
     pub fn split_flops(&self) -> Option<[f64; 3]> {
-        match &self.engine {
-            Engine::Whole { .. } => None,
-            Engine::Split(f) => Some(f.flops()),
-        }
+        self.engine.split_flops()
     }
 
     /// Solves `H x = rhs` in place with the last successful factorisation. Allocates nothing.
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolverError> {
-        let n = self.stats.n;
-        ready_to_solve(self.factorized, n, rhs)?;
-        match &mut self.engine {
-            Engine::Whole {
-                symbolic,
-                l_values,
-                solve_mem,
-                ..
-            } => {
-                let llt = LltRef::new(symbolic, l_values);
-                let stack = MemStack::new(solve_mem);
-                llt.solve_in_place_with_conj(
-                    Conj::No,
-                    MatMut::from_column_major_slice_mut(rhs, n, 1),
-                    Par::Seq,
-                    stack,
-                );
-            }
-            Engine::Split(f) => f.solve_in_place(rhs),
+        ready_to_solve(self.factorized, self.stats.n, rhs)?;
+        if self.single_active() {
+            return self.solve_refined(rhs);
         }
+        self.engine.solve_in_place(rhs);
         Ok(())
     }
-}
 
-/// The multifrontal driver's schedule, the positions of the matrix's entries in the factor and
-/// the update stack.
-struct Multifrontal {
-    plan: Plan,
-    /// Offset in the factor's values of each stored entry of the (unpermuted) matrix.
-    map: Vec<usize>,
-    stack: Vec<f64>,
-}
-
-impl Multifrontal {
-    /// `None` for a simplicial symbolic factor (or a supernodal one the plan does not accept).
-    fn new(
-        symbolic: &SymbolicCholesky<usize>,
-        pattern: SymbolicSparseColMatRef<'_, usize>,
-    ) -> Option<Multifrontal> {
-        let SymbolicCholeskyRaw::Supernodal(sn) = symbolic.raw() else {
-            return None;
-        };
-        let plan = Plan::new(sn)?;
-        let identity: Vec<usize>;
-        let inv = match symbolic.perm() {
-            Some(p) => p.arrays().1,
-            None => {
-                identity = (0..pattern.ncols()).collect();
-                &identity
-            }
-        };
-        let mut map = Vec::with_capacity(pattern.row_idx().len());
-        for j in 0..pattern.ncols() {
-            for &i in pattern.row_idx_of_col_raw(j) {
-                let (a, b) = (inv[i], inv[j]);
-                map.push(plan.position(a.max(b), a.min(b))?);
-            }
+    /// One solve with the last factorisation as it is, without iterative refinement when it
+    /// is in single precision (a preconditioner's application: CG with a kept factor).
+    pub fn precondition_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolverError> {
+        ready_to_solve(self.factorized, self.stats.n, rhs)?;
+        match (&mut self.mixed.single, self.mixed.last_single) {
+            (Some(single), true) => single.engine.solve_in_place(rhs),
+            _ => self.engine.solve_in_place(rhs),
         }
-        Some(Multifrontal {
-            plan,
-            map,
-            stack: Vec::new(),
-        })
-    }
-
-    /// faer's dense Cholesky scratch for the widest supernode.
-    fn scratch(&self) -> StackReq {
-        faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
-            self.plan.max_width(),
-            Par::Seq,
-            Default::default(),
-        )
+        Ok(())
     }
 }
 
@@ -433,6 +277,7 @@ pub(crate) fn scratch(
 ) -> Result<(MemBuffer, MemBuffer, u64), SolverError> {
     let estimate = factor_memory_estimate(
         symbolic.len_val(),
+        std::mem::size_of::<f64>(),
         factor_req.size_bytes(),
         solve_req.size_bytes(),
     );

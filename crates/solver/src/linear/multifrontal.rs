@@ -24,7 +24,9 @@ use faer::{Accum, MatMut, Par};
 use std::time::Instant;
 
 /// A floating-point type the factorisation runs in (f64, or f32 for mixed precision).
-pub trait Real: faer::traits::RealField + Copy + Send + Sync + 'static {
+pub trait Real:
+    faer::traits::RealField + Copy + Send + Sync + std::ops::AddAssign + 'static
+{
     /// `x` rounded to this type.
     fn of(x: f64) -> Self;
     /// The value as f64 (exact).
@@ -261,11 +263,6 @@ impl Plan {
     fn runs(&self, c: usize) -> (&[usize], &[usize]) {
         let (a, b) = (self.pat_ptr[c], self.pat_ptr[c + 1]);
         (&self.rel[a..b], &self.run_end[a..b])
-    }
-
-    /// Widths `w` and pattern lengths `r` of every supernode (for the flops by size class).
-    pub(super) fn shapes(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
-        (0..self.len()).map(|s| (self.begin[s + 1] - self.begin[s], self.rows[s]))
     }
 }
 

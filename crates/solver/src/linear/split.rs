@@ -19,7 +19,7 @@ use faer::sparse::{SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Accum, Conj, Mat, MatMut, Par, Side};
 
 use super::dense::{self, cholesky_blocked};
-use super::multifrontal::{self, Plan};
+use super::multifrontal::{self, Plan, Real};
 use super::error::FactorError;
 use crate::SolverError;
 use crate::ordering::inverse_permutation;
@@ -56,33 +56,33 @@ pub const SPLIT_MIN_FLOPS: f64 = 2e8;
 /// factorisation: each half's Cholesky of its copy of the separator block and the product
 /// `C Cᵀ` that turned that factor back into `T_X` (2 s³/3 flops per half, s the separator's
 /// size).
-pub(super) struct SplitFactor {
+pub(super) struct SplitFactor<T: Real> {
     /// `perm[new] = old` of the whole ordering.
     perm: Vec<usize>,
     /// Dofs of A, B, S.
     sizes: [usize; 3],
-    halves: [Half; 2],
+    halves: [Half<T>; 2],
     /// Positions in `h`'s value array of the S × S lower entries and their (row, col) in S.
     s_entries: Vec<(usize, usize, usize)>,
     /// Dense s × s: half A's `T_A`, then the Schur complement, then its Cholesky factor
     /// (lower).
-    schur: Mat<f64>,
+    schur: Mat<T>,
     /// Dense s × s: half B's `T_B` (lower).
-    product: Mat<f64>,
+    product: Mat<T>,
     schur_mem: MemBuffer,
     /// Permuted right-hand side / solution.
-    work: Vec<f64>,
+    work: Vec<T>,
     par: Par,
 }
 
 /// One half `M = [H_XX H_XS; H_SX 0]` of a [`SplitFactor`], partially factorised (its dofs
 /// only).
-struct Half {
+struct Half<T: Real> {
     symbolic: SymbolicCholesky<usize>,
     /// The multifrontal schedule of `symbolic`.
     plan: Plan,
     /// The multifrontal update stack.
-    stack: Vec<f64>,
+    stack: Vec<T>,
     /// (position in `h`'s value array, position in `l_values`), columns before the tail.
     scatter: Vec<(usize, usize)>,
     /// (position in `h`'s value array, row, column in the tail block): the entries of the
@@ -92,11 +92,11 @@ struct Half {
     tail: usize,
     /// Offset of the tail's dense block (w × w, w = m − tail, column-major) in `l_values`.
     tail_offset: usize,
-    l_values: Vec<f64>,
+    l_values: Vec<T>,
     factor_mem: MemBuffer,
     solve_mem: MemBuffer,
     /// Right-hand side / solution of `M`'s solves (m values).
-    rhs: Vec<f64>,
+    rhs: Vec<T>,
     /// The separator's size s.
     s: usize,
 }
@@ -109,7 +109,7 @@ fn supernodal(symbolic: &SymbolicCholesky<usize>) -> Option<&SymbolicSupernodalC
     }
 }
 
-impl Half {
+impl<T: Real> Half<T> {
     /// `range`: the half's dofs in the permuted numbering; the separator follows it. `None`
     /// when the half's symbolic analysis does not put the whole separator in its last
     /// supernode (the split then does not apply).
@@ -118,7 +118,7 @@ impl Half {
         inv: &[usize],
         range: std::ops::Range<usize>,
         sep_start: usize,
-    ) -> Result<Option<Half>, SolverError> {
+    ) -> Result<Option<Half<T>>, SolverError> {
         let n = pattern.ncols();
         let nx = range.len();
         let s = n - sep_start;
@@ -191,20 +191,20 @@ impl Half {
             }
         }
         let factor_mem = MemBuffer::try_new(
-            faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
+            faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<T>(
                 plan.max_width().max(m),
                 Par::Seq,
                 Default::default(),
             ),
         )
         .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
-        let solve_mem = MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq))
+        let solve_mem = MemBuffer::try_new(symbolic.solve_in_place_scratch::<T>(1, Par::Seq))
             .map_err(|_| SolverError::Linear("out of memory for solve scratch".into()))?;
         let tail_offset = sn.col_ptr_for_val()[last];
         Ok(Some(Half {
-            l_values: vec![0.0; symbolic.len_val()],
+            l_values: vec![T::of(0.0); symbolic.len_val()],
             symbolic,
-            stack: vec![0.0; plan.stack_len()],
+            stack: vec![T::of(0.0); plan.stack_len()],
             plan,
             scatter,
             tail_scatter,
@@ -212,7 +212,7 @@ impl Half {
             tail_offset,
             factor_mem,
             solve_mem,
-            rhs: vec![0.0; m],
+            rhs: vec![T::of(0.0); m],
             s,
         }))
     }
@@ -238,10 +238,10 @@ impl Half {
     /// Eliminates the half's dofs from `M` (values from `h`) and writes the lower triangle of
     /// `T_X = −L_SX L_SXᵀ` into `product` (see [`SplitFactor`]). Errors with the failing pivot
     /// in `M`'s numbering.
-    fn factorize(&mut self, h: &[f64], product: &mut Mat<f64>) -> Result<(), usize> {
-        self.l_values.fill(0.0);
+    fn factorize(&mut self, h: &[f64], product: &mut Mat<T>) -> Result<(), usize> {
+        self.l_values.fill(T::of(0.0));
         for &(src, dst) in &self.scatter {
-            self.l_values[dst] = h[src];
+            self.l_values[dst] = T::of(h[src]);
         }
         // Every supernode but the tail, whose columns then hold −Σ L Lᵀ of the others.
         let last = self.plan.len() - 1;
@@ -258,7 +258,7 @@ impl Half {
         let (w, k) = (m - self.tail, m - s - self.tail);
         let tail = &mut self.l_values[self.tail_offset..self.tail_offset + w * w];
         for &(src, i, j) in &self.tail_scatter {
-            tail[i + j * w] += h[src];
+            tail[i + j * w] += T::of(h[src]);
         }
         // The tail is w × w column-major: the separator block's column j, from its diagonal
         // down, is `tail[separator(j)]`.
@@ -287,15 +287,15 @@ impl Half {
             BlockStructure::Rectangular,
             w21.rb().transpose(),
             BlockStructure::Rectangular,
-            -1.0,
+            T::of(-1.0),
             Par::Seq,
         );
         // The stored factor's separator block becomes the identity (see `SplitFactor`).
         let tail = &mut self.l_values[self.tail_offset..self.tail_offset + w * w];
         for j in 0..s {
             let col = &mut tail[separator(j)];
-            col.fill(0.0);
-            col[0] = 1.0;
+            col.fill(T::of(0.0));
+            col[0] = T::of(1.0);
         }
         Ok(())
     }
@@ -304,7 +304,7 @@ impl Half {
     /// already in `rhs`): leaves `y_X` and then `−L_SX y_X` in `rhs`.
     fn forward(&mut self) {
         let m = self.rhs.len();
-        self.rhs[m - self.s..].fill(0.0);
+        self.rhs[m - self.s..].fill(T::of(0.0));
         if let Some(sn) = supernodal(&self.symbolic) {
             let l = SupernodalLltRef::new(sn, &self.l_values);
             l.l_solve_with_conj(
@@ -318,7 +318,7 @@ impl Half {
 
     /// Back substitution with the stored factor's transpose on `[y_X; x_S]`: leaves `x_X` in
     /// `rhs[..m − s]`.
-    fn backward(&mut self, x_s: &[f64]) {
+    fn backward(&mut self, x_s: &[T]) {
         let m = self.rhs.len();
         self.rhs[m - self.s..].copy_from_slice(x_s);
         if let Some(sn) = supernodal(&self.symbolic) {
@@ -333,12 +333,12 @@ impl Half {
     }
 
     /// `−L_SX y_X` after [`forward`](Self::forward).
-    fn separator_part(&self) -> &[f64] {
+    fn separator_part(&self) -> &[T] {
         &self.rhs[self.rhs.len() - self.s..]
     }
 }
 
-impl SplitFactor {
+impl<T: Real> SplitFactor<T> {
     /// The split of `pattern` at the top-level dissection `perm` (`sizes`: dofs of A, B, S);
     /// `None` when a half's symbolic analysis does not suit it ([`Half::new`]), a property of
     /// the pattern alone, so the choice does not depend on the thread count.
@@ -347,7 +347,7 @@ impl SplitFactor {
         perm: Vec<usize>,
         sizes: [usize; 3],
         par: Par,
-    ) -> Result<Option<SplitFactor>, SolverError> {
+    ) -> Result<Option<SplitFactor<T>>, SolverError> {
         let n = pattern.ncols();
         let [a, b, s] = sizes;
         let inv = inverse_permutation(&perm);
@@ -372,7 +372,7 @@ impl SplitFactor {
             return Ok(None);
         };
         let schur_mem = MemBuffer::try_new(
-            faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
+            faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<T>(
                 dense::BLOCK.min(s),
                 Par::Seq,
                 Default::default(),
@@ -387,7 +387,7 @@ impl SplitFactor {
             schur: Mat::zeros(s, s),
             product: Mat::zeros(s, s),
             schur_mem,
-            work: vec![0.0; n],
+            work: vec![T::of(0.0); n],
             par,
         }))
     }
@@ -398,9 +398,9 @@ impl SplitFactor {
         let halves: usize = self
             .halves
             .iter()
-            .map(|h| 8 * (h.l_values.len() + h.stack.len()))
+            .map(|h| std::mem::size_of::<T>() * (h.l_values.len() + h.stack.len()))
             .sum();
-        (halves + 16 * s * s) as u64
+        (halves + 2 * std::mem::size_of::<T>() * s * s) as u64
     }
 
     /// Predicted flops `[half A, half B, separator]` (halves: their own columns, as
@@ -442,7 +442,7 @@ impl SplitFactor {
             }
         }
         for &(p, i, j) in &self.s_entries {
-            self.schur[(i, j)] += h[p];
+            self.schur[(i, j)] += T::of(h[p]);
         }
         let schur = self.schur.as_mut();
         cholesky_blocked(schur, concurrent, MemStack::new(&mut self.schur_mem)).map_err(
@@ -457,7 +457,7 @@ impl SplitFactor {
         let [a, b, s] = self.sizes;
         let sep = a + b;
         for (new, &old) in self.perm.iter().enumerate() {
-            self.work[new] = rhs[old];
+            self.work[new] = T::of(rhs[old]);
         }
         let [h0, h1] = &mut self.halves;
         h0.rhs[..a].copy_from_slice(&self.work[..a]);
@@ -491,7 +491,7 @@ impl SplitFactor {
         self.work[..a].copy_from_slice(&h0.rhs[..a]);
         self.work[a..sep].copy_from_slice(&h1.rhs[..b]);
         for (new, &old) in self.perm.iter().enumerate() {
-            rhs[old] = self.work[new];
+            rhs[old] = self.work[new].wide();
         }
     }
 }

@@ -59,6 +59,7 @@ impl ImplicitEuler {
                 escape_saddles: false,
                 relative_step_tolerance: IMPLICIT_RELATIVE_STEP_TOLERANCE,
                 reuse_factor: true,
+                mixed_precision: true,
                 ..NewtonSettings::default()
             },
             force_scale: None,
