@@ -111,12 +111,17 @@ fn main() {
             let mut split = pool
                 .install(|| SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::rayon(1)))
                 .unwrap();
+            let mut mixed =
+                SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::Seq).unwrap();
+            assert!(mixed.set_mixed_precision(true).unwrap());
             let flops = mf.stats().flops;
             if profile {
                 print_profile(&mut mf, &h, rounds, level, sff);
                 continue;
             }
-            let mut times = [Vec::new(), Vec::new(), Vec::new()];
+            let mut times = [Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new()];
+            let n = h.ncols();
+            let b: Vec<f64> = (0..n).map(|i| (i % 11) as f64 - 5.0).collect();
             // Warm-up, then interleaved rounds.
             for round in 0..=rounds {
                 let t = Instant::now();
@@ -124,20 +129,30 @@ fn main() {
                 let a = t.elapsed().as_secs_f64();
                 let t = Instant::now();
                 faer_driver.factorize(h.as_ref()).unwrap();
-                let b = t.elapsed().as_secs_f64();
+                let b2 = t.elapsed().as_secs_f64();
                 let t = Instant::now();
                 pool.install(|| split.factorize(h.as_ref())).unwrap();
                 let c = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                mixed.factorize(h.as_ref()).unwrap();
+                let d = t.elapsed().as_secs_f64();
+                let mut x = b.clone();
+                let t = Instant::now();
+                mf.solve_in_place(&mut x).unwrap();
+                let e = t.elapsed().as_secs_f64();
+                x.copy_from_slice(&b);
+                let t = Instant::now();
+                mixed.solve_in_place(&mut x).unwrap();
+                let f = t.elapsed().as_secs_f64();
                 if round > 0 {
-                    times[0].push(a);
-                    times[1].push(b);
-                    times[2].push(c);
+                    for (v, t) in times.iter_mut().zip([a, b2, c, d, e, f]) {
+                        v.push(t);
+                    }
                 }
             }
             // Same solution from both drivers.
-            let n = h.ncols();
-            let b: Vec<f64> = (0..n).map(|i| (i % 11) as f64 - 5.0).collect();
-            let (mut x1, mut x2, mut x3) = (b.clone(), b.clone(), b.clone());
+            let (mut x1, mut x2, mut x3, mut x4) = (b.clone(), b.clone(), b.clone(), b.clone());
+            mixed.solve_in_place(&mut x4).unwrap();
             mf.solve_in_place(&mut x1).unwrap();
             faer_driver.solve_in_place(&mut x2).unwrap();
             pool.install(|| split.solve_in_place(&mut x3)).unwrap();
@@ -145,7 +160,7 @@ fn main() {
                 x.iter().zip(y).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
                     / y.iter().map(|a| a.abs()).fold(0.0, f64::max)
             };
-            let [t_mf, t_faer, t_split] = times.map(median);
+            let [t_mf, t_faer, t_split, t_mixed, t_solve, t_refined] = times.map(median);
             println!(
                 "L{level} {:>18} faces {:>6} n {:>7} flops {flops:.3e} split {}: multifrontal {:.1} ms ({:.1} GFlop/s), faer {:.1} ms ({:.1}), split 1t {:.1} ms ({:.1}); |x_mf − x_faer| {:.1e}, |x_split − x_faer| {:.1e}",
                 sff.name(),
@@ -160,6 +175,17 @@ fn main() {
                 flops / t_split / 1e9,
                 diff(&x1, &x2),
                 diff(&x3, &x2),
+            );
+            let p = mixed.precision();
+            println!(
+                "    mixed precision: f32 factorisation {:.1} ms ({:.1} GFlop/s), refined solve {:.2} ms ({} f32 solves max, fallback {:?}) against the f64 solve {:.2} ms; |x_mixed − x_mf| {:.1e}",
+                t_mixed * 1e3,
+                flops / t_mixed / 1e9,
+                t_refined * 1e3,
+                p.max_refinement_steps,
+                p.fallback,
+                t_solve * 1e3,
+                diff(&x4, &x1),
             );
         }
     }

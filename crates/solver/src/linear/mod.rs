@@ -7,10 +7,18 @@
 //! retries a matrix that is not positive definite with a growing diagonal shift
 //! `H + μ·s·I` (or `H + μ·diag(|H|)`), written through precomputed diagonal offsets.
 //!
+//! The numeric factorisation of a supernodal analysis is the project's multifrontal driver on
+//! faer's dense kernels (`multifrontal`: one symmetric product per supernode instead of faer's
+//! one per pair of supernodes); solves are faer's. With
+//! [`set_mixed_precision`](SparseCholesky::set_mixed_precision) the factor is computed in f32
+//! and solves are refined to f64 accuracy (`mixed`).
+//!
 //! Module layout: `error` (a failed factorisation), `symbolic` (diagonal offsets, ordering,
 //! faer's symbolic analysis, predicted flops), `regularise` (the shift's parameters and the retry
-//! loop), `split` (the two-thread factorisation at the top-level dissection), `dense` (its
-//! separator's blocked dense Cholesky); the type and its sequential engine are here.
+//! loop), `multifrontal` (the numeric driver), `engine` (the numeric factorisation in one
+//! precision, unsplit or split), `split` (the two-thread factorisation at the top-level
+//! dissection), `dense` (its separator's blocked dense Cholesky), `mixed` (mixed precision); the
+//! type is here.
 
 mod dense;
 mod engine;
@@ -104,13 +112,13 @@ impl SparseCholesky {
     /// Symbolic analysis of a square pattern holding the lower triangle with every diagonal
     /// entry present. `coordinates` (per dof, m) feed the geometric nested dissection.
     ///
-    /// `par`: with [`Par::Seq`] faer factorises the whole matrix sequentially (the fewest
+    /// `par`: with [`Par::Seq`] the whole matrix is factorised sequentially (the fewest
     /// flops on one thread). With [`Par::Rayon`] of any thread count, an [`Ordering::Metis`]
     /// ordering (chosen or picked by `Auto`) and predicted flops of at least
     /// [`SPLIT_MIN_FLOPS`], the factorisation is split at the top-level dissection
     /// ([`is_split`](Self::is_split)) when the halves' symbolic analyses allow it (almost
-    /// always; otherwise faer's unsplit factorisation, as with `Par::Seq`): each half
-    /// eliminates its own dofs with faer on one thread and leaves its update of the separator
+    /// always; otherwise the unsplit factorisation, as with `Par::Seq`): each half
+    /// eliminates its own dofs on one thread and leaves its update of the separator
     /// block, and the separator's Schur complement is factorised densely by blocks; the two
     /// halves (and the halves of each solve) run concurrently (`rayon::join`) and so do the
     /// dense blocks' tasks when the pool has ≥ 2 threads, one after the other otherwise. The

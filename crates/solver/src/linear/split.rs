@@ -40,22 +40,17 @@ pub const SPLIT_MIN_FLOPS: f64 = 2e8;
 /// fixed order and the separator's blocked Cholesky ([`cholesky_blocked`]) cuts its work into
 /// fixed tasks, so the result does not depend on which thread ran what.
 ///
-/// How a half stops at `S` (faer has no partial factorisation): in the half's symbolic
-/// analysis the separator's columns all lie in the last supernode (checked by [`Half::new`];
-/// it also holds the last columns of the half, those whose pattern is the whole separator), the
-/// *tail*. The half's matrix holds zeros in the tail's columns, so faer's supernodal
-/// factorisation factorises every supernode before the tail, assembles the updates of all of
-/// them into the tail (`−Σ L Lᵀ`) and then stops at the tail's first pivot, which is `0 − Σ l²
-/// ≤ 0` (faer 0.24's dense LLᵀ checks a pivot before it writes anything; the split's solutions
-/// are compared with the unsplit factorisation's in `tests/thread_independence.rs`, which
-/// would catch a faer that behaves otherwise). The half adds the
+/// How a half stops at `S`: in the half's symbolic analysis the separator's columns all lie in
+/// the last supernode (checked by [`Half::new`]; it also holds the last columns of the half,
+/// those whose pattern is the whole separator), the *tail*. The multifrontal driver
+/// ([`multifrontal::factorize`] with `stop` at the tail) factorises every supernode before the
+/// tail and adds their updates into it (`−Σ L Lᵀ`) without factorising it. The half adds the
 /// tail's matrix entries itself, eliminates the tail's own columns of `X` densely and leaves
 /// `T_X` in the separator block, which it then overwrites with the identity: the half's
-/// stored factor is `[L_XX 0; L_SX I]`, so its supernodal solves give `−L_SX y_X` and take
-/// `x_S` directly. This saves what the split used to cost on top of the unsplit
-/// factorisation: each half's Cholesky of its copy of the separator block and the product
-/// `C Cᵀ` that turned that factor back into `T_X` (2 s³/3 flops per half, s the separator's
-/// size).
+/// stored factor is `[L_XX 0; L_SX I]`, so its supernodal solves (faer's) give `−L_SX y_X` and
+/// take `x_S` directly. So the split does the unsplit factorisation's flops (`split_flops`).
+/// `T` is the precision the factor is computed and stored in (f64, or f32 for mixed
+/// precision); the matrix and the solves' right-hand sides are f64.
 pub(super) struct SplitFactor<T: Real> {
     /// `perm[new] = old` of the whole ordering.
     perm: Vec<usize>,
