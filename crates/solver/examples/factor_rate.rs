@@ -97,14 +97,18 @@ fn main() {
         .num_threads(1)
         .build()
         .unwrap();
-    println!("dense product n = 1024, one thread: {:.1} GFlop/s", gemm_rate(1024));
+    println!(
+        "dense product n = 1024, one thread: {:.1} GFlop/s",
+        gemm_rate(1024)
+    );
     for &level in &levels {
         for &sff in &forms {
             let (sys, _) = shrinking_sphere(level, sff);
             let asm = Assembler::for_model(sys.mesh(), sys.dofs(), sys.model()).unwrap();
             let mut h = asm.hessian_template();
             spd(&mut h);
-            let mut mf = SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::Seq).unwrap();
+            let mut mf =
+                SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::Seq).unwrap();
             let mut faer_driver =
                 SparseCholesky::new(h.symbolic(), Ordering::Metis, None, Par::Seq).unwrap();
             faer_driver.use_faer_driver();
@@ -119,7 +123,14 @@ fn main() {
                 print_profile(&mut mf, &h, rounds, level, sff);
                 continue;
             }
-            let mut times = [Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new()];
+            let mut times = [
+                Vec::new(),
+                Vec::new(),
+                Vec::new(),
+                Vec::new(),
+                Vec::new(),
+                Vec::new(),
+            ];
             let n = h.ncols();
             let b: Vec<f64> = (0..n).map(|i| (i % 11) as f64 - 5.0).collect();
             // Warm-up, then interleaved rounds.
@@ -157,7 +168,10 @@ fn main() {
             faer_driver.solve_in_place(&mut x2).unwrap();
             pool.install(|| split.solve_in_place(&mut x3)).unwrap();
             let diff = |x: &[f64], y: &[f64]| {
-                x.iter().zip(y).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
+                x.iter()
+                    .zip(y)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
                     / y.iter().map(|a| a.abs()).fold(0.0, f64::max)
             };
             let [t_mf, t_faer, t_split, t_mixed, t_solve, t_refined] = times.map(median);
@@ -259,7 +273,15 @@ fn kernels(r: usize, w: usize) {
     use faer::linalg::matmul::triangular::{self, BlockStructure};
     let reps = (2e9 / ((r * r * w) as f64)).max(3.0) as usize;
     let b = Mat::<f64>::from_fn(r, w, |i, j| ((i * 7 + j * 3) % 11) as f64 * 0.01);
-    let mut l = Mat::<f64>::from_fn(w, w, |i, j| if i == j { 2.0 } else if i > j { 0.01 } else { 0.0 });
+    let mut l = Mat::<f64>::from_fn(w, w, |i, j| {
+        if i == j {
+            2.0
+        } else if i > j {
+            0.01
+        } else {
+            0.0
+        }
+    });
     for i in 0..w {
         l[(i, i)] = 2.0;
     }

@@ -171,7 +171,7 @@ pub(crate) fn section(quick: bool) -> Result<String> {
             };
             writeln!(
                 md,
-                "| {} | {} | {n} | {flops:.2e} | {} ({}) | {} ({}) | {} ({}) | {} | {} ({}) | {} | {} ({steps}) | {limit:.1} |",
+                "| {} | {} | {n} | {flops:.2e} | {} ({}) | {} ({}) | {} ({}) | {} | {} ({}) | {:.2} | {:.2} ({steps}) | {limit:.1} |",
                 20 * 4usize.pow(level as u32),
                 sff.name(),
                 ms(m[0]),
@@ -183,8 +183,8 @@ pub(crate) fn section(quick: bool) -> Result<String> {
                 ms(m[3]),
                 ms(m[4]),
                 rate(flops, m[4]),
-                format!("{:.2}", m[5] * 1e3),
-                format!("{:.2}", m[6] * 1e3),
+                m[5] * 1e3,
+                m[6] * 1e3,
             )?;
             if level == levels[0] {
                 let runs: Vec<FactorProfile> = (0..rounds.max(1))

@@ -147,7 +147,8 @@ impl SparseCholesky {
             return Ok(false);
         }
         let n = self.stats.n;
-        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        let pattern =
+            SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let identity: Vec<usize>;
         let perm = match &self.mixed.perm {
             Some(p) => p,
@@ -235,7 +236,9 @@ impl SparseCholesky {
     /// double-precision factorisation of the same matrix when refinement does not converge.
     pub(super) fn solve_refined(&mut self, rhs: &mut [f64]) -> Result<(), SolverError> {
         let Some(s) = &mut self.mixed.single else {
-            return Err(SolverError::Linear("mixed precision without its engine".into()));
+            return Err(SolverError::Linear(
+                "mixed precision without its engine".into(),
+            ));
         };
         let b_norm = norm_inf(rhs);
         if b_norm == 0.0 {
@@ -291,10 +294,13 @@ impl SparseCholesky {
         why: PrecisionFallback,
     ) -> Result<(), SolverError> {
         let Some(s) = self.mixed.single.take() else {
-            return Err(SolverError::Linear("mixed precision without its engine".into()));
+            return Err(SolverError::Linear(
+                "mixed precision without its engine".into(),
+            ));
         };
         let n = self.stats.n;
-        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        let pattern =
+            SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let h = SparseColMatRef::new(pattern, &s.values);
         self.factorized = false;
         self.engine.factorize(h, None).map_err(|e| match e {

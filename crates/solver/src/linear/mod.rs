@@ -31,10 +31,10 @@ mod symbolic;
 
 use std::time::{Duration, Instant};
 
+use faer::Par;
 use faer::dyn_stack::MemBuffer;
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::Par;
 
 use crate::SolverError;
 use crate::ordering::Ordering;

@@ -110,15 +110,18 @@ impl Plan {
         let mut rows = Vec::with_capacity(ns);
         for s in 0..ns {
             let p = sn.supernode(s).pattern();
-            if p.windows(2).any(|w| w[0] >= w[1]) || p.first().is_some_and(|&r| r < begin[s + 1])
-            {
+            if p.windows(2).any(|w| w[0] >= w[1]) || p.first().is_some_and(|&r| r < begin[s + 1]) {
                 return None;
             }
             pat.extend_from_slice(p);
             pat_ptr.push(pat.len());
             rows.push(p.len());
         }
-        let parent = |s: usize| pat.get(pat_ptr[s]).filter(|_| rows[s] > 0).map(|&r| col_sn[r]);
+        let parent = |s: usize| {
+            pat.get(pat_ptr[s])
+                .filter(|_| rows[s] > 0)
+                .map(|&r| col_sn[r])
+        };
         let mut child_ptr = vec![0usize; ns + 1];
         for s in 0..ns {
             if let Some(p) = parent(s) {
@@ -253,7 +256,10 @@ impl Plan {
         let local = if row < e {
             row.checked_sub(b)?
         } else {
-            (e - b) + self.pat[self.pat_ptr[s]..self.pat_ptr[s + 1]].binary_search(&row).ok()?
+            (e - b)
+                + self.pat[self.pat_ptr[s]..self.pat_ptr[s + 1]]
+                    .binary_search(&row)
+                    .ok()?
         };
         Some(self.val[s] + (col - b) * ld + local)
     }
@@ -304,7 +310,14 @@ pub(super) fn factorize<T: Real>(
             let (rel, runs) = plan.runs(c);
             let u = &stack[plan.stack_at[c]..plan.stack_at[c] + rc * rc];
             for jj in 0..plan.split[c] {
-                add_column(&mut front[rel[jj] * ld..], &u[jj * rc..(jj + 1) * rc], jj, rel, runs, 0);
+                add_column(
+                    &mut front[rel[jj] * ld..],
+                    &u[jj * rc..(jj + 1) * rc],
+                    jj,
+                    rel,
+                    runs,
+                    0,
+                );
             }
         }
         lap(&mut profile, w, r, 0);
@@ -360,7 +373,14 @@ pub(super) fn factorize<T: Real>(
             let (rel, runs) = plan.runs(c);
             let src = region(plan.stack_at[c], rc * rc);
             for jj in plan.split[c]..rc {
-                add_column(&mut u[(rel[jj] - w) * r..], &src[jj * rc..(jj + 1) * rc], jj, rel, runs, w);
+                add_column(
+                    &mut u[(rel[jj] - w) * r..],
+                    &src[jj * rc..(jj + 1) * rc],
+                    jj,
+                    rel,
+                    runs,
+                    w,
+                );
             }
         }
         lap(&mut profile, w, r, 0);
@@ -446,4 +466,3 @@ impl FactorProfile {
         }
     }
 }
-

@@ -19,8 +19,8 @@ use faer::sparse::{SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Accum, Conj, Mat, MatMut, Par, Side};
 
 use super::dense::{self, cholesky_blocked};
-use super::multifrontal::{self, Plan, Real};
 use super::error::FactorError;
+use super::multifrontal::{self, Plan, Real};
 use crate::SolverError;
 use crate::ordering::inverse_permutation;
 
