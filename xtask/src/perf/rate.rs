@@ -244,67 +244,78 @@ pub(crate) fn section(quick: bool) -> Result<String> {
 }
 
 /// One implicit step (Δt = 1e-3 s, from rest, the library's defaults on one thread) per form,
-/// with mixed precision (the default of implicit steps) and without, interleaved.
+/// with mixed precision (the default of implicit steps) and without, with factor reuse (the
+/// default) and without, interleaved; each integrator does a warm-up step first (the symbolic
+/// analysis), then every round steps from the same state.
 fn steps(md: &mut String, levels: &[usize], rounds: usize) -> Result<()> {
     writeln!(
         md,
-        "One implicit step of the shrinking sphere (Δt = 1e-3 s, from rest, `ImplicitEuler::new` \
-         defaults on one thread: factor reuse and, now, mixed precision) with \
-         `mixed_precision` on and off, {rounds} interleaved round(s), a fresh integrator per \
-         step (so each step factorises), medians; Δx: largest distance between the two final \
-         positions over the diameter.\n\n\
-         | faces | form | step f64 ms | step mixed ms | f64 / mixed | Newton it. f64 / mixed | factorisations f32 / f64 (mixed) | max f32 solves per solve | fallback | Δx / size |\n\
-         |---:|---|---:|---:|---:|---:|---:|---:|---|---:|"
+        "One implicit step of the shrinking sphere (Δt = 1e-3 s, from rest; `ImplicitEuler::new` \
+         on one thread, whose defaults are factor reuse and, now, mixed precision), each \
+         variant's integrator warmed up by one step (symbolic analysis, kept factor), then \
+         {rounds} interleaved round(s) stepping from the same state, medians; Δx: largest \
+         distance between the final positions of the f64 and mixed steps over the diameter.\n\n\
+         | faces | form | reuse | step f64 ms | step mixed ms | f64 / mixed | Newton it. f64 / mixed | factorisations f32 / f64 (mixed run) | max f32 solves per solve | fallback | Δx / size |\n\
+         |---:|---|---|---:|---:|---:|---:|---:|---:|---|---:|"
     )?;
     let one = pool(1)?;
     for &level in levels {
         for sff in forms() {
-            let (mut sys, state0) = shrinking_sphere(level, sff);
-            let mut t = [Vec::new(), Vec::new()];
-            let mut its = [0, 0];
-            let mut finals: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
-            let mut stats = None;
-            for round in 0..=rounds {
-                for (k, mixed) in [false, true].into_iter().enumerate() {
-                    let mut ie = ImplicitEuler::new(1e-3);
-                    ie.newton.mixed_precision = mixed;
-                    let mut s = state0.clone();
-                    let start = Instant::now();
-                    let r = one.install(|| ie.step(&mut sys, &mut s))?;
-                    let wall = start.elapsed().as_secs_f64();
-                    if round > 0 {
-                        t[k].push(wall);
-                    }
-                    its[k] = r.newton.map_or(0, |n| n.iterations);
-                    finals[k] = s.x.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
-                    if mixed {
-                        stats = ie.workspace().and_then(|w| w.precision());
+            for reuse in [false, true] {
+                let state0 = shrinking_sphere(level, sff).1;
+                let mut runs: Vec<_> = [false, true]
+                    .into_iter()
+                    .map(|mixed| {
+                        let mut ie = ImplicitEuler::new(1e-3);
+                        ie.newton.mixed_precision = mixed;
+                        ie.newton.reuse_factor = reuse;
+                        (shrinking_sphere(level, sff).0, ie)
+                    })
+                    .collect();
+                let mut t = [Vec::new(), Vec::new()];
+                let mut its = [0, 0];
+                let mut finals: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+                for round in 0..=rounds {
+                    for (k, (sys, ie)) in runs.iter_mut().enumerate() {
+                        let mut s = state0.clone();
+                        let start = Instant::now();
+                        let r = one.install(|| ie.step(sys, &mut s))?;
+                        if round > 0 {
+                            t[k].push(start.elapsed().as_secs_f64());
+                        }
+                        its[k] = r.newton.map_or(0, |n| n.iterations);
+                        finals[k] = s.x.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
                     }
                 }
+                let p = runs[1]
+                    .1
+                    .workspace()
+                    .and_then(|w| w.precision())
+                    .unwrap_or_default();
+                let dx = finals[0]
+                    .iter()
+                    .zip(&finals[1])
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
+                    / 2.0;
+                let [t64, tmixed] = t.map(median);
+                writeln!(
+                    md,
+                    "| {} | {} | {} | {} | {} | {:.2} | {} / {} | {} / {} | {} | {} | {dx:.1e} |",
+                    20 * 4usize.pow(level as u32),
+                    sff.name(),
+                    if reuse { "on" } else { "off" },
+                    ms(t64),
+                    ms(tmixed),
+                    t64 / tmixed,
+                    its[0],
+                    its[1],
+                    p.single_factorizations,
+                    p.double_factorizations,
+                    p.max_refinement_steps,
+                    p.fallback.map_or("—".to_string(), |f| format!("{f:?}")),
+                )?;
             }
-            let dx = finals[0]
-                .iter()
-                .zip(&finals[1])
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max)
-                / 2.0;
-            let [t64, tmixed] = t.map(median);
-            let p = stats.unwrap_or_default();
-            writeln!(
-                md,
-                "| {} | {} | {} | {} | {:.2} | {} / {} | {} / {} | {} | {} | {dx:.1e} |",
-                20 * 4usize.pow(level as u32),
-                sff.name(),
-                ms(t64),
-                ms(tmixed),
-                t64 / tmixed,
-                its[0],
-                its[1],
-                p.single_factorizations,
-                p.double_factorizations,
-                p.max_refinement_steps,
-                p.fallback.map_or("—".to_string(), |f| format!("{f:?}")),
-            )?;
         }
     }
     writeln!(md)?;

@@ -20,7 +20,7 @@ use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
-use faer::{Accum, MatMut, Par};
+use faer::{Accum, MatMut, MatRef, Par};
 use std::time::Instant;
 
 /// A floating-point type the factorisation runs in (f64, or f32 for mixed precision).
@@ -31,6 +31,13 @@ pub trait Real:
     fn of(x: f64) -> Self;
     /// The value as f64 (exact).
     fn wide(self) -> f64;
+    /// Sets to zero the entries whose products could be subnormal (f32: below
+    /// `√MIN_POSITIVE` ≈ 1.1e-19; f64: none). Subnormal operands slow the dense kernels down
+    /// by orders of magnitude, and the factor of a well-conditioned (diagonally dominant)
+    /// matrix decays geometrically away from the diagonal, below f32's normal range on large
+    /// meshes; what is dropped is ~1e-19 in absolute terms (a matrix scaled so that it matters
+    /// fails refinement and falls back to f64).
+    fn flush(values: &mut [Self]);
 }
 
 impl Real for f64 {
@@ -40,6 +47,7 @@ impl Real for f64 {
     fn wide(self) -> f64 {
         self
     }
+    fn flush(_: &mut [Self]) {}
 }
 
 impl Real for f32 {
@@ -48,6 +56,14 @@ impl Real for f32 {
     }
     fn wide(self) -> f64 {
         self as f64
+    }
+    fn flush(values: &mut [Self]) {
+        let tiny = f32::MIN_POSITIVE.sqrt();
+        for v in values {
+            if v.abs() < tiny {
+                *v = 0.0;
+            }
+        }
     }
 }
 
@@ -78,6 +94,9 @@ pub(super) struct Plan {
     /// Where each supernode's update matrix (r × r, column-major) is formed and waits for its
     /// parent (regions of a supernode and its children never overlap).
     stack_at: Vec<usize>,
+    /// Narrow leaves ([`DIRECT_WIDTH`]): no update matrix; the parent adds `−B Bᵀ` from the
+    /// leaf's rows below (`B`, in the factor) directly.
+    direct: Vec<bool>,
     /// Length of the update stack (values).
     stack_len: usize,
     /// The supernode of each column.
@@ -166,6 +185,13 @@ impl Plan {
                 run_end[q] = end - a;
             }
         }
+        let direct: Vec<bool> = (0..ns)
+            .map(|s| {
+                begin[s + 1] - begin[s] <= DIRECT_WIDTH
+                    && child_ptr[s] == child_ptr[s + 1]
+                    && rows[s] > 0
+            })
+            .collect();
         // Where the update matrices live: each from its supernode's factorisation to its
         // parent's, placed first-fit (in a postorder this is a stack; faer's supernode order is
         // topological but need not be one), all planned here so that the numeric phase only
@@ -174,7 +200,7 @@ impl Plan {
         let mut free: Vec<(usize, usize)> = Vec::new();
         let mut end = 0usize;
         for s in 0..ns {
-            let len = rows[s] * rows[s];
+            let len = if direct[s] { 0 } else { rows[s] * rows[s] };
             if len > 0 {
                 stack_at[s] = match free.iter().position(|&(_, l)| l >= len) {
                     Some(k) => {
@@ -199,7 +225,10 @@ impl Plan {
                     }
                 };
             }
-            for &c in &children[child_ptr[s]..child_ptr[s + 1]] {
+            for &c in children[child_ptr[s]..child_ptr[s + 1]]
+                .iter()
+                .filter(|&&c| !direct[c])
+            {
                 let (o, l) = (stack_at[c], rows[c] * rows[c]);
                 let k = free.partition_point(|&(fo, _)| fo < o);
                 free.insert(k, (o, l));
@@ -226,6 +255,7 @@ impl Plan {
             run_end,
             split,
             stack_at,
+            direct,
             stack_len: end,
             col_sn,
             max_width,
@@ -264,6 +294,13 @@ impl Plan {
         Some(self.val[s] + (col - b) * ld + local)
     }
 
+    /// A supernode's width and its block of the factor (`(w + r) × w`, column-major) in `l`,
+    /// which must hold the factor's values up to the supernode's parent.
+    fn below<'a, T>(&self, c: usize, l: &'a [T]) -> (usize, &'a [T]) {
+        let w = self.begin[c + 1] - self.begin[c];
+        (w, &l[self.val[c]..self.val[c] + (w + self.rows[c]) * w])
+    }
+
     /// A supernode's positions in its parent's front and the ends of their runs (local, from
     /// 0).
     fn runs(&self, c: usize) -> (&[usize], &[usize]) {
@@ -272,13 +309,20 @@ impl Plan {
     }
 }
 
+/// Supernodes at most this wide without children hand their update to their parent as their
+/// factor block (`−B Bᵀ` added there entry by entry) instead of an update matrix: forming and
+/// re-reading `r × r` values cost more than the product for them (the edge-director forms have
+/// one such leaf per edge angle eliminated first).
+pub(super) const DIRECT_WIDTH: usize = 4;
+
 /// Factorises in place the supernodes `0..stop` of the factor whose values `l` hold the
 /// matrix's lower triangle at [`Plan::position`] (zeros elsewhere); supernodes from `stop` on
 /// only receive their children's updates (the split's tail, which must have no rows below its
 /// columns). Per supernode, in order: the children's updates are added to its columns, its
 /// diagonal block is factorised (faer's dense Cholesky), its rows below solved (triangular
 /// solve), and its update matrix formed (`−L₂₁ L₂₁ᵀ`, lower triangle) with the children's
-/// remaining entries added. `stack`: [`Plan::stack_len`] values; `mem`: faer's dense Cholesky
+/// remaining entries added (a narrow leaf, [`DIRECT_WIDTH`], forms none: its parent adds its
+/// `−B Bᵀ` directly). `stack`: [`Plan::stack_len`] values; `mem`: faer's dense Cholesky
 /// scratch for [`Plan::max_width`] columns. Errors with the first non-positive pivot (factor
 /// numbering).
 /// `profile`: when given, the time of each stage is added to the supernode's width class.
@@ -304,10 +348,19 @@ pub(super) fn factorize<T: Real>(
         let ld = w + r;
         lap(&mut profile, w, r, 4);
         let kids = &plan.children[plan.child_ptr[s]..plan.child_ptr[s + 1]];
-        let front = &mut l[plan.val[s]..plan.val[s] + ld * w];
+        let (head, tail) = l.split_at_mut(plan.val[s]);
+        let head = &*head;
+        let front = &mut tail[..ld * w];
         for &c in kids {
             let rc = plan.rows[c];
             let (rel, runs) = plan.runs(c);
+            if plan.direct[c] {
+                let (wc, bc) = plan.below(c, head);
+                for jj in 0..plan.split[c] {
+                    sub_outer(&mut front[rel[jj] * ld..], bc, wc, rc, jj, rel, runs, 0);
+                }
+                continue;
+            }
             let u = &stack[plan.stack_at[c]..plan.stack_at[c] + rc * rc];
             for jj in 0..plan.split[c] {
                 add_column(
@@ -328,22 +381,31 @@ pub(super) fn factorize<T: Real>(
             }
             continue;
         }
-        let f = MatMut::from_column_major_slice_mut(front, ld, w);
-        let (mut top, mut bot) = f.split_at_row_mut(w);
-        cholesky_in_place(
-            top.rb_mut(),
-            Default::default(),
-            Par::Seq,
-            mem,
-            Default::default(),
-        )
-        .map_err(|LltError::NonPositivePivot { index }| b + index)?;
-        lap(&mut profile, w, r, 1);
-        if r == 0 {
+        T::flush(front);
+        {
+            let f = MatMut::from_column_major_slice_mut(&mut *front, ld, w);
+            let (mut top, mut bot) = f.split_at_row_mut(w);
+            cholesky_in_place(
+                top.rb_mut(),
+                Default::default(),
+                Par::Seq,
+                mem,
+                Default::default(),
+            )
+            .map_err(|LltError::NonPositivePivot { index }| b + index)?;
+            lap(&mut profile, w, r, 1);
+            if r == 0 {
+                continue;
+            }
+            solve_lower_triangular_in_place(top.rb(), bot.rb_mut().transpose_mut(), Par::Seq);
+        }
+        T::flush(front);
+        let (_, bot) = MatRef::from_column_major_slice(&*front, ld, w).split_at_row(w);
+        lap(&mut profile, w, r, 2);
+        if plan.direct[s] {
+            // The parent adds −B Bᵀ itself.
             continue;
         }
-        solve_lower_triangular_in_place(top.rb(), bot.rb_mut().transpose_mut(), Par::Seq);
-        lap(&mut profile, w, r, 2);
         let at = plan.stack_at[s];
         let (before, rest) = stack.split_at_mut(at);
         let (u, after) = rest.split_at_mut(r * r);
@@ -371,6 +433,13 @@ pub(super) fn factorize<T: Real>(
         for &c in kids {
             let rc = plan.rows[c];
             let (rel, runs) = plan.runs(c);
+            if plan.direct[c] {
+                let (wc, bc) = plan.below(c, head);
+                for jj in plan.split[c]..rc {
+                    sub_outer(&mut u[(rel[jj] - w) * r..], bc, wc, rc, jj, rel, runs, w);
+                }
+                continue;
+            }
             let src = region(plan.stack_at[c], rc * rc);
             for jj in plan.split[c]..rc {
                 add_column(
@@ -386,6 +455,38 @@ pub(super) fn factorize<T: Real>(
         lap(&mut profile, w, r, 0);
     }
     Ok(())
+}
+
+/// Subtracts entries `jj..` of column `jj` of `B Bᵀ` from the parent's front column `dst`
+/// (entry `i` at `rel[i] − shift`), `B` (the leaf's `(wc + rc) × wc` factor block from
+/// [`Plan::below`], whose rows `wc..` are `B`) a narrow leaf's rows below its columns: the leaf's update added without
+/// forming it.
+#[allow(clippy::too_many_arguments)]
+fn sub_outer<T: Real>(
+    dst: &mut [T],
+    b: &[T],
+    wc: usize,
+    rc: usize,
+    jj: usize,
+    rel: &[usize],
+    run_end: &[usize],
+    shift: usize,
+) {
+    let ld = wc + rc;
+    let mut i = jj;
+    while i < rc {
+        let end = run_end[i];
+        let d = rel[i] - shift;
+        let out = &mut dst[d..d + (end - i)];
+        for k in 0..wc {
+            let col = &b[k * ld + wc..k * ld + ld];
+            let bjk = col[jj];
+            for (a, &x) in out.iter_mut().zip(&col[i..end]) {
+                *a -= x * bjk;
+            }
+        }
+        i = end;
+    }
 }
 
 /// Adds entries `jj..` of a child's update column `src` to the parent's front column `dst`,
