@@ -9,41 +9,15 @@
 //! stage and supernode width class (medians over the rounds). `-- gemm` prints only the dense
 //! product's rate.
 #![allow(clippy::unwrap_used, missing_docs)]
+mod common;
 use std::time::Instant;
 
+use common::spd;
 use faer::sparse::SparseColMat;
 use faer::{Mat, Par};
 use thinshell_energy::{Assembler, SffKind};
 use thinshell_solver::{Ordering, SparseCholesky};
 use thinshell_testkit::fixtures::shrinking_sphere;
-
-/// A diagonally dominant SPD matrix on `h`'s pattern (the values do not change the work).
-fn spd(h: &mut SparseColMat<usize, f64>) {
-    let n = h.ncols();
-    let (cp, rows) = (
-        h.symbolic().col_ptr().to_vec(),
-        h.symbolic().row_idx().to_vec(),
-    );
-    let mut off = vec![0.0; n];
-    for j in 0..n {
-        for &i in &rows[cp[j]..cp[j + 1]] {
-            if i != j {
-                off[i] += 1.0;
-                off[j] += 1.0;
-            }
-        }
-    }
-    let val = h.val_mut();
-    for j in 0..n {
-        for (k, &i) in rows[cp[j]..cp[j + 1]].iter().enumerate() {
-            val[cp[j] + k] = if i == j {
-                off[j] + 1.0 + (j % 7) as f64 * 0.1
-            } else {
-                -1.0
-            };
-        }
-    }
-}
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
