@@ -76,6 +76,11 @@ impl Multifrontal {
     }
 }
 
+/// Largest magnitude of `values`.
+pub(super) fn max_abs(values: &[f64]) -> f64 {
+    values.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+}
+
 impl<T: Real> Engine<T> {
     /// The engine of `symbolic` (the analysis of `pattern`), split at `split` (the whole
     /// ordering and the sizes of the halves and separator) when given and the halves' analyses
@@ -184,6 +189,7 @@ impl<T: Real> Engine<T> {
                     &mut w.stack,
                     m.plan.len(),
                     MemStack::new(&mut w.factor_mem),
+                    multifrontal::flush_threshold(max_abs(h.val())),
                     profile,
                 )
                 .map_err(|pivot| FactorError::NotPositiveDefinite { pivot })?;

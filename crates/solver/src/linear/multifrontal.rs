@@ -31,13 +31,11 @@ pub trait Real:
     fn of(x: f64) -> Self;
     /// The value as f64 (exact).
     fn wide(self) -> f64;
-    /// Sets to zero the entries whose products could be subnormal (f32: below
-    /// `√MIN_POSITIVE` ≈ 1.1e-19; f64: none). Subnormal operands slow the dense kernels down
-    /// by orders of magnitude, and the factor of a well-conditioned (diagonally dominant)
-    /// matrix decays geometrically away from the diagonal, below f32's normal range on large
-    /// meshes; what is dropped is ~1e-19 in absolute terms (a matrix scaled so that it matters
-    /// fails refinement and falls back to f64).
-    fn flush(values: &mut [Self]);
+    /// Sets to zero the entries below `tiny` in magnitude (f32 only; f64 keeps everything).
+    /// Subnormal operands slow the dense kernels down by orders of magnitude, and the factor
+    /// of a well-conditioned (diagonally dominant) matrix decays geometrically away from the
+    /// diagonal, into f32's subnormal range on large meshes ([`flush_threshold`]).
+    fn flush(values: &mut [Self], tiny: f64);
 }
 
 impl Real for f64 {
@@ -47,7 +45,7 @@ impl Real for f64 {
     fn wide(self) -> f64 {
         self
     }
-    fn flush(_: &mut [Self]) {}
+    fn flush(_: &mut [Self], _: f64) {}
 }
 
 impl Real for f32 {
@@ -57,14 +55,24 @@ impl Real for f32 {
     fn wide(self) -> f64 {
         self as f64
     }
-    fn flush(values: &mut [Self]) {
-        let tiny = f32::MIN_POSITIVE.sqrt();
+    fn flush(values: &mut [Self], tiny: f64) {
+        let tiny = tiny as f32;
         for v in values {
             if v.abs() < tiny {
                 *v = 0.0;
             }
         }
     }
+}
+
+/// The magnitude below which an f32 factor's entries are dropped, for a matrix whose largest
+/// entry is `max_abs`: 2⁻⁵⁰ of the factor's scale `√max_abs` (far below f32's resolution of
+/// the entries that matter), and at least `√f32::MIN_POSITIVE`, so that products of kept
+/// entries stay normal. Dropping less than that left the f32 factorisation 2–8× slower than
+/// the f64 one at 81 920 faces (subnormal intermediates in the triangular solves); a matrix
+/// scaled so that the dropped entries matter fails refinement and falls back to f64.
+pub(super) fn flush_threshold(max_abs: f64) -> f64 {
+    (max_abs.sqrt() * 2f64.powi(-50)).max((f32::MIN_POSITIVE as f64).sqrt())
 }
 
 /// The multifrontal schedule of a supernodal symbolic factor: per supernode its columns, the
@@ -325,13 +333,15 @@ pub(super) const DIRECT_WIDTH: usize = 4;
 /// `−B Bᵀ` directly). `stack`: [`Plan::stack_len`] values; `mem`: faer's dense Cholesky
 /// scratch for [`Plan::max_width`] columns. Errors with the first non-positive pivot (factor
 /// numbering).
-/// `profile`: when given, the time of each stage is added to the supernode's width class.
+/// `tiny`: an f32 factor's entries below it are dropped ([`flush_threshold`]; ignored in
+/// f64). `profile`: when given, the time of each stage is added to the supernode's width class.
 pub(super) fn factorize<T: Real>(
     plan: &Plan,
     l: &mut [T],
     stack: &mut [T],
     stop: usize,
     mem: &mut MemStack,
+    tiny: f64,
     mut profile: Option<&mut FactorProfile>,
 ) -> Result<(), usize> {
     let mut clock = Instant::now();
@@ -381,7 +391,7 @@ pub(super) fn factorize<T: Real>(
             }
             continue;
         }
-        T::flush(front);
+        T::flush(front, tiny);
         {
             let f = MatMut::from_column_major_slice_mut(&mut *front, ld, w);
             let (mut top, mut bot) = f.split_at_row_mut(w);
@@ -399,7 +409,7 @@ pub(super) fn factorize<T: Real>(
             }
             solve_lower_triangular_in_place(top.rb(), bot.rb_mut().transpose_mut(), Par::Seq);
         }
-        T::flush(front);
+        T::flush(front, tiny);
         let (_, bot) = MatRef::from_column_major_slice(&*front, ld, w).split_at_row(w);
         lap(&mut profile, w, r, 2);
         if plan.direct[s] {

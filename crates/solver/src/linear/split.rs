@@ -246,6 +246,7 @@ impl<T: Real> Half<T> {
             &mut self.stack,
             last,
             MemStack::new(&mut self.factor_mem),
+            multifrontal::flush_threshold(super::engine::max_abs(h)),
             None,
         )?;
         let m = self.rhs.len();
