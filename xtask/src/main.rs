@@ -131,7 +131,7 @@ enum Task {
         /// The JSON file with every sample (default: target/xtask/perf.json).
         #[arg(long)]
         json: Option<PathBuf>,
-        /// Run only the extra sections whose title contains this text (`reuse`, `fallback`):
+        /// Run only the extra sections whose title contains this text (`rate`, `reuse`, `fallback`):
         /// print their markdown and write it to target/xtask/perf-only.md, leaving the docs
         /// file unchanged.
         #[arg(long)]

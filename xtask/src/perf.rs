@@ -34,6 +34,7 @@ mod kernels;
 mod linear;
 mod measure;
 mod newton;
+mod rate;
 mod report;
 mod reuse;
 
@@ -69,6 +70,7 @@ pub(crate) type Section = (&'static str, fn(bool) -> Result<String>);
 /// after the tables above (the test's masked comparison replaces them by a placeholder).
 pub(crate) fn extra_sections() -> Vec<Section> {
     vec![
+        ("factorisation rate", rate::section),
         ("factor reuse", reuse::section),
         ("iterative fallback", fallback::section),
     ]

@@ -11,12 +11,13 @@
 //! default ordering's predicted flops spread over the supernode widths; `relax` times faer's
 //! default supernode amalgamation against coarser ones, interleaved).
 #![allow(clippy::unwrap_used, clippy::type_complexity, missing_docs)]
+mod common;
 use std::time::Instant;
 
+use common::spd;
 use faer::Par;
 use faer::Side;
 use faer::perm::PermRef;
-use faer::sparse::SparseColMat;
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, SymmetricOrdering, factorize_symbolic_cholesky,
 };
@@ -27,29 +28,6 @@ use thinshell_solver::ordering::{
     metis_node_nd, nested_dissection,
 };
 use thinshell_testkit::fixtures::shrinking_sphere;
-
-fn spd(h: &mut SparseColMat<usize, f64>) {
-    let n = h.ncols();
-    let (cp, rows) = (
-        h.symbolic().col_ptr().to_vec(),
-        h.symbolic().row_idx().to_vec(),
-    );
-    let mut off = vec![0.0; n];
-    for j in 0..n {
-        for &i in &rows[cp[j]..cp[j + 1]] {
-            if i != j {
-                off[i] += 1.0;
-                off[j] += 1.0;
-            }
-        }
-    }
-    let val = h.val_mut();
-    for j in 0..n {
-        for (k, &i) in rows[cp[j]..cp[j + 1]].iter().enumerate() {
-            val[cp[j] + k] = if i == j { off[j] + 1.0 } else { -1.0 };
-        }
-    }
-}
 
 fn main() {
     let levels: Vec<usize> = std::env::args()

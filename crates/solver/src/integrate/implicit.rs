@@ -55,6 +55,7 @@ impl ImplicitEuler {
                 escape_saddles: false,
                 relative_step_tolerance: IMPLICIT_RELATIVE_STEP_TOLERANCE,
                 reuse_factor: true,
+                mixed_precision: true,
                 ..NewtonSettings::default()
             },
             force_scale: None,

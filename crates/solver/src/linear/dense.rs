@@ -8,6 +8,8 @@ use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::{Accum, MatMut, Par};
+
+use super::multifrontal::Real;
 use rayon::iter::{IntoParallelIterator, ParallelIterator};
 
 /// Columns per block of [`cholesky_blocked`]: large enough for faer's matrix kernels to run at
@@ -22,8 +24,8 @@ pub(super) const BLOCK: usize = 128;
 /// touches, so the result does not depend on `concurrent`, which only says whether a stage's
 /// tasks run on the rayon pool. Errors with the first non-positive pivot. `stack`: scratch of
 /// faer's dense Cholesky for [`BLOCK`] columns.
-pub(super) fn cholesky_blocked(
-    mut a: MatMut<'_, f64>,
+pub(super) fn cholesky_blocked<T: Real>(
+    mut a: MatMut<'_, T>,
     concurrent: bool,
     stack: &mut MemStack,
 ) -> Result<(), usize> {
@@ -79,7 +81,7 @@ pub(super) fn cholesky_blocked(
                 BlockStructure::Rectangular,
                 p_top.transpose(),
                 BlockStructure::Rectangular,
-                -1.0,
+                T::of(-1.0),
                 Par::Seq,
             );
             matmul(
@@ -87,7 +89,7 @@ pub(super) fn cholesky_blocked(
                 Accum::Add,
                 panel.get(c0 + w.., ..),
                 p_top.transpose(),
-                -1.0,
+                T::of(-1.0),
                 Par::Seq,
             );
         });

@@ -7,31 +7,45 @@
 //! retries a matrix that is not positive definite with a growing diagonal shift
 //! `H + μ·s·I` (or `H + μ·diag(|H|)`), written through precomputed diagonal offsets.
 //!
+//! The numeric factorisation of a supernodal analysis is the project's multifrontal driver on
+//! faer's dense kernels (`multifrontal`: one symmetric product per supernode instead of faer's
+//! one per pair of supernodes); solves are faer's. With
+//! [`set_mixed_precision`](SparseCholesky::set_mixed_precision) the factor is computed in f32
+//! and solves are refined to f64 accuracy (`mixed`).
+//!
 //! Module layout: `error` (a failed factorisation), `symbolic` (diagonal offsets, ordering,
 //! faer's symbolic analysis, predicted flops), `regularise` (the shift's parameters and the retry
-//! loop), `split` (the two-thread factorisation at the top-level dissection), `dense` (its
-//! separator's blocked dense Cholesky); the type and its sequential engine are here.
+//! loop), `multifrontal` (the numeric driver), `engine` (the numeric factorisation in one
+//! precision, unsplit or split), `split` (the two-thread factorisation at the top-level
+//! dissection), `dense` (its separator's blocked dense Cholesky), `mixed` (mixed precision); the
+//! type is here.
 
 mod dense;
+mod engine;
 mod error;
+mod mixed;
+mod multifrontal;
 mod regularise;
 mod split;
 mod symbolic;
 
 use std::time::{Duration, Instant};
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::factor::LltError as DenseLltError;
-use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, SymbolicCholeskyRaw};
+use faer::Par;
+use faer::dyn_stack::MemBuffer;
+use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par, Side};
 
 use crate::SolverError;
 use crate::ordering::Ordering;
-use split::SplitFactor;
+use engine::Engine;
+use mixed::Mixed;
 
 pub use error::FactorError;
+#[doc(hidden)]
+pub use multifrontal::{ClassProfile, FactorProfile};
 
+pub use mixed::{PrecisionFallback, PrecisionStats};
 pub use regularise::{FactorOutcome, RegularizationKind, RegularizationParams};
 pub use split::SPLIT_MIN_FLOPS;
 pub(crate) use symbolic::analyse;
@@ -59,15 +73,22 @@ pub struct FactorStats {
     pub memory_estimate: u64,
 }
 
-/// Bytes of a factor with `len_val` values and the given scratch sizes.
-fn factor_memory_estimate(len_val: usize, factor_scratch: usize, solve_scratch: usize) -> u64 {
-    (len_val * std::mem::size_of::<f64>() + factor_scratch + solve_scratch) as u64
+/// Bytes of a factor with `len_val` values of `bytes` each and the given scratch sizes.
+fn factor_memory_estimate(
+    len_val: usize,
+    bytes: usize,
+    factor_scratch: usize,
+    solve_scratch: usize,
+) -> u64 {
+    (len_val * bytes + factor_scratch + solve_scratch) as u64
 }
 
 /// A sparse LLᵀ factorisation whose symbolic part, factor storage and scratch memory are reused
 /// for every matrix with the same pattern.
 pub struct SparseCholesky {
-    engine: Engine,
+    engine: Engine<f64>,
+    /// Mixed precision: the single-precision engine when enabled, and what it did.
+    mixed: Mixed,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     diag_offsets: Vec<usize>,
@@ -75,21 +96,6 @@ pub struct SparseCholesky {
     par: Par,
     stats: FactorStats,
     factorized: bool,
-}
-
-/// How the numeric factorisation runs (one per factorisation: the size difference of the
-/// variants does not matter).
-#[allow(clippy::large_enum_variant)]
-enum Engine {
-    /// One faer supernodal factorisation, sequential.
-    Whole {
-        symbolic: SymbolicCholesky<usize>,
-        l_values: Vec<f64>,
-        factor_mem: MemBuffer,
-        solve_mem: MemBuffer,
-    },
-    /// The two halves of the top nested-dissection split on two threads ([`SplitFactor`]).
-    Split(Box<SplitFactor>),
 }
 
 impl std::fmt::Debug for SparseCholesky {
@@ -106,13 +112,13 @@ impl SparseCholesky {
     /// Symbolic analysis of a square pattern holding the lower triangle with every diagonal
     /// entry present. `coordinates` (per dof, m) feed the geometric nested dissection.
     ///
-    /// `par`: with [`Par::Seq`] faer factorises the whole matrix sequentially (the fewest
+    /// `par`: with [`Par::Seq`] the whole matrix is factorised sequentially (the fewest
     /// flops on one thread). With [`Par::Rayon`] of any thread count, an [`Ordering::Metis`]
     /// ordering (chosen or picked by `Auto`) and predicted flops of at least
     /// [`SPLIT_MIN_FLOPS`], the factorisation is split at the top-level dissection
     /// ([`is_split`](Self::is_split)) when the halves' symbolic analyses allow it (almost
-    /// always; otherwise faer's unsplit factorisation, as with `Par::Seq`): each half
-    /// eliminates its own dofs with faer on one thread and leaves its update of the separator
+    /// always; otherwise the unsplit factorisation, as with `Par::Seq`): each half
+    /// eliminates its own dofs on one thread and leaves its update of the separator
     /// block, and the separator's Schur complement is factorised densely by blocks; the two
     /// halves (and the halves of each solve) run concurrently (`rayon::join`) and so do the
     /// dense blocks' tasks when the pool has ≥ 2 threads, one after the other otherwise. The
@@ -136,44 +142,16 @@ impl SparseCholesky {
         let flops = factor_flops(&symbolic);
         let factor_len = symbolic.len_val();
         let supernodal = matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_));
-        let split = match split {
-            Some((perm, sizes))
-                if matches!(par, Par::Rayon(_))
-                    && flops >= SPLIT_MIN_FLOPS
-                    && sizes.iter().all(|&k| k > 0) =>
-            {
-                // The split holds about the whole factor, a second copy of the separator block
-                // (each half stores one) and two dense separator blocks: refuse it before
-                // allocating.
-                let [_, _, sep] = sizes;
-                let estimate = factor_memory_estimate(factor_len + 3 * sep * sep, 0, 0);
-                check_budget(symbolic.nrows(), estimate)?;
-                SplitFactor::new(pattern, perm, sizes, par)?
-            }
-            _ => None,
+        let split = split.filter(|(_, sizes)| {
+            matches!(par, Par::Rayon(_)) && flops >= SPLIT_MIN_FLOPS && sizes.iter().all(|&k| k > 0)
+        });
+        // The ordering, kept to build the single-precision engine on request.
+        let perm = match &split {
+            Some((perm, _)) => Some(perm.clone()),
+            None => symbolic.perm().map(|p| p.arrays().0.to_vec()),
         };
-        let (engine, estimate) = match split {
-            Some(f) => {
-                drop(symbolic);
-                let estimate = f.memory();
-                (Engine::Split(Box::new(f)), estimate)
-            }
-            None => {
-                let factor_req =
-                    symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
-                let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
-                let (factor_mem, solve_mem, estimate) = scratch(&symbolic, factor_req, solve_req)?;
-                (
-                    Engine::Whole {
-                        l_values: vec![0.0; factor_len],
-                        symbolic,
-                        factor_mem,
-                        solve_mem,
-                    },
-                    estimate,
-                )
-            }
-        };
+        let sizes = split.as_ref().map(|s| s.1);
+        let (engine, estimate) = Engine::<f64>::new(pattern, symbolic, split, par)?;
         let stats = FactorStats {
             n,
             nnz_lower: pattern.row_idx().len(),
@@ -186,6 +164,11 @@ impl SparseCholesky {
         };
         Ok(SparseCholesky {
             engine,
+            mixed: Mixed {
+                perm,
+                sizes,
+                ..Mixed::default()
+            },
             col_ptr: pattern.col_ptr().to_vec(),
             row_idx: pattern.row_idx().to_vec(),
             diag_backup: vec![0.0; n],
@@ -214,36 +197,44 @@ impl SparseCholesky {
     /// Numeric factorisation of `h` (same pattern as given to [`new`](Self::new), lower
     /// triangle). Allocates nothing.
     pub fn factorize(&mut self, h: SparseColMatRef<'_, usize, f64>) -> Result<(), FactorError> {
+        self.factorize_with(h, None)
+    }
+
+    /// [`factorize`](Self::factorize) timing each stage of the multifrontal driver by
+    /// supernode width class (a measurement aid; `None` when another driver ran).
+    #[doc(hidden)]
+    pub fn factorize_profiled(
+        &mut self,
+        h: SparseColMatRef<'_, usize, f64>,
+    ) -> Result<Option<FactorProfile>, FactorError> {
+        let mut profile = FactorProfile::default();
+        self.factorize_with(h, Some(&mut profile))?;
+        Ok((self.engine.is_multifrontal() && !self.single_active()).then_some(profile))
+    }
+
+    fn factorize_with(
+        &mut self,
+        h: SparseColMatRef<'_, usize, f64>,
+        profile: Option<&mut FactorProfile>,
+    ) -> Result<(), FactorError> {
         self.factorized = false;
         same_pattern(h, &self.col_ptr, &self.row_idx).map_err(FactorError::Other)?;
-        match &mut self.engine {
-            Engine::Whole {
-                symbolic,
-                l_values,
-                factor_mem,
-                ..
-            } => {
-                let stack = MemStack::new(factor_mem);
-                symbolic
-                    .factorize_numeric_llt(
-                        l_values,
-                        h,
-                        Side::Lower,
-                        Default::default(),
-                        Par::Seq,
-                        stack,
-                        Default::default(),
-                    )
-                    // The low-level API reports the dense error type directly (not wrapped in
-                    // `sparse::linalg::LltError::Numeric` as the high-level `Llt` does).
-                    .map_err(|DenseLltError::NonPositivePivot { index }| {
-                        FactorError::NotPositiveDefinite { pivot: index }
-                    })?;
-            }
-            Engine::Split(f) => f.factorize(h.val())?,
+        if self.mixed.single.is_some() && !self.mixed.skip_single {
+            return self.factorize_mixed(h, profile);
         }
+        self.engine.factorize(h, profile)?;
+        self.mixed.last_single = false;
+        self.mixed.stats.double_factorizations += 1;
         self.factorized = true;
         Ok(())
+    }
+
+    /// Makes an unsplit factorisation use faer's left-looking supernodal driver instead of the
+    /// multifrontal one (for measurements against it; no effect on a split factorisation).
+    #[doc(hidden)]
+    pub fn use_faer_driver(&mut self) {
+        self.engine.use_faer_driver(self.row_idx.len());
+        self.factorized = false;
     }
 
     /// Whether the factorisation is split at the top-level dissection (described at
@@ -258,33 +249,26 @@ impl SparseCholesky {
     /// the halves run concurrently, so the critical path is `max(A, B) + separator`, against
     /// [`FactorStats::flops`] (≈ A + B + separator) on one thread.
     pub fn split_flops(&self) -> Option<[f64; 3]> {
-        match &self.engine {
-            Engine::Whole { .. } => None,
-            Engine::Split(f) => Some(f.flops()),
-        }
+        self.engine.split_flops()
     }
 
     /// Solves `H x = rhs` in place with the last successful factorisation. Allocates nothing.
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolverError> {
-        let n = self.stats.n;
-        ready_to_solve(self.factorized, n, rhs)?;
-        match &mut self.engine {
-            Engine::Whole {
-                symbolic,
-                l_values,
-                solve_mem,
-                ..
-            } => {
-                let llt = LltRef::new(symbolic, l_values);
-                let stack = MemStack::new(solve_mem);
-                llt.solve_in_place_with_conj(
-                    Conj::No,
-                    MatMut::from_column_major_slice_mut(rhs, n, 1),
-                    Par::Seq,
-                    stack,
-                );
-            }
-            Engine::Split(f) => f.solve_in_place(rhs),
+        ready_to_solve(self.factorized, self.stats.n, rhs)?;
+        if self.single_active() {
+            return self.solve_refined(rhs);
+        }
+        self.engine.solve_in_place(rhs);
+        Ok(())
+    }
+
+    /// One solve with the last factorisation as it is, without iterative refinement when it
+    /// is in single precision (a preconditioner's application: CG with a kept factor).
+    pub fn precondition_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolverError> {
+        ready_to_solve(self.factorized, self.stats.n, rhs)?;
+        match (&mut self.mixed.single, self.mixed.last_single) {
+            (Some(single), true) => single.engine.solve_in_place(rhs),
+            _ => self.engine.solve_in_place(rhs),
         }
         Ok(())
     }
@@ -301,6 +285,7 @@ pub(crate) fn scratch(
 ) -> Result<(MemBuffer, MemBuffer, u64), SolverError> {
     let estimate = factor_memory_estimate(
         symbolic.len_val(),
+        std::mem::size_of::<f64>(),
         factor_req.size_bytes(),
         solve_req.size_bytes(),
     );

@@ -128,6 +128,7 @@ impl SparseCholesky {
         };
         let mut attempts = 0;
         let mut shifted_attempts = 0;
+        self.mixed.skip_single = false;
         let result = loop {
             attempts += 1;
             let mut max_shift = 0.0f64;
@@ -165,6 +166,7 @@ impl SparseCholesky {
                 Err(e) => break Err(e),
             }
         };
+        self.mixed.skip_single = false;
         let val = h.val_mut();
         for (&o, &d) in self.diag_offsets.iter().zip(&self.diag_backup) {
             val[o] = d;

@@ -15,11 +15,12 @@ use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
     factorize_symbolic_cholesky,
 };
-use faer::sparse::{SparseColMat, SymbolicSparseColMat, SymbolicSparseColMatRef};
+use faer::sparse::{SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Accum, Conj, Mat, MatMut, Par, Side};
 
 use super::dense::{self, cholesky_blocked};
 use super::error::FactorError;
+use super::multifrontal::{self, Plan, Real};
 use crate::SolverError;
 use crate::ordering::inverse_permutation;
 
@@ -39,48 +40,45 @@ pub const SPLIT_MIN_FLOPS: f64 = 2e8;
 /// fixed order and the separator's blocked Cholesky ([`cholesky_blocked`]) cuts its work into
 /// fixed tasks, so the result does not depend on which thread ran what.
 ///
-/// How a half stops at `S` (faer has no partial factorisation): in the half's symbolic
-/// analysis the separator's columns all lie in the last supernode (checked by [`Half::new`];
-/// it also holds the last columns of the half, those whose pattern is the whole separator), the
-/// *tail*. The half's matrix holds zeros in the tail's columns, so faer's supernodal
-/// factorisation factorises every supernode before the tail, assembles the updates of all of
-/// them into the tail (`−Σ L Lᵀ`) and then stops at the tail's first pivot, which is `0 − Σ l²
-/// ≤ 0` (faer 0.24's dense LLᵀ checks a pivot before it writes anything; the split's solutions
-/// are compared with the unsplit factorisation's in `tests/thread_independence.rs`, which
-/// would catch a faer that behaves otherwise). The half adds the
+/// How a half stops at `S`: in the half's symbolic analysis the separator's columns all lie in
+/// the last supernode (checked by [`Half::new`]; it also holds the last columns of the half,
+/// those whose pattern is the whole separator), the *tail*. The multifrontal driver
+/// ([`multifrontal::factorize`] with `stop` at the tail) factorises every supernode before the
+/// tail and adds their updates into it (`−Σ L Lᵀ`) without factorising it. The half adds the
 /// tail's matrix entries itself, eliminates the tail's own columns of `X` densely and leaves
 /// `T_X` in the separator block, which it then overwrites with the identity: the half's
-/// stored factor is `[L_XX 0; L_SX I]`, so its supernodal solves give `−L_SX y_X` and take
-/// `x_S` directly. This saves what the split used to cost on top of the unsplit
-/// factorisation: each half's Cholesky of its copy of the separator block and the product
-/// `C Cᵀ` that turned that factor back into `T_X` (2 s³/3 flops per half, s the separator's
-/// size).
-pub(super) struct SplitFactor {
+/// stored factor is `[L_XX 0; L_SX I]`, so its supernodal solves (faer's) give `−L_SX y_X` and
+/// take `x_S` directly. So the split does the unsplit factorisation's flops (`split_flops`).
+/// `T` is the precision the factor is computed and stored in (f64, or f32 for mixed
+/// precision); the matrix and the solves' right-hand sides are f64.
+pub(super) struct SplitFactor<T: Real> {
     /// `perm[new] = old` of the whole ordering.
     perm: Vec<usize>,
     /// Dofs of A, B, S.
     sizes: [usize; 3],
-    halves: [Half; 2],
+    halves: [Half<T>; 2],
     /// Positions in `h`'s value array of the S × S lower entries and their (row, col) in S.
     s_entries: Vec<(usize, usize, usize)>,
     /// Dense s × s: half A's `T_A`, then the Schur complement, then its Cholesky factor
     /// (lower).
-    schur: Mat<f64>,
+    schur: Mat<T>,
     /// Dense s × s: half B's `T_B` (lower).
-    product: Mat<f64>,
+    product: Mat<T>,
     schur_mem: MemBuffer,
     /// Permuted right-hand side / solution.
-    work: Vec<f64>,
+    work: Vec<T>,
     par: Par,
 }
 
 /// One half `M = [H_XX H_XS; H_SX 0]` of a [`SplitFactor`], partially factorised (its dofs
 /// only).
-struct Half {
+struct Half<T: Real> {
     symbolic: SymbolicCholesky<usize>,
-    /// `M` with zeros in the tail's columns (`tail..`).
-    matrix: SparseColMat<usize, f64>,
-    /// (position in `h`'s value array, position in `matrix`'s), columns before the tail.
+    /// The multifrontal schedule of `symbolic`.
+    plan: Plan,
+    /// The multifrontal update stack.
+    stack: Vec<T>,
+    /// (position in `h`'s value array, position in `l_values`), columns before the tail.
     scatter: Vec<(usize, usize)>,
     /// (position in `h`'s value array, row, column in the tail block): the entries of the
     /// tail's columns of `X` (those of `S × S` are added once, to the Schur complement).
@@ -89,11 +87,11 @@ struct Half {
     tail: usize,
     /// Offset of the tail's dense block (w × w, w = m − tail, column-major) in `l_values`.
     tail_offset: usize,
-    l_values: Vec<f64>,
+    l_values: Vec<T>,
     factor_mem: MemBuffer,
     solve_mem: MemBuffer,
     /// Right-hand side / solution of `M`'s solves (m values).
-    rhs: Vec<f64>,
+    rhs: Vec<T>,
     /// The separator's size s.
     s: usize,
 }
@@ -106,7 +104,7 @@ fn supernodal(symbolic: &SymbolicCholesky<usize>) -> Option<&SymbolicSupernodalC
     }
 }
 
-impl Half {
+impl<T: Real> Half<T> {
     /// `range`: the half's dofs in the permuted numbering; the separator follows it. `None`
     /// when the half's symbolic analysis does not put the whole separator in its last
     /// supernode (the split then does not apply).
@@ -115,7 +113,7 @@ impl Half {
         inv: &[usize],
         range: std::ops::Range<usize>,
         sep_start: usize,
-    ) -> Result<Option<Half>, SolverError> {
+    ) -> Result<Option<Half<T>>, SolverError> {
         let n = pattern.ncols();
         let nx = range.len();
         let s = n - sep_start;
@@ -172,37 +170,44 @@ impl Half {
         if tail > first {
             return Ok(None);
         }
+        let Some(plan) = Plan::new(sn) else {
+            return Ok(None);
+        };
         let mut scatter = Vec::new();
         let mut tail_scatter = Vec::new();
-        for (q, &(col, row, p)) in entries.iter().enumerate() {
+        for &(col, row, p) in &entries {
             if col < tail {
+                let Some(q) = plan.position(row, col) else {
+                    return Ok(None);
+                };
                 scatter.push((p, q));
             } else if col < first {
                 tail_scatter.push((p, row - tail, col - tail));
             }
         }
         let factor_mem = MemBuffer::try_new(
-            faer::sparse::linalg::cholesky::supernodal::factorize_supernodal_numeric_llt_scratch::<
-                usize,
-                f64,
-            >(sn, Par::Seq, Default::default()),
+            faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<T>(
+                plan.max_width().max(m),
+                Par::Seq,
+                Default::default(),
+            ),
         )
         .map_err(|_| SolverError::Linear("out of memory for factorisation scratch".into()))?;
-        let solve_mem = MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq))
+        let solve_mem = MemBuffer::try_new(symbolic.solve_in_place_scratch::<T>(1, Par::Seq))
             .map_err(|_| SolverError::Linear("out of memory for solve scratch".into()))?;
         let tail_offset = sn.col_ptr_for_val()[last];
-        let nnz = structure.row_idx().len();
         Ok(Some(Half {
-            l_values: vec![0.0; symbolic.len_val()],
+            l_values: vec![T::of(0.0); symbolic.len_val()],
             symbolic,
-            matrix: SparseColMat::new(structure, vec![0.0; nnz]),
+            stack: vec![T::of(0.0); plan.stack_len()],
+            plan,
             scatter,
             tail_scatter,
             tail,
             tail_offset,
             factor_mem,
             solve_mem,
-            rhs: vec![0.0; m],
+            rhs: vec![T::of(0.0); m],
             s,
         }))
     }
@@ -228,36 +233,28 @@ impl Half {
     /// Eliminates the half's dofs from `M` (values from `h`) and writes the lower triangle of
     /// `T_X = −L_SX L_SXᵀ` into `product` (see [`SplitFactor`]). Errors with the failing pivot
     /// in `M`'s numbering.
-    fn factorize(&mut self, h: &[f64], product: &mut Mat<f64>) -> Result<(), usize> {
-        let val = self.matrix.val_mut();
+    fn factorize(&mut self, h: &[f64], product: &mut Mat<T>) -> Result<(), usize> {
+        self.l_values.fill(T::of(0.0));
         for &(src, dst) in &self.scatter {
-            val[dst] = h[src];
+            self.l_values[dst] = T::of(h[src]);
         }
-        let Some(sn) = supernodal(&self.symbolic) else {
-            return Err(0);
-        };
-        // faer's driver on M directly (M is already in its own order: no permuted copy).
-        match faer::sparse::linalg::cholesky::supernodal::factorize_supernodal_numeric_llt(
+        // Every supernode but the tail, whose columns then hold −Σ L Lᵀ of the others.
+        let last = self.plan.len() - 1;
+        multifrontal::factorize(
+            &self.plan,
             &mut self.l_values,
-            self.matrix.as_ref(),
-            Default::default(),
-            sn,
-            Par::Seq,
+            &mut self.stack,
+            last,
             MemStack::new(&mut self.factor_mem),
-            Default::default(),
-        ) {
-            // The planned stop at the tail's first pivot (0 − Σ l², see `SplitFactor`).
-            Err(DenseLltError::NonPositivePivot { index }) if index == self.tail => {}
-            Err(DenseLltError::NonPositivePivot { index }) => return Err(index),
-            // Unreachable: that pivot cannot be positive.
-            Ok(_) => return Err(self.tail),
-        }
+            multifrontal::flush_threshold(super::engine::max_abs(h)),
+            None,
+        )?;
         let m = self.rhs.len();
         let s = self.s;
         let (w, k) = (m - self.tail, m - s - self.tail);
         let tail = &mut self.l_values[self.tail_offset..self.tail_offset + w * w];
         for &(src, i, j) in &self.tail_scatter {
-            tail[i + j * w] += h[src];
+            tail[i + j * w] += T::of(h[src]);
         }
         // The tail is w × w column-major: the separator block's column j, from its diagonal
         // down, is `tail[separator(j)]`.
@@ -286,15 +283,15 @@ impl Half {
             BlockStructure::Rectangular,
             w21.rb().transpose(),
             BlockStructure::Rectangular,
-            -1.0,
+            T::of(-1.0),
             Par::Seq,
         );
         // The stored factor's separator block becomes the identity (see `SplitFactor`).
         let tail = &mut self.l_values[self.tail_offset..self.tail_offset + w * w];
         for j in 0..s {
             let col = &mut tail[separator(j)];
-            col.fill(0.0);
-            col[0] = 1.0;
+            col.fill(T::of(0.0));
+            col[0] = T::of(1.0);
         }
         Ok(())
     }
@@ -303,7 +300,7 @@ impl Half {
     /// already in `rhs`): leaves `y_X` and then `−L_SX y_X` in `rhs`.
     fn forward(&mut self) {
         let m = self.rhs.len();
-        self.rhs[m - self.s..].fill(0.0);
+        self.rhs[m - self.s..].fill(T::of(0.0));
         if let Some(sn) = supernodal(&self.symbolic) {
             let l = SupernodalLltRef::new(sn, &self.l_values);
             l.l_solve_with_conj(
@@ -317,7 +314,7 @@ impl Half {
 
     /// Back substitution with the stored factor's transpose on `[y_X; x_S]`: leaves `x_X` in
     /// `rhs[..m − s]`.
-    fn backward(&mut self, x_s: &[f64]) {
+    fn backward(&mut self, x_s: &[T]) {
         let m = self.rhs.len();
         self.rhs[m - self.s..].copy_from_slice(x_s);
         if let Some(sn) = supernodal(&self.symbolic) {
@@ -332,12 +329,12 @@ impl Half {
     }
 
     /// `−L_SX y_X` after [`forward`](Self::forward).
-    fn separator_part(&self) -> &[f64] {
+    fn separator_part(&self) -> &[T] {
         &self.rhs[self.rhs.len() - self.s..]
     }
 }
 
-impl SplitFactor {
+impl<T: Real> SplitFactor<T> {
     /// The split of `pattern` at the top-level dissection `perm` (`sizes`: dofs of A, B, S);
     /// `None` when a half's symbolic analysis does not suit it ([`Half::new`]), a property of
     /// the pattern alone, so the choice does not depend on the thread count.
@@ -346,7 +343,7 @@ impl SplitFactor {
         perm: Vec<usize>,
         sizes: [usize; 3],
         par: Par,
-    ) -> Result<Option<SplitFactor>, SolverError> {
+    ) -> Result<Option<SplitFactor<T>>, SolverError> {
         let n = pattern.ncols();
         let [a, b, s] = sizes;
         let inv = inverse_permutation(&perm);
@@ -371,7 +368,7 @@ impl SplitFactor {
             return Ok(None);
         };
         let schur_mem = MemBuffer::try_new(
-            faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
+            faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<T>(
                 dense::BLOCK.min(s),
                 Par::Seq,
                 Default::default(),
@@ -386,7 +383,7 @@ impl SplitFactor {
             schur: Mat::zeros(s, s),
             product: Mat::zeros(s, s),
             schur_mem,
-            work: vec![0.0; n],
+            work: vec![T::of(0.0); n],
             par,
         }))
     }
@@ -397,9 +394,9 @@ impl SplitFactor {
         let halves: usize = self
             .halves
             .iter()
-            .map(|h| 8 * (h.l_values.len() + h.matrix.val().len()))
+            .map(|h| std::mem::size_of::<T>() * (h.l_values.len() + h.stack.len()))
             .sum();
-        (halves + 16 * s * s) as u64
+        (halves + 2 * std::mem::size_of::<T>() * s * s) as u64
     }
 
     /// Predicted flops `[half A, half B, separator]` (halves: their own columns, as
@@ -441,7 +438,7 @@ impl SplitFactor {
             }
         }
         for &(p, i, j) in &self.s_entries {
-            self.schur[(i, j)] += h[p];
+            self.schur[(i, j)] += T::of(h[p]);
         }
         let schur = self.schur.as_mut();
         cholesky_blocked(schur, concurrent, MemStack::new(&mut self.schur_mem)).map_err(
@@ -456,7 +453,7 @@ impl SplitFactor {
         let [a, b, s] = self.sizes;
         let sep = a + b;
         for (new, &old) in self.perm.iter().enumerate() {
-            self.work[new] = rhs[old];
+            self.work[new] = T::of(rhs[old]);
         }
         let [h0, h1] = &mut self.halves;
         h0.rhs[..a].copy_from_slice(&self.work[..a]);
@@ -490,7 +487,7 @@ impl SplitFactor {
         self.work[..a].copy_from_slice(&h0.rhs[..a]);
         self.work[a..sep].copy_from_slice(&h1.rhs[..b]);
         for (new, &old) in self.perm.iter().enumerate() {
-            rhs[old] = self.work[new];
+            rhs[old] = self.work[new].wide();
         }
     }
 }

@@ -144,7 +144,7 @@ pub(crate) fn symbolic_metis(
 }
 
 /// Symbolic analysis with the permutation `fwd` (`fwd[new] = old`).
-fn symbolic_custom(
+pub(crate) fn symbolic_custom(
     pattern: SymbolicSparseColMatRef<'_, usize>,
     fwd: &[usize],
 ) -> Result<SymbolicCholesky<usize>, SolverError> {

@@ -292,7 +292,7 @@ pub(super) fn pcg_with_factor(
         eta,
         max_iterations,
         scratch,
-        |r| cholesky.solve_in_place(r),
+        |r| cholesky.precondition_in_place(r),
     );
     shift_diagonal(hessian, obj_shift);
     Ok(Some(o?))

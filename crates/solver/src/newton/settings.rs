@@ -105,6 +105,12 @@ pub struct NewtonSettings {
     /// The factor is kept across solves (implicit steps). The convergence tests and the line
     /// search are unchanged, so the equilibria are the same (to the step tolerance).
     pub reuse_factor: bool,
+    /// Mixed precision ([`SparseCholesky::set_mixed_precision`](crate::SparseCholesky::set_mixed_precision)):
+    /// factorise in f32 and refine every solve to f64 accuracy, falling back to f64 for good
+    /// (reported by [`NewtonWorkspace::precision`](crate::NewtonWorkspace::precision)) where
+    /// refinement does not converge within a few steps. Off by default; implicit steps turn it
+    /// on (their `M/Δt²` keeps the matrix well conditioned).
+    pub mixed_precision: bool,
     /// CG iterations a reused factor may take (≥ 1); a solve that needs more refactorises, and
     /// one that needs more than half of them refactorises at the next iteration.
     pub reuse_max_iterations: usize,
@@ -190,6 +196,7 @@ impl Default for NewtonSettings {
             ordering: Ordering::default(),
             parallel: true,
             reuse_factor: false,
+            mixed_precision: false,
             reuse_max_iterations: 20,
             reuse_tolerance: 1e-8,
             cg_forcing: 1e-2,

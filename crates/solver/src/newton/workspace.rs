@@ -54,6 +54,8 @@ pub struct NewtonWorkspace {
     /// The settings the symbolic analysis was made with.
     pub(super) ordering: Ordering,
     pub(super) parallel: bool,
+    /// Whether the direct solver was asked for mixed precision.
+    mixed_precision: bool,
     /// Called after every accepted iteration of [`newton_solve`](crate::newton_solve).
     pub(super) progress: Option<ProgressHook>,
     /// Checked before every iteration of [`newton_solve`](crate::newton_solve).
@@ -113,7 +115,10 @@ impl NewtonWorkspace {
             )
         };
         let (cholesky, fallback) = match direct {
-            Ok(c) => (Some(c), None),
+            Ok(mut c) => {
+                c.set_mixed_precision(settings.mixed_precision)?;
+                (Some(c), None)
+            }
             Err(SolverError::InsufficientMemory {
                 n: dim,
                 estimate,
@@ -212,6 +217,7 @@ impl NewtonWorkspace {
             mu: 0.0,
             ordering: settings.ordering,
             parallel: settings.parallel,
+            mixed_precision: settings.mixed_precision,
             progress: None,
             cancel: None,
             ldlt: None,
@@ -225,11 +231,19 @@ impl NewtonWorkspace {
     pub fn matches(&self, settings: &NewtonSettings) -> bool {
         self.ordering == settings.ordering
             && self.parallel == settings.parallel
+            && self.mixed_precision == settings.mixed_precision
             && self.forced == settings.force_iterative
             && self
                 .fallback
                 .as_ref()
                 .is_none_or(|f| f.kind == settings.fallback || self.forced)
+    }
+
+    /// What the direct solver's factorisations and solves did in each precision over this
+    /// workspace's life ([`NewtonSettings::mixed_precision`](super::NewtonSettings::mixed_precision));
+    /// `None` with the iterative fallback.
+    pub fn precision(&self) -> Option<crate::linear::PrecisionStats> {
+        self.cholesky.as_ref().map(|c| c.precision())
     }
 
     /// How this workspace solves: [`LinearSolver::Direct`], or the iterative fallback chosen
