@@ -23,6 +23,7 @@
 
 mod batch;
 mod pattern;
+mod rest_sensitivity;
 
 use crate::dofs::{DofMap, check_len};
 use crate::error::EnergyError;

@@ -88,6 +88,7 @@ pub mod mass;
 pub mod material;
 pub mod membrane_strain;
 pub mod rest;
+pub mod rest_sensitivity;
 pub mod sff;
 pub mod shell;
 pub mod stencil;
@@ -110,6 +111,7 @@ pub use material::{
 };
 pub use membrane_strain::first_fundamental_form;
 pub use rest::{DampingState, RestState};
+pub use rest_sensitivity::face_rest_mixed;
 pub use sff::{
     DIRECTOR_DOFS, DirectorVariant, EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind,
 };
