@@ -5,6 +5,7 @@
 //! `contact_stiffness`, `obstacle` → `contact` → `system` → `objective` → `integrator` → `statics` (with `homotopy`), `implicit`, `explicit`; `objective` → `path` (with
 //! the crate's [`path`](crate::path) tracer).
 
+mod adjoint;
 pub mod angles;
 pub mod bc;
 pub mod contact;
