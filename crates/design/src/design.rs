@@ -11,6 +11,9 @@ use crate::forward::{Equilibrium, Forward};
 use crate::objective::{ShapeObjective, Smoothness};
 use crate::param::{Parametrisation, clamp_to_bounds};
 
+/// Parameter vectors whose equilibria are kept as starts.
+const VISITED: usize = 16;
+
 /// One evaluation of the design objective: J(x*(p)) + R(p), its gradient in p and the
 /// equilibrium it was measured at.
 #[derive(Clone, Debug)]
@@ -118,6 +121,10 @@ pub struct DesignResult {
 /// minimise a shape objective J(x*).
 pub struct Design {
     forward: Forward,
+    /// Recent (parameters, equilibrium) pairs: each solve starts from the equilibrium of the
+    /// nearest parameters, so that a line search stepping back returns to the same branch
+    /// (a shell can have several equilibria at the same rest forms).
+    visited: Vec<(Vec<f64>, Equilibrium)>,
     param: Box<dyn Parametrisation>,
     objective: Box<dyn ShapeObjective>,
     smoothness: Option<Smoothness>,
@@ -141,6 +148,7 @@ impl Design {
     ) -> Design {
         Design {
             forward,
+            visited: Vec::new(),
             param,
             objective,
             smoothness: None,
@@ -163,9 +171,27 @@ impl Design {
             .then(|| Smoothness::new(self.forward.mesh(), self.param.layout(), weight));
     }
 
+    /// The equilibrium at `p`, solved from that of the nearest parameters seen.
+    fn equilibrium(&mut self, p: &[f64]) -> Result<Equilibrium, DesignError> {
+        let distance = |q: &[f64]| q.iter().zip(p).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+        if let Some((_, eq)) = self
+            .visited
+            .iter()
+            .min_by(|a, b| distance(&a.0).total_cmp(&distance(&b.0)))
+        {
+            self.forward.start_from(eq);
+        }
+        let eq = self.forward.solve(&self.param.rest(p))?;
+        if self.visited.len() >= VISITED {
+            self.visited.remove(0);
+        }
+        self.visited.push((p.to_vec(), eq.clone()));
+        Ok(eq)
+    }
+
     /// J(x*(p)) + R(p) without the gradient (one forward solve).
     pub fn value(&mut self, p: &[f64]) -> Result<(f64, Equilibrium), DesignError> {
-        let eq = self.forward.solve(&self.param.rest(p))?;
+        let eq = self.equilibrium(p)?;
         let mut g = vec![Vector3::zeros(); eq.x.len()];
         let mut gp = vec![0.0; p.len()];
         let r = self
@@ -193,7 +219,7 @@ impl Design {
                 "parameter {bad} is not finite"
             )));
         }
-        let eq = self.forward.solve(&self.param.rest(p))?;
+        let eq = self.equilibrium(p)?;
         let mut gx = vec![Vector3::zeros(); eq.x.len()];
         let shape = self.objective.evaluate(&eq.x, &mut gx);
         let mut rhs = vec![0.0; self.forward.n_coordinates()];

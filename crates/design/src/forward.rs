@@ -23,11 +23,13 @@ pub struct Equilibrium {
 
 /// The forward map rest forms → static equilibrium of one shell system (its boundary, loads and
 /// contact as the forward solve has them; the masses, and so gravity, stay those the system was
-/// built with), solved by [`Static`] with its default settings (rest-form continuation when a
-/// one-shot solve fails), each solve starting from the last equilibrium.
+/// built with), solved by Newton from the last equilibrium ([`Static`] without continuation),
+/// falling back to [`Static`]'s step with rest-form continuation when that fails, then polished
+/// by full Newton steps.
 pub struct Forward {
     system: ShellSystem,
     statics: Static,
+    direct: Static,
     polish: Static,
     state: State,
 }
@@ -63,6 +65,10 @@ impl Forward {
         Ok(Forward {
             system,
             statics: Static::default(),
+            direct: Static {
+                continuation: false,
+                ..Static::default()
+            },
             polish,
             state,
         })
@@ -94,6 +100,12 @@ impl Forward {
         self.state.phi = vec![0.0; self.system.n_edge_angles()];
     }
 
+    /// Starts the next solve from the equilibrium `eq` (e.g. of the nearest parameters seen).
+    pub fn start_from(&mut self, eq: &Equilibrium) {
+        self.state = State::at_rest(eq.x.clone());
+        self.state.phi = eq.phi.clone();
+    }
+
     /// The static equilibrium at rest forms `rest`, from the last equilibrium. A failed solve
     /// leaves the start unchanged.
     pub fn solve(&mut self, rest: &RestState) -> Result<Equilibrium, DesignError> {
@@ -101,14 +113,25 @@ impl Forward {
         rest.validate(self.system.mesh()).inspect_err(|_| {
             self.system.rest = previous.clone();
         })?;
+        // Newton from the warm start first (the branch of the previous equilibrium: J(p) stays
+        // continuous along a line search); the robust step, with rest-form continuation and
+        // its check for a lower-energy equilibrium, only when that fails.
         let mut state = self.state.clone();
-        let report = self.statics.step(&mut self.system, &mut state)?;
-        let mut iterations = report.newton.as_ref().map_or(0, |n| n.iterations);
-        // Polish: full Newton steps from the equilibrium. The robust solve may stop where its
-        // line search no longer sees the energy decrease (round-off of a large total), which
-        // leaves x* accurate to ~√ε only; the adjoint gradient is exact for the exact x*, and
-        // a finite-difference check or the optimiser's line search sees that noise. A polish
-        // that fails keeps the robust solve's equilibrium.
+        let (mut x, mut phi) = (state.x.clone(), state.phi.clone());
+        let mut iterations = match self
+            .direct
+            .solve_with_angles(&mut self.system, &mut x, &mut phi)
+        {
+            Ok(r) => {
+                state.x = x;
+                state.phi = phi;
+                r.iterations
+            }
+            Err(_) => {
+                let report = self.statics.step(&mut self.system, &mut state)?;
+                report.newton.as_ref().map_or(0, |n| n.iterations)
+            }
+        };
         let (mut x, mut phi) = (state.x.clone(), state.phi.clone());
         if let Ok(r) = self
             .polish

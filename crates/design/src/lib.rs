@@ -22,6 +22,7 @@ mod error;
 pub mod forward;
 pub mod objective;
 pub mod param;
+mod pins;
 
 pub use design::{Design, DesignResult, DesignSettings, Evaluation, HistoryRow, Outcome};
 pub use error::DesignError;
@@ -30,3 +31,4 @@ pub use objective::{
     ClosestPoint, ShapeObjective, Smoothness, TargetPositions, UserObjective, best_rigid_motion,
 };
 pub use param::{BilayerGrowth, Isotropic, Parametrisation, RestForms, Support};
+pub use pins::planar_rigid_pins;
