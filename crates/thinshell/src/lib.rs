@@ -12,6 +12,7 @@
 //! load ramps, growth with mass uptake.
 
 pub mod atomic;
+pub mod design;
 mod face_fields;
 pub mod mesh_info;
 pub mod modes;
