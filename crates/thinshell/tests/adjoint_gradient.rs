@@ -2,7 +2,8 @@
 //! `Simulation::adjoint_gradient` against central differences of J(x*(ā)) (each a fresh static
 //! solve of the scene), on the design example's disc grown into a dome (s = −0.1 r²), J the mean
 //! J below (even in z). Tolerance 1e-4 relative to the largest entry checked: the
-//! differences agree with warm-started, polished ones to 1e-9 relative.
+//! scene's static solve stops at its own tolerance (no polish), which limits the differences:
+//! measured worst 4.1e-6 relative to the largest entry.
 
 use nalgebra::Vector3;
 use thinshell::{Scene, Simulation};
@@ -36,20 +37,17 @@ fn objective(x: &[Vector3<f64>]) -> (f64, Vec<Vector3<f64>>) {
     let n = x.len() as f64;
     let d = |p: &Vector3<f64>| p.z * p.z - (0.3 * p.xy().norm_squared()).powi(2);
     let j = x.iter().map(|p| d(p).powi(2)).sum::<f64>() / (2.0 * n);
-    (
-        j,
-        x.iter()
-            .map(|p| Vector3::new(0.0, 0.0, 2.0 * d(p) * p.z / n))
-            .collect(),
-    )
+    // ∂d/∂x = −2t·0.6x, ∂d/∂y = −2t·0.6y, ∂d/∂z = 2z with t = 0.3 r².
+    let grad = |p: &Vector3<f64>| {
+        let t = 0.3 * p.xy().norm_squared();
+        Vector3::new(-1.2 * t * p.x, -1.2 * t * p.y, 2.0 * p.z) * (d(p) / n)
+    };
+    (j, x.iter().map(grad).collect())
 }
 
-/// KNOWN FAILURE, kept as the reproducer: on this free grown disc (3-2-1 pins, no loads) the
-/// adjoint gradient (the same from `thinshell_design::Design::evaluate`, printed below) differs
-/// from the differences by up to 10 % (every bending form), while the clamped, loaded cantilever
-/// of `crates/design/tests/gradient.rs` agrees to 5e-9. Not yet understood (docs/design.md).
+/// Also checks that `thinshell_design::Design::evaluate` (free rest forms) gives the same
+/// numbers at the same equilibrium.
 #[test]
-#[ignore = "known failure: adjoint off by up to 10 % on the free 3-2-1-pinned disc (docs/design.md)"]
 fn adjoint_gradient_matches_differences() {
     let scene = Scene::load(&data_path("scenes/design_cap.toml")).unwrap();
     let mut sim = equilibrium(&scene, 0, 0, 0.0);
@@ -61,33 +59,6 @@ fn adjoint_gradient_matches_differences() {
     for &f in &faces {
         for k in 0..3 {
             let h = 1e-5;
-            let mut warm = |hh: f64| {
-                let mut x = sim.positions().to_vec();
-                let mut phi = sim.edge_angles().to_vec();
-                let saved = sim.system().rest.clone();
-                let a = &mut sim.system_mut().rest.a_bar[f];
-                match k {
-                    0 => a[(0, 0)] += hh,
-                    1 => {
-                        a[(0, 1)] += hh;
-                        a[(1, 0)] += hh;
-                    }
-                    _ => a[(1, 1)] += hh,
-                }
-                let mut st = thinshell_solver::Static {
-                    continuation: false,
-                    ..Default::default()
-                };
-                st.solve_with_angles(sim.system_mut(), &mut x, &mut phi)
-                    .unwrap();
-                st.newton.line_search = false;
-                st.solve_with_angles(sim.system_mut(), &mut x, &mut phi)
-                    .unwrap();
-                sim.system_mut().rest = saved;
-                objective(&x).0
-            };
-            let (wp, wm) = (warm(h), warm(-h));
-            eprintln!("warm fd {:e}", (wp - wm) / (2.0 * h));
             let jp = objective(equilibrium(&scene, f, k, h).positions()).0;
             let jm = objective(equilibrium(&scene, f, k, -h).positions()).0;
             let fd = (jp - jm) / (2.0 * h);
