@@ -171,7 +171,7 @@ fn relaxed_angles(
     rest: &RestState,
     x: &[Vector3<f64>],
 ) -> PyResult<Vec<f64>> {
-    use thinshell_solver::{AngleSettings, Boundary, Loads, ShellSystem};
+    use thinshell_system::{AngleSettings, Boundary, Loads, ShellSystem};
     let fail = |e: thinshell_solver::SolverError| {
         errors::energy(format!("relaxing the edge angles (edge_angles=None): {e}"))
     };

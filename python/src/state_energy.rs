@@ -4,7 +4,8 @@
 use nalgebra::Vector3;
 use thinshell::sim::Simulation;
 use thinshell_energy::{EvalOutput, HessianMode, ShellModel, Terms};
-use thinshell_solver::{Modes, SolverError};
+use thinshell_solver::SolverError;
+use thinshell_system::Modes;
 
 /// Energy terms, full gradient and the Hessian as full symmetric COO triplets over all
 /// coordinates (3·n_vertices, then one per edge with edge unknowns).
@@ -52,7 +53,7 @@ pub(crate) fn state_energy(
         &model,
         &x,
         &phi,
-        &system.rest,
+        system.rest(),
         None,
         EvalOutput {
             gradient: Some(&mut gradient),

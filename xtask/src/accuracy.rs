@@ -9,7 +9,7 @@
 //! The second-fundamental-form discretisation is one more dimension: every case runs once per
 //! entry of [`FORMULATIONS`].
 //!
-//! Simulations are built through the library (`thinshell_solver::ShellSystem` and its
+//! Simulations are built through the library (`thinshell_system::ShellSystem` and its
 //! integrators), with the same force scale rule as the scene builder for static solves.
 //!
 //! Modules: [`cases`] (the cases with known answers), [`runner`] (building a system, static

@@ -16,9 +16,8 @@ use nalgebra::Vector3;
 use thinshell_energy::contact::candidate_pairs;
 use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::{Mesh, generators};
-use thinshell_solver::{
-    Boundary, Contact, ContactSettings, ImplicitEuler, Integrator, Loads, ShellSystem, State,
-};
+use thinshell_solver::{ImplicitEuler, Integrator, State};
+use thinshell_system::{Boundary, Contact, ContactSettings, Loads, ShellSystem};
 
 use crate::common::{median, write_json};
 

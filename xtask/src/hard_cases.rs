@@ -47,9 +47,10 @@ use thinshell_energy::{HessianMode, Material, RestState, SffKind, ShellModel, Te
 use thinshell_growth::{FaceStimulus, Prescribed, Swelling};
 use thinshell_mesh::{VertexId, generators};
 use thinshell_solver::{
-    Boundary, HessianPolicy, ImplicitEuler, Integrator, Loads, NewtonReport, NewtonSettings,
-    ShellSystem, SolverError, State, Static,
+    HessianPolicy, ImplicitEuler, Integrator, NewtonReport, NewtonSettings, SolverError, State,
+    Static,
 };
+use thinshell_system::{Boundary, Loads, ShellSystem};
 
 /// Options of `cargo xtask hard-cases`.
 #[derive(Clone, Debug)]
@@ -126,7 +127,7 @@ fn row(rows: &mut Vec<Value>, case: String, outcome: &str, detail: Value) {
 /// With `VERBOSE` set, `st` prints every Newton iteration (which Hessian each used).
 fn verbose(st: &mut Static) {
     if std::env::var("VERBOSE").is_ok() {
-        st.set_progress(Some(std::sync::Arc::new(
+        st.cache.set_progress(Some(std::sync::Arc::new(
             |p: &thinshell_solver::NewtonProgress| {
                 println!(
                     "  it {:3} {:?} residual {:.3e} step {:.3e} at {:.1} s",

@@ -4,8 +4,8 @@
 
 use std::path::Path;
 
-pub use thinshell::design::{DesignOptions, PARAMETRISATIONS, parse_bounds};
 use thinshell::Failure;
+pub use thinshell::design::{DesignOptions, PARAMETRISATIONS, parse_bounds};
 use thinshell_design::Outcome;
 
 /// Runs `thinshell design` (see [`thinshell::design::design_command`]).

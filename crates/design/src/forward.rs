@@ -5,7 +5,8 @@
 use nalgebra::Vector3;
 use thinshell_energy::{RestState, ShellModel};
 use thinshell_mesh::Mesh;
-use thinshell_solver::{Integrator, ShellSystem, State, Static};
+use thinshell_solver::{Integrator, State, Static};
+use thinshell_system::ShellSystem;
 
 use crate::DesignError;
 
@@ -86,7 +87,7 @@ impl Forward {
 
     /// The rest forms of the last solve (initially the system's).
     pub fn rest(&self) -> &RestState {
-        &self.system.rest
+        self.system.rest()
     }
 
     /// The last equilibrium's positions (the start before the first solve).
@@ -109,10 +110,7 @@ impl Forward {
     /// The static equilibrium at rest forms `rest`, from the last equilibrium. A failed solve
     /// leaves the start unchanged.
     pub fn solve(&mut self, rest: &RestState) -> Result<Equilibrium, DesignError> {
-        let previous = std::mem::replace(&mut self.system.rest, rest.clone());
-        rest.validate(self.system.mesh()).inspect_err(|_| {
-            self.system.rest = previous.clone();
-        })?;
+        self.system.set_rest(rest.clone())?;
         // Newton from the warm start first (the branch of the previous equilibrium: J(p) stays
         // continuous along a line search); the robust step, with rest-form continuation and
         // its check for a lower-energy equilibrium, only when that fails.
@@ -159,8 +157,8 @@ impl Forward {
         dj_dx: &[f64],
     ) -> Result<Vec<[f64; 6]>, DesignError> {
         let lambda = self
-            .statics
-            .solve_adjoint(&mut self.system, &eq.x, &eq.phi, dj_dx)?
+            .system
+            .solve_adjoint(&mut self.statics, &eq.x, &eq.phi, dj_dx)?
             .ok_or(DesignError::NotAMinimum)?;
         Ok(self.system.rest_adjoint_product(&eq.x, &eq.phi, &lambda)?)
     }

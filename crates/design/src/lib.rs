@@ -2,7 +2,7 @@
 //! static equilibrium take a target shape.
 //!
 //! - [`Forward`]: the forward map rest forms → static equilibrium x*(p) (positions and edge
-//!   angles) of a `thinshell_solver::ShellSystem`, warm-started, with the two adjoint pieces;
+//!   angles) of a `thinshell_system::ShellSystem`, warm-started, with the two adjoint pieces;
 //!   the only module that talks to the solver;
 //! - [`Parametrisation`] (one trait, one file per kind): [`RestForms`], [`Isotropic`],
 //!   [`BilayerGrowth`], each with bounds per parameter;

@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 use thinshell_design::*;
 use thinshell_energy::{Layer, Material, MaterialModel, RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::{Mesh, VertexId, generators};
-use thinshell_solver::{Boundary, Loads, ShellSystem};
+use thinshell_system::{Boundary, Loads, ShellSystem};
 
 /// A sheet (h = 2 cm, E = 1 MPa, ν = 0.3, StVK, default bending form) on `mesh`, held by
 /// the planar 3-2-1 pins at vertex `anchor`, no loads, as a forward map from a start lifted by

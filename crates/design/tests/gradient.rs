@@ -12,7 +12,7 @@ use nalgebra::Vector3;
 use thinshell_design::*;
 use thinshell_energy::{Layer, Material, MaterialModel, RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::{VertexId, generators};
-use thinshell_solver::{Boundary, Loads, ShellSystem};
+use thinshell_system::{Boundary, Loads, ShellSystem};
 
 fn materials() -> Vec<Material> {
     let m = Material {

@@ -10,10 +10,10 @@ use nalgebra::Vector3;
 use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_growth::{
     Diffusion, DiffusionSettings, DiffusionSource, Growth, Region, SourceKind, Surface, Swelling,
-    blend_rest,
 };
 use thinshell_mesh::generators;
-use thinshell_solver::{Boundary, Integrator, Loads, ShellSystem, State, Static};
+use thinshell_solver::{Integrator, Origin, State, Static};
+use thinshell_system::{Boundary, Loads, ShellProblem, ShellSystem};
 
 /// A static solve for the current rest forms; when Newton fails (a large change of the natural
 /// curvature in one step), the rest forms are moved there from `previous` in smaller fractions.
@@ -24,23 +24,16 @@ fn solve_with_continuation(
     state: &mut State,
     previous: &RestState,
 ) -> Result<usize, Box<dyn std::error::Error>> {
-    let target = system.rest.clone();
-    let (mut done, mut step, mut iterations) = (0.0f64, 1.0f64, 0);
-    while done < 1.0 {
-        let s = (done + step).min(1.0);
-        blend_rest(previous, &target, s, &mut system.rest)?;
-        let mut trial = state.clone();
-        match solver.step(system, &mut trial) {
-            Ok(report) => {
-                iterations += report.newton.map_or(0, |n| n.iterations);
-                *state = trial;
-                done = s;
-            }
-            Err(_) if step > 1.0 / 64.0 => step /= 2.0,
-            Err(e) => return Err(e.into()),
-        }
-    }
-    Ok(iterations)
+    // The solver walks from the previous step's problem when the one-shot solve fails.
+    let origin = Origin {
+        problem: ShellProblem {
+            rest: Some(previous.clone()),
+            load_factor: system.load_factor(),
+        },
+        t: state.t,
+    };
+    let report = solver.step_from(system, state, Some(&origin))?;
+    Ok(report.newton.map_or(0, |n| n.iterations))
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -105,12 +98,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("  t (s)   m_top  m_bottom  natural κ (1/m)  tip angle (deg)  Newton");
     for step in 0..40 {
         let t = step as f64 * dt;
-        let previous = system.rest.clone();
-        growth.update_rest(&mut system.rest)?;
+        let previous = system.rest().clone();
+        let mut rest = system.rest().clone();
+        growth.update_rest(&mut rest)?;
+        system.set_rest(rest)?;
         let iterations = solve_with_continuation(&mut solver, &mut system, &mut state, &previous)?;
         if step % 4 == 0 {
             let m = growth.stimulus()[0];
-            let (a, b) = (system.rest.a_bar[0], system.rest.b_bar[0]);
+            let (a, b) = (system.rest().a_bar[0], system.rest().b_bar[0]);
             let kappa = a
                 .try_inverse()
                 .map_or(f64::NAN, |ai| -(ai * b).trace() / 2.0);

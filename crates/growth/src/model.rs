@@ -353,15 +353,3 @@ impl GrowthModel for Swelling {
         }
     }
 }
-
-/// `out = (1 − s)·from + s·to` face by face, for continuation between two rest states
-/// ([`RestState::blend`], re-exported here for growth loops). Errors on mismatched lengths or
-/// `s` outside [0, 1].
-pub fn blend_rest(
-    from: &RestState,
-    to: &RestState,
-    s: f64,
-    out: &mut RestState,
-) -> Result<(), GrowthError> {
-    Ok(RestState::blend(from, to, s, out)?)
-}

@@ -23,7 +23,9 @@ fn relaxed_strip_curvature(model: Swelling, ny: usize) -> f64 {
         mut state,
     } = swelling_strip(model, ny);
     for step in 0..5 {
-        growth.update_rest(&mut sys.rest).unwrap();
+        let mut rest = sys.rest().clone();
+        growth.update_rest(&mut rest).unwrap();
+        sys.set_rest(rest).unwrap();
         solver.step(&mut sys, &mut state).unwrap();
         state.t = step as f64 + 1.0;
         growth.advance(step as f64, 1.0).unwrap();

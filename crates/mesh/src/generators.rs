@@ -104,6 +104,29 @@ pub fn rectangle(width: f64, height: f64, nx: usize, ny: usize) -> Result<Mesh, 
     grid_rectangle(width, height, nx, ny, Diagonals::Alternating)
 }
 
+/// Two square sheets of side `side` (m) and `n × n` cells as one mesh of two components: the
+/// lower one in the plane z = 0 (vertices `0..(n+1)²`, centred on the origin), the upper one
+/// `gap` (m) above it, turned by `angle` (rad) about the z axis so that no edge of one is
+/// parallel to an edge of the other (a generic self-contact configuration).
+pub fn stacked_sheets(side: f64, n: usize, gap: f64, angle: f64) -> Result<Mesh, MeshError> {
+    let sheet = rectangle(side, side, n, n)?;
+    let centre = Vector3::new(0.5 * side, 0.5 * side, 0.0);
+    let (c, s) = (angle.cos(), angle.sin());
+    let lower: Vec<Vector3<f64>> = sheet.positions().iter().map(|p| p - centre).collect();
+    let upper = lower
+        .iter()
+        .map(|p| Vector3::new(c * p.x - s * p.y, s * p.x + c * p.y, gap));
+    let positions: Vec<Vector3<f64>> = lower.iter().copied().chain(upper).collect();
+    let nv = lower.len();
+    let faces = sheet.faces_usize();
+    let faces = faces
+        .iter()
+        .copied()
+        .chain(faces.iter().map(|f| f.map(|v| v + nv)))
+        .collect();
+    Mesh::new(positions, faces)
+}
+
 /// Regular triangulated rectangle `[0, width] × [0, height]` (m) with `nx × ny` cells, each
 /// split into two triangles as `diagonals` says: `(nx + 1)(ny + 1)` vertices, `2 nx ny` faces,
 /// vertex `(i, j)` at index `j (nx + 1) + i`.

@@ -1,6 +1,6 @@
 //! Steps along a fixed direction for as long as the objective keeps falling: the doubling
 //! search shared by the saddle escape and the extrapolated Newton step (`newton/escape.rs`) and
-//! by a static step's descent along an unstable mode (`shell/statics.rs`).
+//! by a static step's descent along an unstable mode (`integrate/statics.rs`).
 
 /// From a step `t` of value `f_t`, doubles `t` while `|2t| ≤ limit`, at most `max_doublings`
 /// times, and while the value there (`value(2t)`) is below the best so far by more than

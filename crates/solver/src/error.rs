@@ -40,7 +40,7 @@ pub enum SolverError {
         model: thinshell_energy::SffKind,
     },
     /// The modal eigen-solve did not converge within its Krylov basis limit
-    /// ([`ModalSettings::max_basis`](crate::shell::ModalSettings::max_basis)).
+    /// (`ModalSettings::max_basis` of `thinshell-system`).
     #[error(
         "natural modes: not converged with a Krylov basis of {basis} vectors (largest relative \
          residual {worst:e}); raise max_basis or lower count"

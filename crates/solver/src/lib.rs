@@ -1,4 +1,5 @@
-//! Newton's method, sparse Cholesky and fill-reducing orderings for thin-shell simulation.
+//! Newton's method, sparse Cholesky, fill-reducing orderings, path following and time
+//! integrators over any model: the numerics of thinshell, with no shell type in it.
 //!
 //! - [`Objective`]: a scalar function of `n` unknowns with gradient and sparse Hessian (lower
 //!   triangle, faer `SparseColMat`), e.g. the incremental potential of implicit Euler;
@@ -14,50 +15,14 @@
 //!   ([`Ordering`]);
 //! - [`path`]: path following past limit points and snap-backs — arc-length continuation
 //!   (Riks/Crisfield) and displacement control ([`PathTracer`] on any [`LoadedObjective`];
-//!   [`ShellPath`] on a shell), with the stability of every point from the inertia of the
+//!   `ShellPath` in `thinshell-system` on a shell), with the stability of every point from the inertia of the
 //!   tangent ([`ldlt::SparseLdlt`]);
-//! - [`shell`]: a [`ShellSystem`] (mesh, [`ShellModel`](thinshell_energy::ShellModel), rest
-//!   state, [`Boundary`], [`Loads`]) advanced by an [`Integrator`]: [`ImplicitEuler`]
-//!   (incremental potential, model.md §3), [`ExplicitEuler`] (symplectic) or [`Static`];
+//! - [`integrate`]: time integration over any [`Model`] (point masses with massless extra
+//!   unknowns; a shell is `thinshell-system`'s `ShellSystem`): [`Static`], [`ImplicitEuler`]
+//!   (incremental potential, model.md §3), [`ExplicitEuler`] (symplectic), and what happens
+//!   after a failed solve (`integrate/retry.rs`: the fallback Hessian, Δt halving, the one
+//!   continuation walk);
 //! - [`nalgebra`] and [`faer`], re-exported: the versions of the public API's types.
-//!
-//! A paper sheet pinned on its boundary, one implicit step under gravity, then the static sag:
-//!
-//! ```
-//! use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
-//! use thinshell_mesh::generators;
-//! use thinshell_solver::nalgebra::Vector3;
-//! use thinshell_solver::{Boundary, ImplicitEuler, Integrator, Loads, ShellSystem, State, Static};
-//!
-//! let mesh = generators::rectangle(1.0, 1.0, 6, 6)?;
-//! let sff = SffKind::MidEdgeAverage;
-//! let rest = RestState::from_mesh(&mesh, mesh.positions(), sff)?;
-//! let model = ShellModel {
-//!     material: Material::paper(),
-//!     terms: Terms::ELASTIC,
-//!     sff,
-//! };
-//! let boundary = Boundary {
-//!     pinned_vertices: mesh.topology().boundary_vertices().to_vec(),
-//!     ..Default::default()
-//! };
-//! let loads = Loads { gravity: Vector3::new(0.0, 0.0, -9.81), ..Default::default() };
-//! let x0 = mesh.positions().to_vec();
-//! let mut system = ShellSystem::new(mesh, model, rest, boundary, loads)?;
-//! let weight = system.mass().iter().sum::<f64>() * 9.81;
-//!
-//! let mut state = State::at_rest(x0.clone());
-//! let mut implicit = ImplicitEuler::new(1e-3);
-//! implicit.force_scale = Some(weight); // loads far below E·h·L: measure residuals against them
-//! let report = implicit.step(&mut system, &mut state)?;
-//! assert!(report.newton.unwrap().iterations >= 1 && state.t == 1e-3);
-//!
-//! let mut statics = Static { force_scale: Some(weight), ..Static::default() };
-//! let mut x = x0.clone();
-//! statics.solve(&mut system, &mut x)?;
-//! assert!(x.iter().all(|p| p.z <= 0.0)); // sags along gravity, pins stay at z = 0
-//! # Ok::<(), Box<dyn std::error::Error>>(())
-//! ```
 //!
 //! Minimise `f(x) = Σ (x_i − i)⁴/4 + x_i²/2` (a diagonal Hessian):
 //!
@@ -110,6 +75,7 @@ pub use nalgebra;
 pub(crate) mod curvature;
 pub(crate) mod descent;
 pub mod error;
+pub mod integrate;
 pub mod iterative;
 pub mod ldlt;
 pub mod linear;
@@ -119,7 +85,6 @@ pub mod objective;
 pub mod ordering;
 pub mod path;
 pub mod progress;
-pub mod shell;
 
 pub use error::{PathFailure, SolverError};
 pub use linear::{FactorStats, RegularizationKind, RegularizationParams, SparseCholesky};
@@ -137,8 +102,7 @@ pub use progress::{CancelFlag, NewtonProgress, ProgressHook};
 #[cfg(doctest)]
 pub struct ReadmeDoctests;
 
-pub use shell::{
-    AngleReport, AngleSettings, Boundary, Contact, ContactError, ContactRunState, ContactSettings,
-    ContactStats, ExplicitEuler, ImplicitEuler, Integrator, Loads, ModalSettings, Modes,
-    NewtonCache, Obstacle, Prescribed, ShellPath, ShellSystem, State, Static, StepKind, StepReport,
+pub use integrate::{
+    ExplicitEuler, ImplicitEuler, Integrator, MAX_CONTINUATION_HALVINGS, Model, NewtonCache,
+    ObjectiveOptions, Origin, State, Static, StepControl, StepKind, StepObjective, StepReport,
 };

@@ -12,7 +12,8 @@ use nalgebra::{Matrix2, Vector2, Vector3};
 use thinshell_energy::{Material, MaterialModel, RestState, SffKind, ShellModel, Terms};
 use thinshell_growth::{FaceStimulus, Growth, Prescribed, Swelling};
 use thinshell_mesh::{Mesh, generators};
-use thinshell_solver::{Boundary, Loads, ShellSystem, State, Static};
+use thinshell_solver::{State, Static};
+use thinshell_system::{Boundary, Loads, ShellSystem};
 
 /// Unit-scale material for single-face kernel checks: h = 0.3, E = 1, ν = 0.3, ρ = 1, with the
 /// given viscosity η. Stretching, bending and damping are then of comparable size on O(1)
@@ -167,27 +168,10 @@ pub fn shrinking_sphere(level: usize, sff: SffKind) -> (ShellSystem, State) {
     (sys, State::at_rest(x))
 }
 
-/// Two square sheets of side `side` (m) and `n × n` cells as one mesh of two components: the
-/// lower one in the plane z = 0 (vertices `0..(n+1)²`, centred on the origin), the upper one
-/// `gap` (m) above it, turned by `angle` (rad) about the z axis so that no edge of one is
-/// parallel to an edge of the other (a generic self-contact configuration).
+/// [`generators::stacked_sheets`] (a generic self-contact configuration), panicking on bad
+/// arguments.
 pub fn stacked_sheets(side: f64, n: usize, gap: f64, angle: f64) -> Mesh {
-    let sheet = generators::rectangle(side, side, n, n).expect("rectangle");
-    let centre = Vector3::new(0.5 * side, 0.5 * side, 0.0);
-    let (c, s) = (angle.cos(), angle.sin());
-    let lower: Vec<Vector3<f64>> = sheet.positions().iter().map(|p| p - centre).collect();
-    let upper = lower
-        .iter()
-        .map(|p| Vector3::new(c * p.x - s * p.y, s * p.x + c * p.y, gap));
-    let positions: Vec<Vector3<f64>> = lower.iter().copied().chain(upper).collect();
-    let nv = lower.len();
-    let faces = sheet.faces_usize();
-    let faces = faces
-        .iter()
-        .copied()
-        .chain(faces.iter().map(|f| f.map(|v| v + nv)))
-        .collect();
-    Mesh::new(positions, faces).expect("two sheets")
+    generators::stacked_sheets(side, n, gap, angle).expect("two sheets")
 }
 
 /// The path of `rel` inside the repository's `data/` folder (shipped meshes and scenes).

@@ -67,7 +67,7 @@ pub fn design_command(
         .map_err(|e| bad(format!("{}: {e}", target_path.display())))?;
     let (system, start) = sim.into_system();
     let mesh = system.mesh().clone();
-    let base = system.rest.clone();
+    let base = system.rest().clone();
     let model = *system.model();
     let same = same_connectivity(&mesh, &target);
     let param: Box<dyn Parametrisation> = match options.parametrisation.as_str() {
@@ -144,8 +144,9 @@ impl Simulation {
             rhs[3 * v..3 * v + 3].copy_from_slice(g.as_slice());
         }
         let (x, phi) = (self.state.x.clone(), self.state.phi.clone());
-        let lambda = Static::default()
-            .solve_adjoint(&mut self.system, &x, &phi, &rhs)
+        let lambda = self
+            .system
+            .solve_adjoint(&mut Static::default(), &x, &phi, &rhs)
             .map_err(|e| Failure::Simulation(e.to_string()))?
             .ok_or_else(|| {
                 Failure::Simulation(

@@ -45,7 +45,7 @@ impl FaceEnergyDensity {
 
     /// The densities at `sim`'s current state.
     pub fn evaluate(&mut self, sim: &Simulation) -> Result<Densities, String> {
-        let rest = &sim.system().rest;
+        let rest = sim.system().rest();
         let zeros;
         let phi = if sim.edge_angles().is_empty() && self.assembler.has_edge_unknowns() {
             zeros = vec![0.0; sim.mesh().n_edges()];
@@ -104,7 +104,7 @@ mod tests {
         let mut sim = Simulation::build(&scene)?;
         sim.step()?;
         let d = FaceEnergyDensity::new(&sim)?.evaluate(&sim)?;
-        let rest = &sim.system().rest;
+        let rest = sim.system().rest();
         let area = |a: &nalgebra::Matrix2<f64>| 0.5 * a.determinant().sqrt();
         let s: f64 = d
             .stretch

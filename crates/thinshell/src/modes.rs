@@ -7,7 +7,8 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 use serde::Serialize;
-use thinshell_solver::{ModalSettings, Modes, SolverError};
+use thinshell_solver::SolverError;
+use thinshell_system::{ModalSettings, Modes};
 
 use crate::sim::Simulation;
 use crate::vtk::{Frame, Series};
@@ -15,7 +16,7 @@ use crate::vtk::{Frame, Series};
 /// The `count` lowest natural frequencies and mode shapes of `sim` about its current state
 /// (positions and edge angles; for a freshly built scene its start state, an equilibrium when
 /// the scene starts at its rest shape without loads). Damping is left out; the massless edge
-/// angles are condensed. Errors: see [`ShellSystem::natural_modes`](thinshell_solver::ShellSystem::natural_modes).
+/// angles are condensed. Errors: see [`ShellSystem::natural_modes`](thinshell_system::ShellSystem::natural_modes).
 pub fn simulation_modes(sim: &mut Simulation, count: usize) -> Result<Modes, SolverError> {
     let x = sim.positions().to_vec();
     let phi = sim.edge_angles().to_vec();

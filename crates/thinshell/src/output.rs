@@ -610,12 +610,8 @@ impl OutputWriter {
                     g.stimulus().iter().map(|m| m.bottom).collect(),
                 ));
             }
-            let contact_force = sim
-                .system()
-                .contact
-                .as_ref()
-                .map(|c| c.forces(sim.positions()));
-            if let Some(c) = &sim.system().contact {
+            let contact_force = sim.system().contact().map(|c| c.forces(sim.positions()));
+            if let Some(c) = sim.system().contact() {
                 // Per-face smallest contact gap (m, capped at d̂) for `thinshell view`.
                 cell_scalars.push(("contact_gap", c.face_gaps(sim.positions())));
             }

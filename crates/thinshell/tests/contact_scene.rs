@@ -7,7 +7,7 @@ use std::path::Path;
 
 use thinshell::scene::Scene;
 use thinshell::sim::Simulation;
-use thinshell_solver::shell::contact::first_edge_crossing_face;
+use thinshell_system::contact::first_edge_crossing_face;
 use thinshell_testkit::fixtures::data_path;
 
 #[test]
@@ -15,7 +15,7 @@ fn sheet_on_sphere_scene_is_intersection_free_and_settles() {
     let scene = Scene::load(&data_path("scenes/sheet_on_sphere.toml")).unwrap();
     let mut sim = Simulation::build(&scene).unwrap();
     let sys = sim.system();
-    assert!(sys.contact.is_some());
+    assert!(sys.contact().is_some());
     let faces: Vec<[usize; 3]> = sys
         .mesh()
         .faces()
@@ -47,7 +47,7 @@ fn sheet_on_sphere_scene_is_intersection_free_and_settles() {
             "step {step}"
         );
     }
-    let c = sim.system().contact.as_ref().unwrap();
+    let c = sim.system().contact().unwrap();
     let stats = c.stats(sim.positions());
     assert!(
         stats.active_pairs > 0 && stats.min_gap > 0.0 && stats.min_gap < c.activation,
@@ -250,7 +250,7 @@ fn sheet_on_pyramid_scene_reads_its_obj_and_stays_intersection_free() {
         });
         assert!(!crossed, "step {step}");
     }
-    let c = sim.system().contact.as_ref().unwrap();
+    let c = sim.system().contact().unwrap();
     let lift: f64 = c.forces(sim.positions()).iter().map(|f| f.z).sum();
     let s = c.stats(sim.positions());
     eprintln!("sheet on pyramid: contact force {lift:e} N, {s:?}");

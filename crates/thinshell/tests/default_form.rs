@@ -105,7 +105,7 @@ kind = "static"
     let sim = Simulation::build(&scene).unwrap();
     let (mesh, model) = (sim.mesh(), *sim.model());
     let x = sim.positions().to_vec();
-    let rest = &sim.system().rest;
+    let rest = sim.system().rest();
     let n_edges = mesh.n_edges();
     let dofs =
         DofMap::with_pinned_vertices(mesh.n_vertices(), (0..mesh.n_vertices()).map(VertexId::new))

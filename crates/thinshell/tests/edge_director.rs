@@ -6,9 +6,8 @@
 use thinshell::reference::{SquareCase, rms_distance_modulo_rigid};
 use thinshell_energy::{DirectorVariant, Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::{Mesh, generators};
-use thinshell_solver::{
-    Boundary, ExplicitEuler, Integrator, Loads, NewtonReport, ShellSystem, State, Static,
-};
+use thinshell_solver::{ExplicitEuler, Integrator, NewtonReport, State, Static};
+use thinshell_system::{Boundary, Loads, ShellSystem};
 use thinshell_testkit::fixtures::data_path;
 
 /// Paper-like but thick enough that bending matters on the unit square.

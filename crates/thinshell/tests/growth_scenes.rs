@@ -34,13 +34,17 @@ fn uniform_heat_sets_the_rest_metric_once() {
     }
     let g = sim.growth().unwrap();
     assert_eq!(g.rest_updates(), 1, "a constant stimulus is applied once");
-    for (a, a0) in sim.system().rest.a_bar.iter().zip(&g.initial().a_bar) {
+    for (a, a0) in sim.system().rest().a_bar.iter().zip(&g.initial().a_bar) {
         assert!(
             (a - a0 * 0.9).norm() < 1e-15 * a0.norm(),
             "ā = 0.9 a⁰ (model.md §5)"
         );
     }
-    assert_eq!(sim.system().rest.b_bar, g.initial().b_bar, "p = 0: b̄ = b⁰");
+    assert_eq!(
+        sim.system().rest().b_bar,
+        g.initial().b_bar,
+        "p = 0: b̄ = b⁰"
+    );
     // The sphere starts to shrink: mean radius below 1.
     let r: f64 =
         sim.positions().iter().map(|p| p.norm()).sum::<f64>() / sim.positions().len() as f64;
@@ -54,7 +58,7 @@ fn directed_heat_holds_the_cap_and_the_bottom() {
         sim.step().unwrap();
     }
     let x = sim.reference_positions();
-    let rest = &sim.system().rest;
+    let rest = sim.system().rest();
     let g = sim.growth().unwrap();
     let (mut hot, mut held, mut between) = (0, 0, 0);
     for (f, face) in sim.mesh().faces().iter().enumerate() {
@@ -86,7 +90,7 @@ impl Observer for Curl {
         let t: Vector3<f64> = (x[152] - x[151]).normalize();
         let angle = (-t.z).atan2(t.x);
         // Natural curvature −tr(ā⁻¹b̄)/2 of a face in the middle (the stimulus is uniform in x).
-        let rest = &sim.system().rest;
+        let rest = sim.system().rest();
         let f = 50;
         let kappa = -(rest.a_bar[f].try_inverse().unwrap() * rest.b_bar[f]).trace() / 2.0;
         self.samples.push((angle, kappa));

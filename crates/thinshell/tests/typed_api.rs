@@ -10,7 +10,7 @@ use thinshell::{Scene, Simulation, SimulationBuilder};
 use thinshell_energy::{Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_growth::{FaceStimulus, Prescribed, Swelling};
 use thinshell_mesh::generators;
-use thinshell_solver::{Boundary, Loads};
+use thinshell_system::{Boundary, Loads};
 
 fn model(material: Material, terms: Terms) -> ShellModel {
     ShellModel {

@@ -10,9 +10,8 @@ use thinshell::{SimulationBuilder, StepFailure};
 use thinshell_energy::{HessianMode, Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_growth::{FaceStimulus, Prescribed, Swelling};
 use thinshell_mesh::{Mesh, generators};
-use thinshell_solver::{
-    Boundary, ExplicitEuler, ImplicitEuler, Loads, NewtonSettings, ShellSystem, State, Static,
-};
+use thinshell_solver::{ExplicitEuler, ImplicitEuler, NewtonSettings, State, Static};
+use thinshell_system::{Boundary, Loads, ShellSystem};
 
 use super::runner::{
     Cost, Knobs, best_equilibrium, elastic, integrate, iterations_of, paper, rms, rms_rigid, shell,
@@ -574,7 +573,7 @@ pub(super) fn strip(bilayer: bool, sff: SffKind, quick: bool) -> Result<Case> {
             let x = sim.positions().to_vec();
             let phi = sim.edge_angles().to_vec();
             let f_mid = faces / 2;
-            let rest = &sim.system().rest;
+            let rest = sim.system().rest();
             let ainv = rest.a_bar[f_mid]
                 .try_inverse()
                 .ok_or_else(|| anyhow!("singular rest metric"))?;

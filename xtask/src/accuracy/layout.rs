@@ -25,7 +25,7 @@ use serde_json::{Value, json};
 use thinshell_energy::{Assembler, DofMap, EvalOutput, Material, RestState, SffKind, ShellModel};
 use thinshell_mesh::generators::{self, Diagonals};
 use thinshell_mesh::{Mesh, VertexId};
-use thinshell_solver::{Boundary, Loads};
+use thinshell_system::{Boundary, Loads};
 
 use super::cases::THICK_CYLINDER;
 use super::runner::{Knobs, paper, rms_rigid, shell, static_solve};

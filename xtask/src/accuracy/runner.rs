@@ -7,9 +7,8 @@ use anyhow::{Result, anyhow};
 use thinshell::reference::rms_distance_modulo_rigid;
 use thinshell_energy::{HessianMode, Material, RestState, SffKind, ShellModel, Terms};
 use thinshell_mesh::Mesh;
-use thinshell_solver::{
-    Boundary, Integrator, Loads, NewtonSettings, ShellSystem, SolverError, State, Static,
-};
+use thinshell_solver::{Integrator, NewtonSettings, SolverError, State, Static};
+use thinshell_system::{Boundary, Loads, ShellSystem};
 
 use super::study::{Run, STATIC_TOLERANCE, V3};
 
@@ -138,7 +137,7 @@ pub(super) fn static_solve(
 /// to call `at` with the cost so far (step time only). Stops at the first failed step.
 pub(super) fn integrate(
     sys: &mut ShellSystem,
-    integrator: &mut dyn Integrator,
+    integrator: &mut dyn Integrator<ShellSystem>,
     state: &mut State,
     checkpoints: &[usize],
     mut at: impl FnMut(&State, Cost) -> Result<()>,

@@ -15,7 +15,7 @@ use thinshell_energy::{
 use thinshell_mesh::generators;
 use thinshell_solver::faer::sparse::SparseColMat;
 use thinshell_solver::nalgebra::Vector3;
-use thinshell_solver::{Boundary, Loads, ShellSystem};
+use thinshell_system::{Boundary, Loads, ShellSystem};
 
 use super::facts::Facts;
 use super::measure::{Measure, Sizes, pool};

@@ -25,9 +25,8 @@ use thinshell_mesh::generators;
 use thinshell_solver::faer::Par;
 use thinshell_solver::faer::sparse::SparseColMat;
 use thinshell_solver::nalgebra::Vector3;
-use thinshell_solver::{
-    Boundary, ImplicitEuler, Integrator, Loads, NewtonSettings, ShellSystem, SparseCholesky, State,
-};
+use thinshell_solver::{ImplicitEuler, Integrator, NewtonSettings, SparseCholesky, State};
+use thinshell_system::{Boundary, Loads, ShellSystem};
 
 use super::facts::{BigRun, Facts, LevelFacts};
 use super::measure::{Measure, Sizes, pool};

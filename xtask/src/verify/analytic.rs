@@ -6,7 +6,7 @@ use nalgebra::Matrix2;
 use thinshell::reference::{rms_distance_modulo_rigid, wrap_cylinder};
 use thinshell_energy::{Material, RestState, SffKind};
 use thinshell_mesh::generators;
-use thinshell_solver::{Boundary, Loads};
+use thinshell_system::{Boundary, Loads};
 
 use super::case::{Curve, Outcome, Quantity, Spec};
 use super::solve::{Config, V3, equilibrium, ramp, system};

@@ -7,7 +7,8 @@ use anyhow::{Result, bail};
 use nalgebra::{Matrix3, SVD};
 use thinshell_energy::{Material, SffKind};
 use thinshell_mesh::{Mesh, VertexId, generators};
-use thinshell_solver::{Boundary, ShellSystem, Static};
+use thinshell_solver::Static;
+use thinshell_system::{Boundary, ShellSystem};
 
 use super::linear::hemisphere_loads;
 use super::nonlinear::hemisphere_pins;
@@ -366,7 +367,7 @@ fn hemisphere_follower_study() -> Result<()> {
             loop {
                 let dirs = v.map(|i| vertex_normal(&mesh, &cf.x, i));
                 let turned = follow
-                    .loads
+                    .loads()
                     .point_forces
                     .iter()
                     .zip(&dirs)
@@ -378,7 +379,8 @@ fn hemisphere_follower_study() -> Result<()> {
                 }
                 // Half steps towards the new directions: the plain fixed-point iteration
                 // stops contracting past P/Pmax ≈ 0.45 (24 solves at 0.4, none at 0.5).
-                for ((f, d), s) in follow.loads.point_forces.iter_mut().zip(&dirs).zip(&sign) {
+                let mut loads = follow.loads().clone();
+                for ((f, d), s) in loads.point_forces.iter_mut().zip(&dirs).zip(&sign) {
                     let old = f.1 / (400.0 * s);
                     let new = if solves == 0 {
                         *d
@@ -387,6 +389,7 @@ fn hemisphere_follower_study() -> Result<()> {
                     };
                     f.1 = new * (400.0 * s);
                 }
+                follow.set_loads(loads)?;
                 follow.set_load_factor(l)?;
                 if !equilibrium(&mut follow, &mut cf) || solves > 200 {
                     println!("follower loads: no fixed point at P/Pmax = {l:.2}");

@@ -13,7 +13,7 @@
 use anyhow::Result;
 use thinshell_energy::{Material, SffKind};
 use thinshell_mesh::{Mesh, VertexId, generators};
-use thinshell_solver::{Boundary, Loads};
+use thinshell_system::{Boundary, Loads};
 
 use super::case::{Curve, Outcome, Quantity, Spec};
 use super::solve::{Config, V3, equilibrium, stress_free, unheld, uniform_nodal_forces, vertex_at};

@@ -2,12 +2,13 @@
 //! Design 40:1551; all loads dead): the slit annular plate, the hemisphere with an 18° hole
 //! under alternating forces (load stepping that restarts every level from the previous
 //! equilibrium, [`ramp`]), and the pull-out of an open-ended cylinder and the hinged cylindrical
-//! roof, both traced through their limit points by arc length (`thinshell_solver::ShellPath`).
+//! roof, both traced through their limit points by arc length (`thinshell_system::ShellPath`).
 
 use anyhow::Result;
 use thinshell_energy::{Material, SffKind};
 use thinshell_mesh::{Mesh, VertexId, generators};
-use thinshell_solver::{Boundary, Loads, PathSettings, ShellPath};
+use thinshell_solver::PathSettings;
+use thinshell_system::{Boundary, Loads, ShellPath};
 
 use super::case::{Curve, Outcome, Quantity, Spec};
 use super::linear::{hemisphere_displacements, hemisphere_loads};
@@ -428,7 +429,7 @@ fn pullout_octant_mesh(level: usize) -> (usize, usize) {
 /// z = L/2 (the paper's model; a quarter of the load at the load point, which lies on two of
 /// them), its reading of (w_A, −u_B, −u_C) and its mesh label.
 struct Pullout {
-    sys: thinshell_solver::ShellSystem,
+    sys: thinshell_system::ShellSystem,
     gauges: PulloutGauges,
     label: String,
     faces: usize,

@@ -5,7 +5,8 @@ use anyhow::Result;
 use nalgebra::Vector3;
 use thinshell_energy::{Material, RestState, SffKind};
 use thinshell_mesh::{Mesh, VertexId};
-use thinshell_solver::{Boundary, Loads, ShellSystem, Static};
+use thinshell_solver::Static;
+use thinshell_system::{Boundary, Loads, ShellSystem};
 
 pub(crate) type V3 = Vector3<f64>;
 

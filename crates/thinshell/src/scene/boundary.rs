@@ -7,7 +7,7 @@ use std::collections::BTreeSet;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use thinshell_mesh::{Mesh, VertexId};
-use thinshell_solver::{Boundary, Prescribed};
+use thinshell_system::{Boundary, Prescribed};
 
 use super::problem::{Check, Problem, finite, finite_all, problem, v3};
 use super::region::RegionSpec;

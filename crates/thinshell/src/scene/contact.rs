@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use thinshell_solver::{ContactSettings, Obstacle};
+use thinshell_system::{ContactSettings, Obstacle};
 
 use super::effects::{Effect, section_without_effect};
 use super::problem::{Check, Problem, finite_all, positive, problem, v3};

@@ -4,9 +4,11 @@
 use serde::{Deserialize, Serialize};
 use thinshell_energy::HessianMode;
 use thinshell_solver::{
-    ExplicitEuler, HessianPolicy, ImplicitEuler, Integrator, IterativeFallback, NewtonSettings,
-    ShellSystem, SolverError, Static,
+    ExplicitEuler, HessianPolicy, ImplicitEuler, IterativeFallback, NewtonSettings, SolverError,
+    Static,
 };
+use thinshell_system::ShellIntegrator;
+use thinshell_system::ShellSystem;
 
 use super::effects::Effect;
 use super::problem::{Check, absent, positive, problem};
@@ -336,7 +338,7 @@ pub fn newton(nw: &NewtonSpec, defaults: NewtonSettings) -> Result<NewtonSetting
 pub fn build(
     i: &IntegratorSpec,
     system: &ShellSystem,
-) -> Result<Box<dyn Integrator + Send>, SolverError> {
+) -> Result<Box<ShellIntegrator>, SolverError> {
     let dt = i.dt.unwrap_or(1.0);
     // Convergence is the solver's scale-free test (Newton correction, round-off); an
     // explicit `tolerance` adds the gradient test against the system's one force scale.

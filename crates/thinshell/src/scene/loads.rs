@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 use thinshell_mesh::VertexId;
-use thinshell_solver::Loads;
+use thinshell_system::Loads;
 
 use super::effects::{Effect, section_without_effect};
 use super::problem::{Check, Problem, finite, finite_all, problem, v3};

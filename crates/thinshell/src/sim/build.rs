@@ -6,10 +6,8 @@
 use nalgebra::Vector3;
 use thinshell_energy::{EnergyTerms, RestState, ShellModel, Terms};
 use thinshell_mesh::Mesh;
-use thinshell_solver::{
-    Boundary, ContactSettings, ExplicitEuler, ImplicitEuler, Integrator, Loads, NewtonSettings,
-    ShellSystem, SolverError, State,
-};
+use thinshell_solver::{ExplicitEuler, ImplicitEuler, NewtonSettings, SolverError, State};
+use thinshell_system::{Boundary, ContactSettings, Loads, ShellIntegrator, ShellSystem};
 
 use thinshell_growth::{Growth, GrowthModel, StimulusField, apply_growth};
 
@@ -196,7 +194,7 @@ pub struct SimulationBuilder {
     /// Growth model, stimulus field and mass uptake.
     growth: Option<(GrowthParts, Option<f64>)>,
     contact: Option<ContactSettings>,
-    integrator: Option<Box<dyn Integrator + Send>>,
+    integrator: Option<Box<ShellIntegrator>>,
     dt: f64,
     steps: usize,
     load_ramp: Option<LoadRamp>,
@@ -299,7 +297,11 @@ impl SimulationBuilder {
     /// Any integrator with its own settings; `dt` (s) is the time a step advances the growth
     /// field and prescribed motion by, and must be the integrator's own step (static solves:
     /// the pseudo-time of a step, 1 s by convention).
-    pub fn integrator(mut self, integrator: impl Integrator + Send + 'static, dt: f64) -> Self {
+    pub fn integrator(
+        mut self,
+        integrator: impl thinshell_solver::Integrator<ShellSystem> + Send + 'static,
+        dt: f64,
+    ) -> Self {
         self.integrator = Some(Box::new(integrator));
         self.dt = dt;
         self
@@ -376,7 +378,7 @@ impl SimulationBuilder {
     /// exists: its force scale may enter the Newton test) and path following.
     fn finish(
         self,
-        integrator: impl FnOnce(&ShellSystem) -> Result<Box<dyn Integrator + Send>, BuildError>,
+        integrator: impl FnOnce(&ShellSystem) -> Result<Box<ShellIntegrator>, BuildError>,
         path: Option<&crate::scene::path::PathSpec>,
     ) -> Result<Simulation, BuildError> {
         let origin = self.origin.clone();
@@ -512,9 +514,9 @@ fn initial_energies(
     };
     let energy_grown = match grown {
         Some(grown) => {
-            let own = std::mem::replace(&mut system.rest, grown);
+            let own = system.set_rest(grown)?;
             let e = system.energy(x);
-            system.rest = own;
+            system.set_rest(own)?;
             Some(e?)
         }
         None => None,

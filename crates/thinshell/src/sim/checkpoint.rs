@@ -38,7 +38,7 @@
 use std::path::Path;
 
 use nalgebra::{Matrix2, Vector3};
-use thinshell_energy::EnergyTerms;
+use thinshell_energy::{EnergyTerms, RestState};
 use thinshell_growth::GrowthState;
 use thinshell_solver::{IterationHessian, KeptFactor, RegularizationKind};
 
@@ -318,7 +318,7 @@ struct Saved {
     growth: Option<GrowthState>,
     regularization_memory: f64,
     kept_factor: Option<KeptFactor>,
-    contact: Option<thinshell_solver::ContactRunState>,
+    contact: Option<thinshell_system::ContactRunState>,
 }
 
 fn vectors(v: &[Vector3<f64>]) -> impl ExactSizeIterator<Item = f64> + '_ {
@@ -350,8 +350,8 @@ impl Simulation {
         w.f64(self.energy.stretch);
         w.f64(self.energy.bend);
         w.f64(self.energy.damping);
-        w.f64s(matrices(&self.system.rest.a_bar));
-        w.f64s(matrices(&self.system.rest.b_bar));
+        w.f64s(matrices(&self.system.rest().a_bar));
+        w.f64s(matrices(&self.system.rest().b_bar));
         w.f64s(self.system.mass().iter().copied());
         match &self.growth {
             None => w.u64(0),
@@ -467,13 +467,24 @@ impl Simulation {
             what,
         };
         // Fallible updates first, each undone if a later one fails.
+        let sff = self.system.rest().sff;
+        let old_rest = self
+            .system
+            .set_rest(RestState {
+                a_bar: saved.a_bar,
+                b_bar: saved.b_bar,
+                sff,
+            })
+            .map_err(|e| mismatch(format!("rest forms: {e}")))?;
         let old_mass = self.system.mass().to_vec();
         let old_lf = self.system.load_factor();
-        self.system
-            .set_mass(saved.mass)
-            .map_err(|e| mismatch(format!("masses: {e}")))?;
+        if let Err(e) = self.system.set_mass(saved.mass) {
+            let _ = self.system.set_rest(old_rest);
+            return Err(mismatch(format!("masses: {e}")));
+        }
         if let Err(e) = self.system.set_load_factor(saved.system_load_factor) {
             let _ = self.system.set_mass(old_mass);
+            let _ = self.system.set_rest(old_rest);
             return Err(mismatch(format!("load factor: {e}")));
         }
         if let Some(c) = &saved.contact
@@ -481,6 +492,7 @@ impl Simulation {
         {
             let _ = self.system.set_load_factor(old_lf);
             let _ = self.system.set_mass(old_mass);
+            let _ = self.system.set_rest(old_rest);
             return Err(mismatch(format!("contact: {e}")));
         }
         if let (Some(g), Some(s)) = (&mut self.growth, &saved.growth) {
@@ -489,6 +501,7 @@ impl Simulation {
                 let _ = g.restore_state(&before);
                 let _ = self.system.set_load_factor(old_lf);
                 let _ = self.system.set_mass(old_mass);
+                let _ = self.system.set_rest(old_rest);
                 return Err(mismatch(format!("growth: {e}")));
             }
         }
@@ -499,8 +512,6 @@ impl Simulation {
         self.state.v = saved.v;
         self.state.phi = saved.phi;
         self.energy = saved.energy;
-        self.system.rest.a_bar = saved.a_bar;
-        self.system.rest.b_bar = saved.b_bar;
         self.integrator
             .restore_carried_state(saved.regularization_memory);
         self.integrator.restore_kept_factor(saved.kept_factor);
@@ -628,7 +639,7 @@ impl Simulation {
         let contact = if r.rest.is_empty() {
             None
         } else {
-            if r.u64()? != 1 || self.system.contact.is_none() {
+            if r.u64()? != 1 || self.system.contact().is_none() {
                 return Err(r.mismatch("a contact state, the scene has no contact"));
             }
             let stiffness = r.f64()?;
@@ -649,7 +660,7 @@ impl Simulation {
                     )
                 }
             };
-            Some(thinshell_solver::ContactRunState {
+            Some(thinshell_system::ContactRunState {
                 stiffness,
                 adaptive_initialised,
                 adaptive_last_gap,

@@ -54,7 +54,7 @@ impl Simulation {
             sim.steps_total(),
         );
         let system = sim.system();
-        let has_loads = system.loads != thinshell_solver::Loads::default()
+        let has_loads = *system.loads() != thinshell_system::Loads::default()
             || !system.boundary().prescribed.is_empty();
         if sim.is_path_following() {
             text += &format!(
@@ -73,7 +73,7 @@ impl Simulation {
             };
             text += &format!("load ramp: {} ({factors})\n", ramp.key());
         }
-        if let Some(c) = &system.contact {
+        if let Some(c) = system.contact() {
             text += &c.describe();
         }
         let elastic = |e: thinshell_energy::EnergyTerms| e.stretch + e.bend;

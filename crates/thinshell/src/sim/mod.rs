@@ -28,9 +28,10 @@ use nalgebra::Vector3;
 use serde::Serialize;
 pub use thinshell_energy::EnergyTerms;
 use thinshell_energy::ShellModel;
-use thinshell_growth::{Growth, GrowthError, blend_rest};
+use thinshell_growth::{Growth, GrowthError};
 use thinshell_mesh::Mesh;
-use thinshell_solver::{Integrator, IterationHessian, ShellSystem, SolverError, State, StepKind};
+use thinshell_solver::{IterationHessian, Origin, SolverError, State, StepKind};
+use thinshell_system::{ShellIntegrator, ShellProblem, ShellSystem};
 
 pub use build::SimulationBuilder;
 pub use checkpoint::{
@@ -131,8 +132,8 @@ pub struct ContactRecord {
     pub pattern_rebuilds: usize,
 }
 
-impl From<thinshell_solver::ContactStats> for ContactRecord {
-    fn from(s: thinshell_solver::ContactStats) -> Self {
+impl From<thinshell_system::ContactStats> for ContactRecord {
+    fn from(s: thinshell_system::ContactStats) -> Self {
         ContactRecord {
             active_pairs: s.active_pairs,
             min_gap: s.min_gap.is_finite().then_some(s.min_gap),
@@ -175,7 +176,7 @@ impl ContactTotals {
 /// `contact_pattern_rebuilds`. Empty or starting with a comma.
 pub fn csv_extra_header(sim: &Simulation) -> String {
     let mut h = path::path_csv_header(sim.is_path_following().then(|| sim.path_monitors()));
-    if sim.system().contact.is_some() {
+    if sim.system().contact().is_some() {
         h += ",contact_pairs,contact_min_gap_m,contact_energy_J,contact_approximated_pairs,contact_pattern_rebuilds";
     }
     h
@@ -275,10 +276,6 @@ pub enum StepFailure {
     Growth(#[from] GrowthError),
 }
 
-/// Halvings of the rest-form change a quasi-static step may take before it gives up
-/// (the last sub-step moves 1/64 of the change).
-const MAX_CONTINUATION_HALVINGS: u32 = 6;
-
 /// A built simulation: the shell system (mesh, energy terms, rest state, boundary conditions,
 /// loads), its state and the integrator the scene chose.
 pub struct Simulation {
@@ -287,7 +284,7 @@ pub struct Simulation {
     pub(crate) x_ref: Vec<Vector3<f64>>,
     pub(crate) system: ShellSystem,
     pub(crate) state: State,
-    pub(crate) integrator: Box<dyn Integrator + Send>,
+    pub(crate) integrator: Box<ShellIntegrator>,
     pub(crate) dt: f64,
     pub(crate) steps_done: usize,
     pub(crate) steps_total: usize,
@@ -519,11 +516,9 @@ impl Simulation {
         let mut growth_time = Duration::ZERO;
         let growth_start = Instant::now();
         if let Some(g) = &mut self.growth {
-            let before = self.system.rest.clone();
-            if g.update_rest(&mut self.system.rest)
-                .map_err(|e| fail(e.into()))?
-            {
-                previous_rest = Some(before);
+            let mut rest = self.system.rest().clone();
+            if g.update_rest(&mut rest).map_err(|e| fail(e.into()))? {
+                previous_rest = Some(self.system.set_rest(rest).map_err(|e| fail(e.into()))?);
             }
             if let Some(mass) = g
                 .update_mass(self.system.mesh(), &self.system.model().material)
@@ -543,21 +538,19 @@ impl Simulation {
             // The static integrator evaluates prescribed motion at the state's time.
             self.state.t = self.prescribed_time(lambda);
         }
-        let result = match self.integrator.step(&mut self.system, &mut self.state) {
-            Ok(r) => Ok(r),
-            Err(first) => {
-                self.state.t = time;
-                // A static step whose rest forms or loads changed is retried by continuation.
-                let cancelled = matches!(first, SolverError::Cancelled { .. });
-                if static_solve && !cancelled && (previous_rest.is_some() || lambda != lambda_prev)
-                {
-                    self.continuation(previous_rest.as_ref(), lambda_prev, lambda)
-                        .map_err(|_| first)
-                } else {
-                    Err(first)
-                }
-            }
-        };
+        // A static step whose rest forms or loads changed is walked to from the last step's
+        // problem if its one-shot solve fails (`Static`'s continuation).
+        let origin =
+            (static_solve && (previous_rest.is_some() || lambda != lambda_prev)).then(|| Origin {
+                problem: ShellProblem {
+                    rest: previous_rest,
+                    load_factor: lambda_prev,
+                },
+                t: self.prescribed_time(lambda_prev),
+            });
+        let result = self
+            .integrator
+            .step_from(&mut self.system, &mut self.state, origin.as_ref());
         let report = match result {
             Ok(r) => r,
             Err(e) => {
@@ -619,76 +612,6 @@ impl Simulation {
                 + record.line_search_s
                 + record.growth_s);
         Ok(record)
-    }
-}
-
-impl Simulation {
-    /// Quasi-static continuation of one step: the rest forms move from `previous` (if given) to
-    /// the current ones and the load factor from `from` to `to` (prescribed motion with it), in
-    /// sub-steps that halve on failure; returns the report of the last sub-step with the Newton
-    /// iterations, backtracks and timings of all successful sub-steps.
-    fn continuation(
-        &mut self,
-        previous: Option<&thinshell_energy::RestState>,
-        from: f64,
-        to: f64,
-    ) -> Result<thinshell_solver::StepReport, SolverError> {
-        let target = previous.map(|_| self.system.rest.clone());
-        // A failed step leaves the state of the last good step, not a partial sub-step: the
-        // failure path writes this state as the last good frame (before this, a failure in
-        // step 1 overwrote frame 0 with a half-continued shape).
-        let start = self.state.clone();
-        let (mut done, mut step) = (0.0f64, 0.5f64);
-        let mut iterations = 0;
-        let mut backtracks = 0;
-        let mut timings = thinshell_solver::NewtonTimings::default();
-        loop {
-            let s = (done + step).min(1.0);
-            if let (Some(previous), Some(target)) = (previous, &target) {
-                blend_rest(previous, target, s, &mut self.system.rest)
-                    .map_err(SolverError::objective)?;
-            }
-            let lambda = from + s * (to - from);
-            self.system.set_load_factor(lambda)?;
-            let mut trial = self.state.clone();
-            trial.t = self.prescribed_time(lambda);
-            match self.integrator.step(&mut self.system, &mut trial) {
-                Ok(mut report) => {
-                    trial.t = self.state.t;
-                    self.state = trial;
-                    done = s;
-                    if let Some(n) = report.newton.as_mut() {
-                        iterations += n.iterations;
-                        // Every successful sub-step's time counts in the step's timings.
-                        timings.assembly += n.timings.assembly;
-                        timings.factorization += n.timings.factorization;
-                        timings.solve += n.timings.solve;
-                        timings.line_search += n.timings.line_search;
-                        timings.line_search_evaluations += n.timings.line_search_evaluations;
-                        backtracks += n.backtracks;
-                        if done >= 1.0 {
-                            n.iterations = iterations;
-                            n.timings = timings;
-                            n.backtracks = backtracks;
-                            return Ok(report);
-                        }
-                    } else if done >= 1.0 {
-                        return Ok(report);
-                    }
-                }
-                Err(e) => {
-                    let cancelled = matches!(e, SolverError::Cancelled { .. });
-                    if cancelled || step <= 0.5f64.powi(MAX_CONTINUATION_HALVINGS as i32) {
-                        if let Some(target) = target {
-                            self.system.rest = target;
-                        }
-                        self.state = start;
-                        return Err(e);
-                    }
-                    step /= 2.0;
-                }
-            }
-        }
     }
 }
 

@@ -6,7 +6,8 @@
 use nalgebra::Vector3;
 use serde::Serialize;
 use thinshell_mesh::VertexId;
-use thinshell_solver::{PathControl, PathSettings, ShellPath, ShellSystem};
+use thinshell_solver::{PathControl, PathSettings};
+use thinshell_system::{ShellPath, ShellSystem};
 
 use super::error::BuildError;
 use crate::scene::path::{PathControlName, PathSpec};

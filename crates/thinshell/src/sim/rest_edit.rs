@@ -6,7 +6,7 @@
 use nalgebra::Vector3;
 use thinshell_energy::{EnergyError, EnergyTerms, EvalOutput, RestState, ShellModel, Terms};
 use thinshell_growth::{FaceStimulus, GrowthError};
-use thinshell_solver::ShellSystem;
+use thinshell_system::ShellSystem;
 
 use super::Simulation;
 
@@ -25,6 +25,9 @@ pub enum RestEditError {
     /// A stimulus of the wrong length or non-finite.
     #[error("stimulus: {0}")]
     Growth(#[from] GrowthError),
+    /// Rest forms the shell system refuses (computed with another bending form).
+    #[error("rest forms: {0}")]
+    System(#[from] thinshell_solver::SolverError),
     /// Positions or velocities of the wrong length, or a non-finite value.
     #[error("{what}: {message}")]
     State {
@@ -40,7 +43,7 @@ impl Simulation {
     /// barycentric basis (docs/architecture.md, conventions). With growth they are rewritten at
     /// the start of a step whose stimulus changed.
     pub fn rest(&self) -> &RestState {
-        &self.system.rest
+        self.system.rest()
     }
 
     /// Replaces the rest forms of every face (ā in m², b̄ in m, one each per face). They are
@@ -54,10 +57,10 @@ impl Simulation {
         rest.validate(self.system.mesh())?;
         let (energy, _) = elastic_faces(&self.system, &rest, &self.state.x, &self.state.phi)?;
         if let Some(g) = &mut self.growth {
-            let mut scratch = self.system.rest.clone();
+            let mut scratch = self.system.rest().clone();
             g.update_rest(&mut scratch)?;
         }
-        self.system.rest = rest;
+        self.system.set_rest(rest)?;
         self.energy = energy;
         Ok(())
     }
@@ -80,7 +83,7 @@ impl Simulation {
     /// Errors on a wrong length or a non-finite value, leaving the simulation unchanged.
     pub fn set_positions(&mut self, x: Vec<Vector3<f64>>) -> Result<(), RestEditError> {
         check_vectors("positions", &x, self.system.mesh().n_vertices())?;
-        let (energy, _) = elastic_faces(&self.system, &self.system.rest, &x, &self.state.phi)?;
+        let (energy, _) = elastic_faces(&self.system, self.system.rest(), &x, &self.state.phi)?;
         self.state.x = x;
         self.energy = energy;
         Ok(())
@@ -105,7 +108,7 @@ impl Simulation {
     pub fn face_energies(&self) -> Result<Vec<EnergyTerms>, EnergyError> {
         let (_, faces) = elastic_faces(
             &self.system,
-            &self.system.rest,
+            self.system.rest(),
             &self.state.x,
             &self.state.phi,
         )?;
