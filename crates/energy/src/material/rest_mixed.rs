@@ -39,6 +39,36 @@ fn variables(
     })
 }
 
+/// The four forms of the twelve variables, with ā⁻¹ and A = √det ā.
+struct Forms {
+    am: M2,
+    bm: M2,
+    abar: M2,
+    bbar: M2,
+    ai: M2,
+    area: D,
+}
+
+impl Forms {
+    fn new(
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+        a_bar: &Vector3<f64>,
+        b_bar: &Vector3<f64>,
+    ) -> Forms {
+        let v = variables(a, b, a_bar, b_bar);
+        let abar = sym(&v[6..9]);
+        Forms {
+            am: sym(&v[0..3]),
+            bm: sym(&v[3..6]),
+            ai: inv(&abar),
+            area: det(&abar).sqrt(),
+            abar,
+            bbar: sym(&v[9..12]),
+        }
+    }
+}
+
 /// The (m, m̄) block of the 12×12 Hessian.
 fn mixed_block(e: &D) -> Matrix6<f64> {
     e.h.fixed_view::<6, 6>(0, 6).into_owned()
@@ -92,10 +122,14 @@ pub(crate) fn stvk(
     b_bar: &Vector3<f64>,
     terms: Terms,
 ) -> Matrix6<f64> {
-    let v = variables(a, b, a_bar, b_bar);
-    let (am, bm, abar, bbar) = (sym(&v[0..3]), sym(&v[3..6]), sym(&v[6..9]), sym(&v[9..12]));
-    let ai = inv(&abar);
-    let area = det(&abar).sqrt();
+    let Forms {
+        am,
+        bm,
+        abar,
+        bbar,
+        ai,
+        area,
+    } = Forms::new(a, b, a_bar, b_bar);
     let (h, alpha, beta) = (m.thickness, m.alpha(), m.beta());
     let mut e = D::constant(0.0);
     if terms.stretch {
@@ -118,10 +152,14 @@ pub(crate) fn neo_hookean(
     b_bar: &Vector3<f64>,
     terms: Terms,
 ) -> Matrix6<f64> {
-    let v = variables(a, b, a_bar, b_bar);
-    let (am, bm, abar, bbar) = (sym(&v[0..3]), sym(&v[3..6]), sym(&v[6..9]), sym(&v[9..12]));
-    let ai = inv(&abar);
-    let area = det(&abar).sqrt();
+    let Forms {
+        am,
+        bm,
+        abar,
+        bbar,
+        ai,
+        area,
+    } = Forms::new(a, b, a_bar, b_bar);
     let (h, alpha, beta) = (m.thickness, m.alpha(), m.beta());
     let mut e = D::constant(0.0);
     if terms.stretch {
@@ -149,10 +187,14 @@ pub(crate) fn bilayer(
     b_bar: &Vector3<f64>,
     terms: Terms,
 ) -> Matrix6<f64> {
-    let v = variables(a, b, a_bar, b_bar);
-    let (am, bm, abar, bbar) = (sym(&v[0..3]), sym(&v[3..6]), sym(&v[6..9]), sym(&v[9..12]));
-    let ai = inv(&abar);
-    let area = det(&abar).sqrt();
+    let Forms {
+        am,
+        bm,
+        abar,
+        bbar,
+        ai,
+        area,
+    } = Forms::new(a, b, a_bar, b_bar);
     let vv = mul(&ai, &lin(&bm, 1.0, &bbar, -1.0));
     let mut e = D::constant(0.0);
     for ([m0, m1, m2], alpha, beta, s) in layers.layers() {
