@@ -7,6 +7,7 @@
 //! the viewer.
 
 pub mod commands;
+pub mod design;
 mod load;
 pub mod modes;
 pub mod resume;

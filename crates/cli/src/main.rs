@@ -1,4 +1,5 @@
-//! The `thinshell` command-line tool: `run`, `resume`, `check`, `view` and `info`.
+//! The `thinshell` command-line tool: `run`, `resume`, `check`, `view`, `modes`, `design` and
+//! `info`.
 //!
 //! Exit codes: 0 success, 2 bad input (scene, mesh, arguments), 1 a simulation that failed (the
 //! last good state is written), 130 a run stopped by Ctrl-C (SIGINT; its state is kept and the
@@ -97,6 +98,34 @@ enum Command {
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
     },
+    /// Inverse design: the rest forms (growth pattern) whose static equilibrium takes the
+    /// target's shape; writes OUT/scene.toml (rerun it with `thinshell run`), design.json,
+    /// achieved.obj, history.csv (docs/design.md).
+    Design {
+        /// The scene file (static; its rest forms are what is designed).
+        scene: PathBuf,
+        /// The target shape (OBJ; same connectivity: per-vertex distance modulo rigid motion).
+        #[arg(long)]
+        target: PathBuf,
+        /// isotropic, isotropic_face, rest_forms or bilayer.
+        #[arg(long, default_value = "isotropic")]
+        parametrisation: String,
+        /// Output directory (default: out/<scene name>-design).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Reached when the rms distance ≤ TOL × the target's size.
+        #[arg(long, default_value_t = 1e-3)]
+        tolerance: f64,
+        /// Weight of the Laplacian smoothness term of the pattern.
+        #[arg(long, default_value_t = 0.0)]
+        smoothness: f64,
+        /// Growth factor bounds MIN,MAX (isotropic, bilayer).
+        #[arg(long, value_name = "MIN,MAX", value_parser = cli::design::parse_bounds)]
+        growth_bounds: Option<(f64, f64)>,
+        /// Override a scene value (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+    },
     /// Print statistics of a mesh (OBJ) and the problems found in it.
     Info {
         /// The mesh file (OBJ).
@@ -162,6 +191,28 @@ fn main() -> ExitCode {
         }
         Command::Check { scene, set } => cli::check(&scene, &set).map(|()| false),
         Command::Info { mesh } => cli::info(&mesh).map(|()| false),
+        Command::Design {
+            scene,
+            target,
+            parametrisation,
+            out,
+            tolerance,
+            smoothness,
+            growth_bounds,
+            set,
+        } => {
+            let options = cli::design::DesignOptions {
+                parametrisation,
+                tolerance,
+                smoothness,
+                growth_bounds,
+            };
+            let stem = scene
+                .file_stem()
+                .map_or("scene".into(), |s| s.to_string_lossy());
+            let out = out.unwrap_or_else(|| PathBuf::from("out").join(format!("{stem}-design")));
+            cli::design::design_command(&scene, &target, &out, &set, &options).map(|()| false)
+        }
         Command::Modes {
             scene,
             count,

@@ -122,4 +122,12 @@ pub enum EnergyError {
         /// How many were needed.
         count: usize,
     },
+    /// An operation the material law (or form) does not provide.
+    #[error("{what} not provided by `{of}`")]
+    Unsupported {
+        /// The operation.
+        what: &'static str,
+        /// The law or form lacking it.
+        of: &'static str,
+    },
 }

@@ -89,6 +89,7 @@ pub mod membrane_strain;
 pub mod model;
 pub(crate) mod real;
 pub mod rest;
+pub mod rest_sensitivity;
 pub mod sff;
 pub mod small_matrix;
 pub mod stencil_table;
@@ -110,6 +111,7 @@ pub use material::{
 pub use membrane_strain::first_fundamental_form;
 pub use model::ShellModel;
 pub use rest::{DampingState, RestState};
+pub use rest_sensitivity::face_rest_mixed;
 pub use sff::{
     DIRECTOR_DOFS, DirectorVariant, EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind,
 };

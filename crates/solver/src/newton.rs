@@ -91,6 +91,7 @@ use crate::linear::{FactorError, FactorOutcome, RegularizationParams};
 use crate::objective::Objective;
 use crate::progress::NewtonProgress;
 
+mod adjoint;
 mod checks;
 mod direction;
 mod escape;

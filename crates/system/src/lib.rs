@@ -47,6 +47,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod adjoint;
 pub mod angles;
 pub mod boundary;
 pub mod loads;

@@ -69,6 +69,7 @@
 //! `[profile.dev.package."*"] opt-level = 3` in the program's `Cargo.toml`.
 
 pub mod atomic;
+pub mod design;
 pub mod fields;
 pub mod mesh_info;
 pub mod modes;

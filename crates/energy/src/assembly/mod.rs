@@ -24,6 +24,7 @@
 mod batch;
 mod pattern;
 mod per_face;
+mod rest_sensitivity;
 
 pub use per_face::FaceForms;
 

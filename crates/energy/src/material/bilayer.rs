@@ -56,7 +56,7 @@ impl Bilayer {
     }
 
     /// Per layer: (m0, m1, m2) = (∫dz, ∫z dz, ∫z² dz) over the layer (m, m², m³), α_l, β_l, s_l.
-    fn layers(&self) -> [([f64; 3], f64, f64, f64); 2] {
+    pub(super) fn layers(&self) -> [([f64; 3], f64, f64, f64); 2] {
         let h = self.thickness();
         let z = [-0.5 * h, -0.5 * h + self.bottom.thickness, 0.5 * h];
         let moments = |z0: f64, z1: f64| {
@@ -143,6 +143,18 @@ impl ElasticLaw for Bilayer {
 
     fn coupled(&self) -> bool {
         true
+    }
+
+    fn rest_mixed(
+        &self,
+        _material: &Material,
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+        a_bar: &Vector3<f64>,
+        b_bar: &Vector3<f64>,
+        terms: Terms,
+    ) -> Option<nalgebra::Matrix6<f64>> {
+        Some(super::rest_mixed::bilayer(self, a, b, a_bar, b_bar, terms))
     }
 
     fn eval(

@@ -10,6 +10,7 @@
 mod bilayer;
 pub mod dual;
 mod neo_hookean;
+mod rest_mixed;
 mod stvk;
 mod tension_field;
 
@@ -21,7 +22,7 @@ pub use tension_field::TensionField;
 
 use crate::error::EnergyError;
 use crate::terms::Terms;
-use nalgebra::{Matrix2, Matrix3, Vector3};
+use nalgebra::{Matrix2, Matrix3, Matrix6, Vector3};
 
 /// What a law computes besides the energies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -139,6 +140,23 @@ pub trait ElasticLaw: std::fmt::Debug + Send + Sync {
         let mut le = LawEval::default();
         self.eval(material, face, a, b, terms, Order::Energy, &mut le);
         (le.stretch, le.bend)
+    }
+
+    /// The mixed second derivative ∂²W/∂m∂m̄ (6×6; rows m = (a11, a12, a22, b11, b12, b22),
+    /// columns m̄ = (ā11, ā12, ā22, b̄11, b̄12, b̄22), symmetric-entry convention of
+    /// [`crate::linalg::sym_entries`]) of the energies switched on in `terms`, at forms a, b and
+    /// rest forms ā, b̄ (entries): what differentiating an equilibrium in its rest forms needs
+    /// ([`crate::rest_sensitivity`]). `None` (the default): the law does not provide it.
+    fn rest_mixed(
+        &self,
+        _material: &Material,
+        _a: &Vector3<f64>,
+        _b: &Vector3<f64>,
+        _a_bar: &Vector3<f64>,
+        _b_bar: &Vector3<f64>,
+        _terms: Terms,
+    ) -> Option<Matrix6<f64>> {
+        None
     }
 }
 

@@ -30,6 +30,20 @@ impl ElasticLaw for NeoHookean {
         true // the bending term reads a⁻¹
     }
 
+    fn rest_mixed(
+        &self,
+        material: &Material,
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+        a_bar: &Vector3<f64>,
+        b_bar: &Vector3<f64>,
+        terms: Terms,
+    ) -> Option<nalgebra::Matrix6<f64>> {
+        Some(super::rest_mixed::neo_hookean(
+            material, a, b, a_bar, b_bar, terms,
+        ))
+    }
+
     fn eval(
         &self,
         m: &Material,

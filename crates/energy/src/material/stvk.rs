@@ -27,6 +27,18 @@ impl ElasticLaw for StVK {
         false
     }
 
+    fn rest_mixed(
+        &self,
+        material: &Material,
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+        a_bar: &Vector3<f64>,
+        b_bar: &Vector3<f64>,
+        terms: Terms,
+    ) -> Option<nalgebra::Matrix6<f64>> {
+        Some(super::rest_mixed::stvk(material, a, b, a_bar, b_bar, terms))
+    }
+
     fn eval(
         &self,
         m: &Material,

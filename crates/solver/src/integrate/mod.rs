@@ -6,6 +6,7 @@
 //! Module dependencies point one way: `model` → `cache`, `retry` → the integrators → this
 //! module's trait.
 
+mod adjoint;
 mod cache;
 mod explicit;
 mod implicit;

@@ -105,7 +105,12 @@ impl Simulation {
         let boundary = boundary::build(&s.boundary, &mesh, &x_ref, &x).map_err(invalid)?;
         // Mirror edges enter the rest forms as they enter the energy (model.md §1.4).
         let mirrors = boundary.mirror_normals();
-        let rest = rest::build(&s.rest, &mesh, &x_ref, model.sff, &mirrors).map_err(energy_err)?;
+        let rest = match s.rest.from {
+            rest::RestSource::File => {
+                rest::read_file(&s.rest, &scene.base_dir, &mesh).map_err(invalid)?
+            }
+            _ => rest::build(&s.rest, &mesh, &x_ref, model.sff, &mirrors).map_err(energy_err)?,
+        };
         check_held(&boundary, &mesh, &model, origin)?;
         let loads = loads::build(s.load_specs(), &on, mesh.n_vertices()).map_err(invalid)?;
         let schedule = integrator::schedule(&s.integrator, on(Effect::Growth));

@@ -334,6 +334,12 @@ impl Simulation {
         self.system.model()
     }
 
+    /// The shell system and the current positions (m), taking the simulation apart (e.g. for
+    /// `thinshell_design::Forward`, which solves its statics itself).
+    pub fn into_system(self) -> (ShellSystem, Vec<Vector3<f64>>) {
+        (self.system, self.state.x)
+    }
+
     /// The shell system (mesh, model, rest state, boundary conditions, loads).
     pub fn system(&self) -> &ShellSystem {
         &self.system
