@@ -7,8 +7,8 @@ use super::distance::{
     point_triangle_type,
 };
 use super::mollifier::mollifier;
-use thinshell_energy::project_psd;
 use thinshell_energy::material::dual::DualN;
+use thinshell_energy::project_psd;
 
 /// The kind of a contact pair, which fixes the meaning of its four points.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,7 +1,7 @@
 //! Sensitivity of the elastic forces to the rest forms: the mixed second derivative
 //! ∂²E_face/∂x∂m̄ of one face over its N dofs and its six rest-form entries
 //! m̄ = (ā11, ā12, ā22, b̄11, b̄12, b̄22) (symmetric-entry convention of
-//! [`crate::linalg::sym_entries`]: the m12 entries move both off-diagonal entries together).
+//! [`crate::small_matrix::sym_entries`]: the m12 entries move both off-diagonal entries together).
 //!
 //! The adjoint of a static equilibrium x*(m̄) needs it (`thinshell-design`):
 //! dJ/dm̄ = ∂J/∂m̄ − λᵀ ∂²E/∂x∂m̄ with H λ = ∂J/∂x. No discrete second fundamental form
@@ -16,12 +16,12 @@
 //! and [`Assembler::rest_mixed_matrix`](crate::Assembler::rest_mixed_matrix).
 
 use crate::error::EnergyError;
+use crate::face_stencil::FaceStencil;
 use crate::kernel::FaceRest;
-use crate::linalg::sym_entries;
 use crate::material::Material;
 use crate::membrane_strain::{edges, metric, metric_jacobian};
 use crate::sff::SecondFundamentalForm;
-use crate::stencil::FaceStencil;
+use crate::small_matrix::sym_entries;
 use crate::terms::Terms;
 use nalgebra::SMatrix;
 

@@ -7,7 +7,7 @@
 
 use nalgebra::{Matrix2, Matrix6, SMatrix, Vector3};
 use proptest::prelude::*;
-use thinshell_energy::linalg::{inv2, sym_entries};
+use thinshell_energy::small_matrix::{inv2, sym_entries};
 use thinshell_energy::*;
 use thinshell_mesh::{EdgeId, VertexId, generators};
 use thinshell_testkit::fd::{fd_jacobian, rel_err_scaled};

@@ -8,14 +8,14 @@
 use nalgebra::{Matrix2, Vector3};
 
 use super::{Assembler, EvalOutput, face_data};
+use crate::EnergyTerms;
 use crate::dofs::check_len;
 use crate::error::EnergyError;
-use crate::EnergyTerms;
-use crate::small_matrix::{inv2, sym_entries};
 use crate::material::{FaceGeometry, LawEval, Order};
 use crate::membrane_strain::first_fundamental_form;
-use crate::rest::RestState;
 use crate::model::ShellModel;
+use crate::rest::RestState;
+use crate::small_matrix::{inv2, sym_entries};
 use thinshell_mesh::FaceId;
 
 /// A face's forms at one configuration and the first derivatives of its elastic energy E (J;

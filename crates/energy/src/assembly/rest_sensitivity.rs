@@ -4,10 +4,10 @@
 use super::{Assembler, face_data};
 use crate::dofs::check_len;
 use crate::error::EnergyError;
+use crate::model::ShellModel;
 use crate::rest::RestState;
 use crate::rest_sensitivity::face_rest_mixed;
 use crate::sff::{EdgeDirector, MidEdgeAverage, SecondFundamentalForm, SffKind};
-use crate::shell::ShellModel;
 use faer::sparse::{SparseColMat, Triplet};
 use nalgebra::{SMatrix, Vector3};
 use rayon::prelude::*;

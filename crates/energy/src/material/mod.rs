@@ -144,7 +144,7 @@ pub trait ElasticLaw: std::fmt::Debug + Send + Sync {
 
     /// The mixed second derivative ∂²W/∂m∂m̄ (6×6; rows m = (a11, a12, a22, b11, b12, b22),
     /// columns m̄ = (ā11, ā12, ā22, b̄11, b̄12, b̄22), symmetric-entry convention of
-    /// [`crate::linalg::sym_entries`]) of the energies switched on in `terms`, at forms a, b and
+    /// [`crate::small_matrix::sym_entries`]) of the energies switched on in `terms`, at forms a, b and
     /// rest forms ā, b̄ (entries): what differentiating an equilibrium in its rest forms needs
     /// ([`crate::rest_sensitivity`]). `None` (the default): the law does not provide it.
     fn rest_mixed(

@@ -4,7 +4,7 @@
 //! ([`crate::rest_sensitivity`]).
 //!
 //! Entry convention: each form is a symmetric 2×2 matrix with the three independent entries
-//! (m11, m12, m22) of [`crate::linalg::sym_entries`]; a derivative in m12 moves both
+//! (m11, m12, m22) of [`crate::small_matrix::sym_entries`]; a derivative in m12 moves both
 //! off-diagonal entries together (the same convention as the laws' gradients).
 //!
 //! Each law's energy is written once more here over second-order dual numbers in the twelve
