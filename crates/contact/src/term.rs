@@ -4,7 +4,7 @@
 //! step lets a pair cross.
 //!
 //! The maths (distances, barrier, mollifier, CCD, broad phase) is in
-//! [`thinshell_contact`]; this module gathers the pairs of a mesh and adds their energy,
+//! [this crate](crate); this module gathers the pairs of a mesh and adds their energy,
 //! gradient and Hessian to the shell objective.
 
 use std::sync::{Arc, Mutex};
@@ -1034,7 +1034,7 @@ impl Contact {
     /// Of the pairs whose boxes overlap, only those whose distance can get that close are
     /// kept: along a straight motion a pair's distance is at least (d₀ + d₁)/2 − M, with d₀, d₁ its distances
     /// at the ends and M the largest displacement of its vertices (it changes by at most 2M·t
-    /// from either end; see [`Contact::near_pairs`]). The box test alone also couples the
+    /// from either end; see `Contact::near_pairs`). The box test alone also couples the
     /// in-plane neighbours of every vertex, which are an edge length apart.
     pub fn couplings(&self, x: &[V], x_end: Option<&[V]>, reach: f64) -> Vec<[usize; 2]> {
         if !self.self_contact {

@@ -1,7 +1,7 @@
 //! Second-order forward-mode numbers: value, gradient and Hessian in N variables carried through
 //! +, −, ×, 1/x, √x and ln, so that a nonlinear function is written once as plain arithmetic and
 //! its exact derivatives follow. The material laws use N = 6 (the form entries a11, a12, a22,
-//! b11, b12, b22, [`Dual`]); the contact distances use N = 12 (four points).
+//! b11, b12, b22, `Dual`); the contact distances use N = 12 (four points).
 
 use crate::real::Real;
 use nalgebra::{SMatrix, SVector};

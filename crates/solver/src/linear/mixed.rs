@@ -27,8 +27,8 @@ pub enum PrecisionFallback {
     /// The single-precision factorisation met a non-positive pivot where the double-precision
     /// one did not (the matrix is positive definite but too ill-conditioned for f32).
     NotPositiveDefinite,
-    /// Iterative refinement did not reach [`REFINEMENT_TOLERANCE`]: it stalled (the residual
-    /// shrank by less than half in a step) or took [`MAX_REFINEMENT_STEPS`].
+    /// Iterative refinement did not reach `REFINEMENT_TOLERANCE` (10⁻¹⁴): it stalled (the residual
+    /// shrank by less than half in a step) or took `MAX_REFINEMENT_STEPS` (8).
     Refinement {
         /// Single-precision solves done.
         steps: usize,
@@ -127,7 +127,7 @@ impl SparseCholesky {
     /// Asks for mixed precision (`true`) or double precision only (`false`, the default of a
     /// new factorisation). With mixed precision every factorisation is done in f32 and every
     /// [`solve_in_place`](Self::solve_in_place) refined to a backward error of
-    /// [`REFINEMENT_TOLERANCE`] with f64 residuals; where that fails (see
+    /// `REFINEMENT_TOLERANCE` (10⁻¹⁴) with f64 residuals; where that fails (see
     /// [`PrecisionFallback`]) the matrix is factorised in f64 and this factorisation stays in
     /// f64. Only supernodal factors take it (a simplicial one is small). Builds the
     /// single-precision engine (a symbolic analysis with the same ordering; the memory budget
